@@ -1,0 +1,164 @@
+"""The full lens + eye chain for object points (Kakimoto 2007, Table 1).
+
+For each object point: chief ray (path finding) -> wavefront creation at the lens front
+(spherical, Eq. 1 from the source) -> front refraction (Eq. 3-5) -> transfer in the glass
+(Eq. 1) -> back refraction -> transfer to the eye (Eq. 1) -> accommodation (Eq. 13, 15)
+-> thin toric eye (Eq. 7) -> Sturm-conoid section at the retina (Eq. 8).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from eyelab.optics.eye import Eye
+from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
+from eyelab.optics.surfaces import sym2_eig
+from eyelab.optics.trace import FATAL, Status
+from eyelab.optics.wavefront import Wavefront, _cross, _dot
+
+UP = np.array([0.0, 1.0, 0.0])
+RAD_TO_ARCMIN = 180.0 * 60.0 / math.pi
+
+
+@dataclass
+class PointAnalysis:
+    """Per-point results, all arrays with n rows (SI units unless the name says otherwise).
+
+    chief : ChiefRays
+    pupil : (n, 3) where the chief ray meets the eye (the pupil centre)
+    wave_eye : Wavefront arriving at the pupil/cornea plane (before the eye)
+    wave_vertex_sphere : Wavefront at the vertex sphere (or None without a lens)
+    accommodation : (n,) D
+    eye_x : (n, 3) the eye-lens x axis (horizontal, §4.4.1)
+    retina_matrix : (n, 2, 2) m; maps a pupil point (unit disc) to its retinal offset,
+        r_p (I - z_r K') in the eye (x, y) frame (symmetric form of Eq. 8-9)
+    a, b : (n,) signed semi-axes of Eq. 8 (m), a for the larger curvature k'_1
+    omega : (n,) rad, direction of k'_1 from eye x (Eq. 9's omega'_1)
+    status : (n,) uint8
+    """
+
+    chief: ChiefRays
+    pupil: np.ndarray
+    wave_eye: Wavefront
+    wave_vertex_sphere: Wavefront | None
+    accommodation: np.ndarray
+    eye_x: np.ndarray
+    retina_matrix: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    omega: np.ndarray
+    status: np.ndarray
+    eye: Eye
+
+    @property
+    def ok(self):
+        return (self.status & np.uint8(FATAL)) == 0
+
+    def blur_axes(self):
+        """(major, minor) semi-axes (m, >= 0) and the major axis angle (rad in [0, pi)) from
+        the eye x axis."""
+        maj = np.maximum(np.abs(self.a), np.abs(self.b))
+        mnr = np.minimum(np.abs(self.a), np.abs(self.b))
+        ang = np.where(np.abs(self.a) >= np.abs(self.b), self.omega, self.omega + np.pi / 2)
+        return maj, mnr, np.mod(ang, np.pi)
+
+    def to_arcmin(self, length):
+        """Retinal length (m) -> visual angle (arcmin): h n_2 / z_r (nodal point at the lens)."""
+        return np.asarray(length) * self.eye.n_vitreous / self.eye.retina_distance \
+            * RAD_TO_ARCMIN
+
+
+def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: float = 587.56,
+                   fixation: str = "fixed", accommodation=None) -> PointAnalysis:
+    """Trace the chain for every object point.
+
+    Parameters
+    ----------
+    eye : Eye
+    lens : SpectacleLens or None (naked eye)
+    objects : ObjectPoints
+    fixation : "fixed" — the pupil stays at the origin and the eye turns about it to
+        look along each chief ray (Kakimoto's model, used by the renderer); "rotating" — the
+        eye turns about its centre of rotation, so the chief ray passes through it and the
+        pupil lies rotation_centre before it (the lens designer's as-worn model).
+    accommodation : None for the best effort per point (Eq. 13), or a fixed value in D
+        (clipped to [0, accommodation_max]).
+    """
+    if fixation not in ("fixed", "rotating"):
+        from eyelab.errors import SpecError
+
+        raise SpecError("fixation", f"must be 'fixed' or 'rotating', got {fixation!r}")
+    n = len(objects)
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+    target = cor if fixation == "rotating" else np.zeros(3)
+    chief = find_chief_rays(lens, target, objects, wavelength_nm)
+    status = chief.status.copy()
+    N_out = chief.dir_out
+    if fixation == "rotating":
+        pupil = cor - eye.rotation_centre * N_out
+    else:
+        pupil = np.zeros((n, 3))
+    vs_wave = None
+    if lens is None:
+        dist = np.where(objects.finite, np.linalg.norm(chief.start - pupil, axis=1), np.inf)
+        wave = Wavefront.spherical(N_out, dist)
+    else:
+        nl = lens.material.n(wavelength_nm)
+        h_front, h_back = chief.hits
+        wave = Wavefront.spherical(chief.dir_in, chief.object_distance_to_entry)
+        wave.refract(h_front, 1.0 / nl)
+        wave.transfer(np.linalg.norm(h_back.points - h_front.points, axis=1))
+        wave.refract(h_back, nl)
+        # vertex sphere: centre of rotation, radius = vertex distance + rotation centre
+        r_vs = lens.pose.vertex_distance + eye.rotation_centre
+        rel = h_back.points - cor
+        bq = _dot(rel, wave.N)
+        disc = bq * bq - (_dot(rel, rel) - r_vs * r_vs)
+        s_vs = -bq - np.sqrt(np.maximum(disc, 0.0))
+        s_vs = np.where(disc >= 0, s_vs, 0.0)
+        vs_wave = Wavefront(wave.N.copy(), wave.t1.copy(), wave.k11.copy(), wave.k12.copy(),
+                            wave.k22.copy(), wave.status.copy()).transfer(s_vs)
+        wave.transfer(_dot(pupil - h_back.points, wave.N))
+    status |= wave.status
+    kbar = 0.5 * (wave.k11 + wave.k22)
+    if accommodation is None:
+        acc = eye.accommodation_for(kbar)                      # Eq. 13
+    else:
+        acc = np.clip(np.broadcast_to(np.asarray(accommodation, float), (n,)), 0.0,
+                      eye.accommodation_max).copy()
+    n2 = eye.n_vitreous
+    inside = wave.toric_lens(UP, eye.power_matrix(acc), 1.0 / n2, n2)   # Eq. 7
+    rp = eye.pupil_diameter / 2
+    zr = eye.retina_distance
+    m11 = rp * (1.0 - zr * inside.k11)                        # Eq. 8 in matrix form
+    m12 = -rp * zr * inside.k12
+    m22 = rp * (1.0 - zr * inside.k22)
+    l1, l2, c, s = sym2_eig(m11, m12, m22)
+    # k'_1 (larger curvature) <-> smaller eigenvalue of M = r_p (I - z_r K')
+    a = l2
+    b = l1
+    omega = np.arctan2(c, -s)  # direction perpendicular to the l1 eigenvector
+    mat = np.stack([np.stack([m11, m12], -1), np.stack([m12, m22], -1)], -1)
+    bad = (status & np.uint8(FATAL)) != 0
+    for arr in (a, b, omega, acc):
+        arr[bad] = 0.0
+    mat[bad] = 0.0
+    return PointAnalysis(chief, pupil, wave, vs_wave, acc, inside.t1, mat, a, b,
+                         np.mod(omega, np.pi), status, eye)
+
+
+def principal_angles(wave: Wavefront, x_axis):
+    """Principal curvatures k1 >= k2 (1/m = D in air) and the angle (rad, [0, pi)) of e1
+    from ``x_axis`` (n, 3), measured toward N x x_axis (counter-clockwise seen from behind
+    the wearer for x_axis = eye x)."""
+    k1, k2, e1, _ = wave.principal()
+    y_axis = _cross(wave.N, x_axis)
+    ang = np.arctan2(_dot(e1, y_axis), _dot(e1, x_axis))
+    return k1, k2, np.mod(ang, np.pi)
+
+
+def status_text(code) -> str:
+    return Status.describe(int(code))

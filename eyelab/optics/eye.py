@@ -1,0 +1,226 @@
+"""The eye: Gullstrand-Helmholtz thin toric eye (Kakimoto et al. 2007, §4.4, Table 2).
+
+The eye is a thin toric lens at the corneal vertex (the world origin) with the pupil in
+its plane, vitreous of index ``n_vitreous`` behind it and the retina at ``retina_distance``.
+
+Table 2 gives P_min = 58.64 D, z_r = 22.785 mm and n_2 = 1.336; but n_2 / z_r =
+58.635 D, so taken literally the "standard" eye is 0.005 D myopic. eyelab keeps z_r and
+n_2 and defines the emmetropic relaxed power as n_2 / z_r (58.6351 D): the default eye is
+then exactly emmetropic, and every refractive error is a deviation from it.
+
+Accommodation, Eq. 13: dP = clip(n_2/z_r - kbar - P_min, 0, dmax), kbar the mean curvature
+of the wavefront arriving at the eye (n_1 = 1); it puts the circle of least confusion on
+the retina.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.prescription import Prescription
+
+GH_RETINA_DISTANCE = 22.785e-3   # m, Table 2
+GH_N_VITREOUS = 1.336            # Table 2
+GH_P_MIN_PAPER = 58.64           # D, Table 2 as printed
+GH_P_MIN = GH_N_VITREOUS / GH_RETINA_DISTANCE  # D, exactly emmetropic (see module doc)
+GH_ACCOMMODATION = 11.93         # D, Table 2
+
+
+def hofstetter_amplitude(age, which: str = "mean"):
+    """Amplitude of accommodation (D) by Hofstetter's formulas (SCIENCE.md §3), >= 0.
+
+    ``which``: "min" 15 - 0.25 age, "mean" 18.5 - 0.3 age, "max" 25 - 0.4 age.
+
+    >>> hofstetter_amplitude(40)
+    6.5
+    """
+    coef = {"min": (15.0, 0.25), "mean": (18.5, 0.3), "max": (25.0, 0.4)}
+    if which not in coef:
+        raise SpecError("eye.amplitude_model", f"must be one of {sorted(coef)}, got {which!r}")
+    a, b = coef[which]
+    return max(0.0, a - b * check_range("eye.age", age, 0.0, 120.0))
+
+
+def watson_yellott_pupil(luminance, age=30.0, field_area_deg2=math.pi * 30.0**2, eyes=2):
+    """Pupil diameter (mm), Watson & Yellott 2012, Eq. 21 (SCIENCE.md §4).
+
+    luminance : cd/m^2, > 0; age : years (formula fitted for 20-83; clamped to that);
+    field_area_deg2 : adapting field area in deg^2 (default: a 60 deg diameter disc);
+    eyes : 1 or 2.
+    """
+    lum = check_range("eye.luminance_cd_m2", luminance, 0.0, 1e7, lo_open=True)
+    if eyes not in (1, 2):
+        raise SpecError("eye.eyes", f"must be 1 or 2, got {eyes!r}")
+    y = min(max(check_range("eye.age", age, 0.0, 120.0), 20.0), 83.0)
+    f = lum * field_area_deg2 * (0.1 if eyes == 1 else 1.0)
+    p = (f / 846.0) ** 0.41
+    d_sd = 7.75 - 5.75 * (p / (p + 2.0))
+    return d_sd + (y - 28.58) * (0.02132 - 0.009562 * d_sd)
+
+
+@dataclass(frozen=True)
+class Eye:
+    """Thin toric eye.
+
+    Parameters
+    ----------
+    power_min : float
+        Mean relaxed power P_min (D), in [40, 80]. Default n_2/z_r (emmetropic).
+    astigmatism : float
+        A = P1_min - P2_min >= 0 (D), in [0, 10] (Eq. 14).
+    astigmatism_axis_deg : float
+        omega_1^(e): direction of the stronger meridian P1 (the direction along which the eye
+        has power P1), degrees counter-clockwise from the wearer's right, seen from behind
+        the wearer.
+    accommodation_max : float
+        Delta_max (D), in [0, 16].
+    retina_distance : float
+        z_r (m), cornea to retina, in [0.015, 0.035].
+    n_vitreous : float
+        n_2, in [1.2, 1.6].
+    pupil_diameter : float
+        m, in [0.5 mm, 10 mm].
+    rotation_centre : float
+        Distance (m) of the centre of rotation behind the cornea (SCIENCE.md §2: 13-14 mm).
+    """
+
+    power_min: float = GH_P_MIN
+    astigmatism: float = 0.0
+    astigmatism_axis_deg: float = 0.0
+    accommodation_max: float = GH_ACCOMMODATION
+    retina_distance: float = GH_RETINA_DISTANCE
+    n_vitreous: float = GH_N_VITREOUS
+    pupil_diameter: float = 4.0e-3
+    rotation_centre: float = 13.5e-3
+
+    def __post_init__(self):
+        check_range("eye.power_min", self.power_min, 40.0, 80.0)
+        check_range("eye.astigmatism", self.astigmatism, 0.0, 10.0)
+        check_range("eye.astigmatism_axis_deg", self.astigmatism_axis_deg, -360.0, 360.0)
+        check_range("eye.accommodation_max", self.accommodation_max, 0.0, 16.0)
+        check_range("eye.retina_distance_mm", self.retina_distance * 1e3, 15.0, 35.0)
+        check_range("eye.n_vitreous", self.n_vitreous, 1.2, 1.6)
+        check_range("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, 0.5, 10.0)
+        check_range("eye.rotation_centre_mm", self.rotation_centre * 1e3, 5.0, 20.0)
+
+    # ---------------------------------------------------------------- builders
+    @classmethod
+    def from_rx(cls, rx: Prescription, *, vertex_distance: float = 0.012,
+                kind: str = "refractive", **kwargs) -> Eye:
+        """The eye whose far point is corrected by ``rx`` worn at ``vertex_distance`` (m).
+
+        Per principal meridian the ocular refraction is K = F / (1 - d F) (SCIENCE.md §2) and
+        the eye's relaxed power in that meridian is n_2/z_r - K. ``kind="refractive"`` keeps
+        z_r (Table 3: P_min differs); ``kind="axial"`` keeps P_min = 58.635 D and changes z_r
+        for the spherical-equivalent error (Table 3); the cylinder is refractive either way.
+        The add is a lens feature and does not change the eye.
+        """
+        if kind not in ("refractive", "axial"):
+            raise SpecError("eye.kind", f"must be 'refractive' or 'axial', got {kind!r}")
+        d = vertex_distance
+        (f_a, dir_a), (f_b, _) = rx.principal_meridians()
+        k_a, k_b = f_a / (1 - d * f_a), f_b / (1 - d * f_b)
+        z_r = kwargs.pop("retina_distance", GH_RETINA_DISTANCE)
+        n2 = kwargs.get("n_vitreous", GH_N_VITREOUS)
+        k_mean = 0.5 * (k_a + k_b)
+        if kind == "axial":
+            z_r = n2 / (n2 / z_r + k_mean)
+        p_a = n2 / z_r - k_a     # eye power along the cylinder axis direction
+        p_b = n2 / z_r - k_b     # along the perpendicular direction
+        p_mean = 0.5 * (p_a + p_b)
+        if p_a >= p_b:
+            astig, ax = p_a - p_b, dir_a
+        else:
+            astig, ax = p_b - p_a, dir_a + math.pi / 2
+        return cls(power_min=p_mean, astigmatism=astig,
+                   astigmatism_axis_deg=math.degrees(ax) % 180.0, retina_distance=z_r, **kwargs)
+
+    @classmethod
+    def for_age(cls, age: float, *, amplitude_model: str = "mean", **kwargs) -> Eye:
+        """An eye with Delta_max from Hofstetter's formula for ``age`` (years)."""
+        return cls(accommodation_max=hofstetter_amplitude(age, amplitude_model), **kwargs)
+
+    # --------------------------------------------------------------- derived
+    @property
+    def emmetropic_power(self) -> float:
+        """n_2 / z_r (D): the relaxed power that focuses infinity on the retina."""
+        return self.n_vitreous / self.retina_distance
+
+    def principal_powers(self, accommodation=0.0):
+        """(P1, P2) (D), Eq. 14-15."""
+        return (self.power_min + self.astigmatism / 2 + accommodation,
+                self.power_min - self.astigmatism / 2 + accommodation)
+
+    def power_matrix(self, accommodation):
+        """Eye power matrix (pxx, pxy, pyy) in the eye-lens (x, y) frame (Eq. 3 with
+        omega = -omega_1^(e) applied to P1, P2), each broadcast like ``accommodation``."""
+        acc = np.asarray(accommodation, float)
+        w = math.radians(self.astigmatism_axis_deg)
+        c, s = math.cos(w), math.sin(w)
+        p1, p2 = self.principal_powers(acc)
+        return (p1 * c * c + p2 * s * s, (p1 - p2) * c * s, p1 * s * s + p2 * c * c)
+
+    def accommodation_for(self, mean_curvature):
+        """Eq. 13: best accommodation (D) for a wave of mean curvature ``mean_curvature`` (1/m)
+        arriving at the eye."""
+        want = self.emmetropic_power - np.asarray(mean_curvature, float) - self.power_min
+        return np.clip(want, 0.0, self.accommodation_max)
+
+    def refraction(self):
+        """Ocular refraction per principal meridian (D at the cornea): the far-point
+        vergence n_2/z_r - P_i for the meridians of P1 and P2 (negative for myopia)."""
+        p1, p2 = self.principal_powers()
+        return self.emmetropic_power - p1, self.emmetropic_power - p2
+
+    def reduced(self) -> ReducedEye:
+        """Fons et al. 2023's reduced-eye description of the same eye (§4 of that paper)."""
+        k1, k2 = self.refraction()
+        return ReducedEye(retina_distance=self.retina_distance, n_vitreous=self.n_vitreous,
+                          power_min=self.principal_powers(), far_vergence=(k1, k2),
+                          amplitude=self.accommodation_max, pupil_diameter=self.pupil_diameter)
+
+
+def _dist(vergence):
+    """Signed distance (m) of a point of vergence V (D) at the cornea: -1/V; inf at V = 0.
+    Negative = in front of the eye (a real far/near point), positive = virtual, behind."""
+    return math.inf if vergence == 0 else -1.0 / vergence
+
+
+@dataclass(frozen=True)
+class ReducedEye:
+    """Fons et al. 2023's description: lens plane A, retina plane C at d_i, focus plane P
+    limited to the interval between the far point (FP) and the near point (NP).
+
+    With the eye's relaxed powers P_i and the emmetropic power P_e = n_2/d_i, the far-point
+    vergence per meridian is FV_i = P_e - P_i (Fons' dP with the sign that makes myopia
+    negative) and the near-point vergence NV_i = FV_i - AA. Points at vergence V in
+    [NV_i, FV_i] can be focused in that meridian. Fons' astigmatism construction uses the
+    meridian of least error for the focus plane and the other at its own far point.
+    """
+
+    retina_distance: float
+    n_vitreous: float
+    power_min: tuple
+    far_vergence: tuple
+    amplitude: float
+    pupil_diameter: float
+
+    @property
+    def far_point(self) -> tuple:
+        """Signed far-point distances (m) per meridian; inf for an emmetrope."""
+        return tuple(_dist(v) for v in self.far_vergence)
+
+    @property
+    def near_point(self) -> tuple:
+        return tuple(_dist(v - self.amplitude) for v in self.far_vergence)
+
+    def in_focus_range(self, distance):
+        """True where an object at ``distance`` (m, > 0, in front) can be focused in the
+        mean meridian."""
+        v = -1.0 / np.asarray(distance, float)
+        fv = 0.5 * sum(self.far_vergence)
+        return (v <= fv + 1e-12) & (v >= fv - self.amplitude - 1e-12)

@@ -1,0 +1,268 @@
+"""Spectacle lenses: two surfaces, a centre thickness, a material and a pose in front of the eye.
+
+World frame (used throughout eyelab): origin at the centre of the eye's entrance pupil
+(the thin eye lens at the corneal vertex, Kakimoto Table 2); x to the wearer's right,
+y up; the wearer looks along -z, so light from the scene travels +z. The retina is at
+z = +z_r.
+
+Lens frame: origin at the back vertex, z along the lens's optical axis toward the eye,
+x, y as in the world when the lens is not tilted. Lens frame -> world:
+p_w = R p_l + t with t = (decentration_x, decentration_y, -vertex_distance) and
+R = R_y(wrap) R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the
+cheeks, wrap turns the temporal (+x for this frame) rim toward the face. The rotation is
+about the back vertex. The front surface's vertex is at z_l = -center_thickness.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.materials import Material, get_material
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.surfaces import Asphere, Surface, Toric
+from eyelab.optics.trace import PlacedSurface, Status, intersect, refract
+
+#: Minimum centre thickness of minus lenses by material (m) (SCIENCE.md §7, lab practice).
+MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
+                        "polycarbonate": 1.5e-3, "1.60": 1.4e-3, "1.67": 1.2e-3,
+                        "1.74": 1.5e-3}
+#: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
+MIN_EDGE_THICKNESS = 1.0e-3
+
+
+@dataclass(frozen=True)
+class LensPose:
+    """Where the lens sits in front of the eye.
+
+    vertex_distance : m, back vertex to corneal vertex, in [0.005, 0.03]
+    pantoscopic_tilt_deg, wrap_deg : in [-30, 30]
+    decentration : (x, y) m, optical centre relative to the pupil centre, |.| <= 0.02
+    """
+
+    vertex_distance: float = 0.012
+    pantoscopic_tilt_deg: float = 0.0
+    wrap_deg: float = 0.0
+    decentration: tuple = (0.0, 0.0)
+
+    def __post_init__(self):
+        check_range("lens.vertex_distance_mm", self.vertex_distance * 1e3, 5.0, 30.0)
+        check_range("lens.pantoscopic_tilt_deg", self.pantoscopic_tilt_deg, -30.0, 30.0)
+        check_range("lens.wrap_deg", self.wrap_deg, -30.0, 30.0)
+        for i, v in enumerate(self.decentration):
+            check_range(f"lens.decentration_mm[{i}]", v * 1e3, -20.0, 20.0)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        a = -math.radians(self.pantoscopic_tilt_deg)
+        b = math.radians(self.wrap_deg)
+        rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+        ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
+        return ry @ rx
+
+    @property
+    def translation(self) -> np.ndarray:
+        return np.array([self.decentration[0], self.decentration[1], -self.vertex_distance])
+
+
+@dataclass(frozen=True)
+class SpectacleLens:
+    """A single spectacle lens.
+
+    Parameters
+    ----------
+    front, back : Surface
+        In their local frames (sag along +z, toward the eye). For a usual meniscus both
+        curvatures are positive (centres of curvature on the eye's side).
+    center_thickness : float, m, in (0.0002, 0.03]
+    material : Material
+    diameter : float, m, in [0.01, 0.09]
+    pose : LensPose
+    rx : Prescription or None
+        The prescription the lens was designed for, if any (informational).
+    """
+
+    front: Surface
+    back: Surface
+    center_thickness: float
+    material: Material
+    diameter: float = 0.060
+    pose: LensPose = field(default_factory=LensPose)
+    rx: Prescription | None = None
+
+    def __post_init__(self):
+        check_range("lens.center_thickness_mm", self.center_thickness * 1e3, 0.2, 30.0)
+        check_range("lens.diameter_mm", self.diameter * 1e3, 10.0, 90.0)
+
+    # --------------------------------------------------------------- placement
+    def placed_surfaces(self) -> tuple[PlacedSurface, PlacedSurface]:
+        """(front, back) in world coordinates, sharing the lens-frame aperture."""
+        r = self.pose.rotation
+        t = self.pose.translation
+        t_front = t + r @ np.array([0.0, 0.0, -self.center_thickness])
+        rad = self.diameter / 2
+        return (PlacedSurface(self.front, r, t_front, rad, t),
+                PlacedSurface(self.back, r, t, rad, t))
+
+    def n(self, wavelength_nm: float = 587.56) -> float:
+        return self.material.n(wavelength_nm)
+
+    # ----------------------------------------------------------------- tracing
+    def trace(self, origins, directions, wavelength_nm: float = 587.56, *, reverse=False):
+        """Trace rays through the lens with exact Snell refraction.
+
+        Forward rays travel +z (scene -> eye): front surface, then back. ``reverse=True``
+        traces rays travelling -z (eye -> scene): back, then front.
+
+        Returns
+        -------
+        dict with keys ``hit1``, ``hit2`` (:class:`Hit` at the first/second surface met),
+        ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs`` (n, 3)
+        and ``status`` (n,) uint8.
+        """
+        origins = np.asarray(origins, float)
+        directions = np.asarray(directions, float)
+        nl = self.material.n(wavelength_nm)
+        s1, s2 = self.placed_surfaces()
+        if reverse:
+            s1, s2 = s2, s1
+        h1 = intersect(s1, origins, directions)
+        d1, _, _, _, st1 = refract(directions, h1.normals, 1.0 / nl)
+        h2 = intersect(s2, h1.points, d1)
+        d2, _, _, _, st2 = refract(d1, h2.normals, nl)
+        status = h1.status | st1 | h2.status | st2
+        # a ray that must go forward inside the glass but goes backward has missed
+        back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
+        status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
+        return {"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
+                "out_dirs": d2, "status": status}
+
+    def back_vertex_powers(self, wavelength_nm: float = 587.56):
+        """Principal back vertex powers (D) and the direction (rad, lens frame) of the first,
+        measured by wavefront tracing a flat wave along the lens's optical axis (check of
+        the design by tracing, not by formula)."""
+        from eyelab.optics.wavefront import Wavefront
+
+        r = self.pose.rotation
+        axis = r @ np.array([0.0, 0.0, 1.0])
+        t = self.pose.translation
+        o = (t + r @ np.array([0.0, 0.0, -self.center_thickness - 0.01]))[None]
+        res = self.trace(o, axis[None], wavelength_nm)
+        wf = Wavefront.spherical(axis[None], np.inf)
+        nl = self.material.n(wavelength_nm)
+        wf.refract(res["hit1"], 1.0 / nl)
+        wf.transfer(np.linalg.norm(res["hit2"].points - res["hit1"].points, axis=1))
+        wf.refract(res["hit2"], nl)
+        k1, k2, e1, _ = wf.principal()
+        e1l = e1 @ r
+        return float(k1[0]), float(k2[0]), float(math.atan2(e1l[0, 1], e1l[0, 0]) % math.pi)
+
+    # -------------------------------------------------------------------- mesh
+    def mesh(self, rings: int = 16, segments: int = 64):
+        """Closed triangle mesh (front, back, edge) in world coordinates.
+
+        Returns
+        -------
+        vertices : (v, 3) float, metres
+        faces : (f, 3) int
+        part : (v,) uint8, 0 front, 1 back (the edge band reuses the rim vertices)
+        """
+        rr = np.linspace(0.0, self.diameter / 2, rings + 1)[1:]
+        th = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
+        R, T = np.meshgrid(rr, th, indexing="ij")
+        x = np.concatenate([[0.0], (R * np.cos(T)).ravel()])
+        y = np.concatenate([[0.0], (R * np.sin(T)).ravel()])
+        fs, bs = self.placed_surfaces()
+        faces = []
+        for i in range(segments):  # centre fan
+            j = (i + 1) % segments
+            faces.append((0, 1 + i, 1 + j))
+        for r_ in range(rings - 1):
+            for i in range(segments):
+                j = (i + 1) % segments
+                a, b = 1 + r_ * segments + i, 1 + r_ * segments + j
+                c, d = a + segments, b + segments
+                faces += [(a, c, d), (a, d, b)]
+        faces = np.array(faces)
+        nv = len(x)
+        verts = []
+        for ps in (fs, bs):
+            z = ps.surface.sag(x, y)
+            z = np.where(np.isfinite(z), z, 0.0)
+            verts.append(np.stack([x, y, z], 1) @ ps.rotation.T + ps.translation)
+        rim = 1 + (rings - 1) * segments + np.arange(segments)
+        edge = []
+        for i in range(segments):
+            j = (i + 1) % segments
+            a, b = rim[i], rim[j]
+            edge += [(a, b + nv, a + nv), (a, b, b + nv)]
+        all_faces = np.concatenate([faces, faces[:, ::-1] + nv, np.array(edge)])
+        part = np.concatenate([np.zeros(nv, np.uint8), np.ones(nv, np.uint8)])
+        return np.concatenate(verts), all_faces, part
+
+    # ----------------------------------------------------------------- design
+    @classmethod
+    def from_rx(cls, rx: Prescription, *, material="cr39", base_curve: float | None = None,
+                center_thickness: float | None = None, diameter: float | None = None,
+                pose: LensPose | None = None, wavelength_nm: float = 587.56,
+                torus: str = "y") -> SpectacleLens:
+        """Design a lens whose back vertex power equals ``rx`` (distance part) in both
+        principal meridians.
+
+        Front: a sphere of surface power ``base_curve`` (D, at the lens material's own index;
+        default Vogel's rule, SE + 6 for plus and SE/2 + 6 for minus lenses, kept in
+        [0.5, 12] D). Back: a toric (minus-cylinder, inner toric) surface whose power per
+        principal meridian is F2 = F_v - F1 / (1 - t F1 / n) (SCIENCE.md §7). Centre
+        thickness: the material minimum for minus lenses; for plus lenses the thinnest that
+        leaves MIN_EDGE_THICKNESS at the rim (iterated, since t enters F2). ``diameter``
+        (m) defaults to 60 mm, reduced for strong lenses so that no surface is steeper than
+        0.9 of a hemisphere at the rim (the 'lenticular' limit); an explicit diameter that
+        does not fit raises :class:`SpecError`.
+        """
+        mat = get_material(material)
+        pose = pose or LensPose()
+        n = mat.n(wavelength_nm)
+        se = rx.sphere + rx.cylinder / 2
+        if base_curve is None:
+            base_curve = se + 6.0 if se > 0 else se / 2 + 6.0
+            base_curve = min(max(base_curve, 0.5), 12.0)
+        check_range("lens.base_curve", base_curve, -20.0, 30.0)
+        c1 = base_curve / (n - 1.0)
+        p1 = rx.sphere                 # along the cylinder axis
+        p2 = rx.sphere + rx.cylinder   # perpendicular to it
+        if diameter is None:
+            c2_est = max(abs(p - base_curve) for p in (p1, p2)) / (n - 1.0) * 1.1
+            diameter = min(0.060, 2 * 0.9 / max(abs(c1), c2_est, 1e-9))
+        rad = diameter / 2
+        if abs(c1) * rad >= 0.98:
+            raise SpecError("lens.base_curve", f"{base_curve:g} D is too steep for a "
+                            f"{diameter * 1e3:g} mm lens of index {n:.3f}; allowed |F1| < "
+                            f"{0.98 * (n - 1) / rad:.1f} D")
+        key = mat.name if mat.name in MIN_CENTER_THICKNESS else "cr39"
+        t = center_thickness if center_thickness is not None else MIN_CENTER_THICKNESS[key]
+        fixed_t = center_thickness is not None
+        axis_w = math.radians(rx.axis_wearer_deg)
+        for _ in range(50):
+            f2 = [p - base_curve / (1.0 - t * base_curve / n) for p in (p1, p2)]
+            c2 = [f / (1.0 - n) for f in f2]
+            if max(abs(c) for c in c2) * rad >= 0.98:
+                raise SpecError("rx", f"{rx} needs a back surface too steep for a "
+                                f"{diameter * 1e3:g} mm lens; use a smaller diameter")
+            back = Toric(c2[0], c2[1], axis_w, torus) if c2[0] != c2[1] else Asphere(c2[0])
+            if fixed_t:
+                break
+            # edge thickness at the rim along the thinnest meridian
+            ang = np.linspace(0, np.pi, 181)
+            s1 = Asphere(c1).sag(rad * np.cos(ang), rad * np.sin(ang))
+            s2 = back.sag(rad * np.cos(ang), rad * np.sin(ang))
+            edge = t - s1 + s2
+            t_new = t + max(MIN_EDGE_THICKNESS - float(np.min(edge)), 0.0)
+            if se <= 0:
+                t_new = max(MIN_CENTER_THICKNESS[key], t)
+            if abs(t_new - t) < 1e-9:
+                break
+            t = t_new
+        return cls(Asphere(c1), back, t, mat, diameter, pose, rx)

@@ -1,0 +1,178 @@
+"""Wavefront tracing along rays (Kakimoto et al. 2007, §4.3-4.4; Kneisly 1964; Stavroudis 1972).
+
+A wavefront is carried along each ray as struct-of-arrays:
+
+* ``N`` (n, 3): unit propagation direction (the wavefront normal);
+* ``t1`` (n, 3): a unit tangent; ``t2 = N x t1`` completes a right-handed frame;
+* ``k11, k12, k22`` (n,): the curvature matrix K in the basis (t1, t2), 1/m.
+
+Curvature sign (paper, §4.3): negative when the centre of curvature lies opposite to
+the direction of travel (a diverging wave from a point at distance L has K = -I/L).
+In air the vergence in dioptres equals the curvature in 1/m.
+
+Keeping K in an arbitrary orthonormal tangent basis, rather than principal form, makes
+every operation a few multiplications and has no special case at k1 == k2 (umbilic):
+principal curvatures and directions (Eq. 5) are extracted only on output.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from eyelab.constants import TOL
+from eyelab.optics.surfaces import sym2_eig
+from eyelab.optics.trace import Hit, Status, refract
+
+
+def _dot(a, b):
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _cross(a, b):
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+
+
+def any_tangent(n):
+    """(n, 3) unit vectors perpendicular to the unit vectors ``n`` (stable for any n)."""
+    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    t = _cross(helper, n)
+    return t / np.linalg.norm(t, axis=1, keepdims=True)
+
+
+@dataclass
+class Wavefront:
+    """Wavefronts along n rays. See the module docstring for conventions."""
+
+    N: np.ndarray
+    t1: np.ndarray
+    k11: np.ndarray
+    k12: np.ndarray
+    k22: np.ndarray
+    status: np.ndarray
+
+    @classmethod
+    def spherical(cls, directions, distance):
+        """Wave from a point source at ``distance`` (m, may be inf) behind, travelling along
+        ``directions``: K = -I / distance (Table 1, 'wavefront creation' then Eq. 1)."""
+        directions = np.asarray(directions, float)
+        dist = np.broadcast_to(np.asarray(distance, float), directions.shape[:1])
+        with np.errstate(divide="ignore"):
+            k = np.where(np.isinf(dist), 0.0, -1.0 / dist)
+        z = np.zeros_like(k)
+        return cls(directions.copy(), any_tangent(directions), k.copy(), z, k.copy(),
+                   np.zeros(len(k), np.uint8))
+
+    def principal(self):
+        """Principal curvatures and directions (Eq. 5).
+
+        Returns k1 >= k2 (n,), e1, e2 (n, 3) unit with e2 = N x e1.
+        """
+        k1, k2, c, s = sym2_eig(self.k11, self.k12, self.k22)
+        t2 = _cross(self.N, self.t1)
+        e1 = c[:, None] * self.t1 + s[:, None] * t2
+        return k1, k2, e1, _cross(self.N, e1)
+
+    def in_basis(self, u):
+        """Curvature components (k_uu, k_uv, k_vv) in the basis (u, v = N x u) — Euler's
+        formulas, Eq. 3, for an arbitrary tangent unit vector u (n, 3)."""
+        t2 = _cross(self.N, self.t1)
+        c = _dot(u, self.t1)
+        s = _dot(u, t2)
+        kuu = c * c * self.k11 + 2 * c * s * self.k12 + s * s * self.k22
+        kvv = s * s * self.k11 - 2 * c * s * self.k12 + c * c * self.k22
+        kuv = c * s * (self.k22 - self.k11) + (c * c - s * s) * self.k12
+        return kuu, kuv, kvv
+
+    def transfer(self, distance):
+        """Propagate by ``distance`` (n,) or scalar, metres, in a homogeneous medium.
+
+        Eq. 1 (k' = k / (1 - d k) per principal meridian) in matrix form,
+        K' = K (I - d K)^-1, closed form for symmetric 2x2 K:
+        k11' = (k11 - d det K)/D, k12' = k12/D, k22' = (k22 - d det K)/D,
+        D = det(I - d K) = (1 - d k1)(1 - d k2).
+        Where |1 - d k_i| < TOL.focal_eps the wave passes through a focal line: the factor is
+        clamped (curvature ~ 1/(d eps), finite) and the ray is flagged FOCAL.
+        """
+        d = np.asarray(distance, float)
+        k1, k2, c, s = sym2_eig(self.k11, self.k12, self.k22)
+        f1 = 1.0 - d * k1
+        f2 = 1.0 - d * k2
+        focal = (np.abs(f1) < TOL.focal_eps) | (np.abs(f2) < TOL.focal_eps)
+        if focal.any():
+            f1 = np.where(np.abs(f1) < TOL.focal_eps, np.copysign(TOL.focal_eps, f1), f1)
+            f2 = np.where(np.abs(f2) < TOL.focal_eps, np.copysign(TOL.focal_eps, f2), f2)
+            self.status = self.status | np.where(focal, Status.FOCAL, 0).astype(np.uint8)
+        n1 = k1 / f1
+        n2 = k2 / f2
+        # rebuild in the (t1, t2) basis from the principal form (exact, no extra rounding
+        # amplification near focus, unlike the adjugate form)
+        self.k11 = c * c * n1 + s * s * n2
+        self.k22 = s * s * n1 + c * c * n2
+        self.k12 = c * s * (n1 - n2)
+        return self
+
+    def refract(self, hit: Hit, mu):
+        """Refract at a surface hit, ``mu = n_before / n_after`` (Eq. 3-5).
+
+        Uses the generalised Coddington equations (Kneisly 1964) as written in Eq. 4,
+        with u the common tangent (perpendicular to the plane of incidence), v = N x u on the
+        wave, v_s = N_s x u on the surface and v' = N' x u after refraction:
+
+            k'_u  = mu k_u + gamma ks_u
+            k'_v  = mu k_v cos^2(phi)/cos^2(phi') + gamma ks_v / cos^2(phi')
+            k'_uv = mu k_uv cos(phi)/cos(phi') + gamma ks_uv / cos(phi')
+
+        Eq. 4 in the paper prints ks_u in the second line; the tangential surface curvature
+        ks_v is correct (Kneisly 1964; checked against brute-force ray bundles in the tests).
+        Surface curvatures are taken w.r.t. the normal oriented along the light.
+        """
+        N = self.N
+        new_dir, ns, cos_i, cos_t, st = refract(N, hit.normals, mu)
+        sgn = np.where(_dot(ns, hit.normals) < 0, -1.0, 1.0)
+        u = _cross(N, ns)
+        un = np.linalg.norm(u, axis=1)
+        normal_inc = un < 1e-12
+        u = np.where(normal_inc[:, None], self.t1, u / np.where(normal_inc, 1.0, un)[:, None])
+        vs = _cross(ns, u)
+        ku, kuv, kv = self.in_basis(u)
+        ksu = sgn * hit.curvature(u, u)
+        ksv = sgn * hit.curvature(vs, vs)
+        ksuv = sgn * hit.curvature(u, vs)
+        gamma = cos_t - mu * cos_i
+        r = cos_i / cos_t
+        inv = 1.0 / cos_t
+        self.k11 = mu * ku + gamma * ksu
+        self.k22 = mu * kv * r * r + gamma * ksv * inv * inv
+        self.k12 = mu * kuv * r + gamma * ksuv * inv
+        self.N = new_dir
+        # re-orthogonalise the basis against the new normal (u is exactly tangent to both)
+        self.t1 = u
+        self.status = self.status | st | hit.status
+        return self
+
+    def toric_lens(self, up, powers, mu, n_after):
+        """Thin toric lens perpendicular to N (the eye, §4.4.1, Eq. 7).
+
+        Parameters
+        ----------
+        up : (3,) world 'up' used to define the eye-lens x axis: x = unit(up x N), y = N x x,
+            so x is horizontal and y points upward (paper, Fig. 7).
+        powers : tuple (pxx, pxy, pyy) of (n,) arrays, the lens power matrix (D) in (x, y).
+        mu : n_before / n_after.
+        n_after : index behind the lens.
+
+        Returns the new wavefront (curvatures in the (x, y) basis) — Eq. 7:
+        K' = mu K + P / n_after.
+        """
+        x = _cross(np.broadcast_to(up, self.N.shape), self.N)
+        xn = np.linalg.norm(x, axis=1)
+        deg = xn < 1e-9
+        x = np.where(deg[:, None], any_tangent(self.N), x / np.where(deg, 1.0, xn)[:, None])
+        kxx, kxy, kyy = self.in_basis(x)
+        pxx, pxy, pyy = powers
+        return Wavefront(self.N.copy(), x, mu * kxx + pxx / n_after, mu * kxy + pxy / n_after,
+                         mu * kyy + pyy / n_after, self.status.copy())
