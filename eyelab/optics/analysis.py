@@ -91,10 +91,20 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
         from eyelab.errors import SpecError
 
         raise SpecError("fixation", f"must be 'fixed' or 'rotating', got {fixation!r}")
-    n = len(objects)
     cor = np.array([0.0, 0.0, eye.rotation_centre])
     target = cor if fixation == "rotating" else np.zeros(3)
     chief = find_chief_rays(lens, target, objects, wavelength_nm)
+    return trace_chain(eye, lens, chief, objects, wavelength_nm=wavelength_nm,
+                       fixation=fixation, accommodation=accommodation)
+
+
+def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
+                wavelength_nm: float = 587.56, fixation: str = "fixed",
+                accommodation=None) -> PointAnalysis:
+    """The wavefront part of :func:`analyze_points`, for chief rays already found
+    (Table 1 from 'wavefront creation' to 'conoid sectioning')."""
+    n = len(objects)
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
     status = chief.status.copy()
     N_out = chief.dir_out
     if fixation == "rotating":

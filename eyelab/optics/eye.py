@@ -185,8 +185,8 @@ class Eye:
 
 
 def _dist(vergence):
-    """Signed distance (m) of a point of vergence V (D) at the cornea: -1/V; inf at V = 0.
-    Negative = in front of the eye (a real far/near point), positive = virtual, behind."""
+    """Distance (m) in front of the cornea of a point of vergence V (D) there: -1/V; inf at
+    V = 0. Positive = a real point in front of the eye, negative = virtual, behind it."""
     return math.inf if vergence == 0 else -1.0 / vergence
 
 
@@ -211,7 +211,8 @@ class ReducedEye:
 
     @property
     def far_point(self) -> tuple:
-        """Signed far-point distances (m) per meridian; inf for an emmetrope."""
+        """Far-point distances (m, in front of the eye; negative = virtual) per meridian;
+        inf for an emmetrope."""
         return tuple(_dist(v) for v in self.far_vergence)
 
     @property

@@ -216,8 +216,8 @@ class SpectacleLens:
         default Vogel's rule, SE + 6 for plus and SE/2 + 6 for minus lenses, kept in
         [0.5, 12] D). Back: a toric (minus-cylinder, inner toric) surface whose power per
         principal meridian is F2 = F_v - F1 / (1 - t F1 / n) (SCIENCE.md §7). Centre
-        thickness: the material minimum for minus lenses; for plus lenses the thinnest that
-        leaves MIN_EDGE_THICKNESS at the rim (iterated, since t enters F2). ``diameter``
+        thickness: the thinnest that is at least the material minimum and leaves
+        MIN_EDGE_THICKNESS at the rim (iterated, since t enters F2). ``diameter``
         (m) defaults to 60 mm, reduced for strong lenses so that no surface is steeper than
         0.9 of a hemisphere at the rim (the 'lenticular' limit); an explicit diameter that
         does not fit raises :class:`SpecError`.
@@ -259,10 +259,8 @@ class SpectacleLens:
             s1 = Asphere(c1).sag(rad * np.cos(ang), rad * np.sin(ang))
             s2 = back.sag(rad * np.cos(ang), rad * np.sin(ang))
             edge = t - s1 + s2
-            t_new = t + max(MIN_EDGE_THICKNESS - float(np.min(edge)), 0.0)
-            if se <= 0:
-                t_new = max(MIN_CENTER_THICKNESS[key], t)
-            if abs(t_new - t) < 1e-9:
+            t_new = max(MIN_CENTER_THICKNESS[key], t + MIN_EDGE_THICKNESS - float(np.min(edge)))
+            if abs(t_new - t) < 1e-10:
                 break
             t = t_new
         return cls(Asphere(c1), back, t, mat, diameter, pose, rx)

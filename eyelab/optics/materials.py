@@ -101,5 +101,5 @@ def get_material(spec, *, field: str = "lens.material") -> Material:
             return Material(str(spec.get("name", "custom")), spec["n_d"],
                             spec.get("v_d", float("inf")))
         except SpecError as e:
-            raise SpecError(field, e.message) from None
+            raise SpecError(f"{field}.{e.field.rsplit('.', 1)[-1]}", e.message) from None
     raise SpecError(field, f"expected a material name or table, got {spec!r}")

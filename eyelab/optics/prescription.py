@@ -91,7 +91,8 @@ class Prescription:
         try:
             return cls(sph, cyl, axis, add)
         except SpecError as e:
-            raise SpecError(field, f"{e.message} (in prescription {text!r})") from None
+            raise SpecError(field + e.field[2:], f"{e.message} (in prescription {text!r})") \
+                from None
 
     def format(self, *, plus_cylinder: bool | None = None) -> str:
         """Clinical string, e.g. ``'-2.25 / -1.00 x 180'``; ``plus_cylinder`` transposes first.

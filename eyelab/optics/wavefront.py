@@ -94,25 +94,21 @@ class Wavefront:
         K' = K (I - d K)^-1, closed form for symmetric 2x2 K:
         k11' = (k11 - d det K)/D, k12' = k12/D, k22' = (k22 - d det K)/D,
         D = det(I - d K) = (1 - d k1)(1 - d k2).
-        Where |1 - d k_i| < TOL.focal_eps the wave passes through a focal line: the factor is
-        clamped (curvature ~ 1/(d eps), finite) and the ray is flagged FOCAL.
+        Where |D| < TOL.focal_eps the wave passes (within ~eps/|d k|) through a focal line:
+        D is clamped to +-eps (curvatures finite, ~|k|/eps) and the ray is flagged FOCAL.
         """
         d = np.asarray(distance, float)
-        k1, k2, c, s = sym2_eig(self.k11, self.k12, self.k22)
-        f1 = 1.0 - d * k1
-        f2 = 1.0 - d * k2
-        focal = (np.abs(f1) < TOL.focal_eps) | (np.abs(f2) < TOL.focal_eps)
+        det_k = self.k11 * self.k22 - self.k12 * self.k12
+        big_d = 1.0 - d * (self.k11 + self.k22) + d * d * det_k   # = (1 - d k1)(1 - d k2)
+        focal = np.abs(big_d) < TOL.focal_eps
         if focal.any():
-            f1 = np.where(np.abs(f1) < TOL.focal_eps, np.copysign(TOL.focal_eps, f1), f1)
-            f2 = np.where(np.abs(f2) < TOL.focal_eps, np.copysign(TOL.focal_eps, f2), f2)
-            self.status = self.status | np.where(focal, Status.FOCAL, 0).astype(np.uint8)
-        n1 = k1 / f1
-        n2 = k2 / f2
-        # rebuild in the (t1, t2) basis from the principal form (exact, no extra rounding
-        # amplification near focus, unlike the adjugate form)
-        self.k11 = c * c * n1 + s * s * n2
-        self.k22 = s * s * n1 + c * c * n2
-        self.k12 = c * s * (n1 - n2)
+            big_d = np.where(focal, np.copysign(TOL.focal_eps, big_d), big_d)
+            self.status = self.status | np.where(focal, np.uint8(Status.FOCAL), np.uint8(0))
+        inv = 1.0 / big_d
+        dd = d * det_k
+        self.k11 = (self.k11 - dd) * inv
+        self.k22 = (self.k22 - dd) * inv
+        self.k12 = self.k12 * inv
         return self
 
     def refract(self, hit: Hit, mu):

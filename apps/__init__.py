@@ -1,0 +1,1 @@
+"""Thin command-line and GUI front ends of eyelab."""

@@ -1,0 +1,101 @@
+"""The ``eyelab`` command: ``eyelab analyze [SPEC]``, ``eyelab bench optics``.
+
+Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
+print one line naming the field and exit with status 2; no partial output file is left.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from eyelab.errors import SpecError
+
+
+def _atomic_write(path: str, text: str) -> None:
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, p)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="eyelab", description="What a person sees through "
+                                 "spectacle lenses: point analysis, benchmarks.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    an = sub.add_parser("analyze", help="chief rays, wavefronts and retinal blur for object "
+                        "points of a spec file (default: the built-in scene)")
+    an.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    an.add_argument("--json", action="store_true", help="print JSON instead of text")
+    an.add_argument("-o", "--output", help="also write the JSON report to this file")
+    an.add_argument("--no-lens", action="store_true", help="naked-eye values")
+    an.add_argument("--fixation", choices=("fixed", "rotating"),
+                    help="override the spec's fixation model")
+    be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
+    be.add_argument("what", choices=("optics",))
+    be.add_argument("-o", "--output", default="bench-optics.json", help="JSON output file")
+    be.add_argument("--points", type=int, default=1_000_000,
+                    help="points per wavefront-tracing batch (default 1e6)")
+    be.add_argument("--repeats", type=int, default=3)
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = _build_parser()
+    args = ap.parse_args(argv)
+    try:
+        if args.command == "analyze":
+            return _analyze(args)
+        if args.command == "bench":
+            return _bench(args)
+    except SpecError as e:
+        print(f"eyelab: error: {e}", file=sys.stderr)
+        return 2
+    return 1
+
+
+def _analyze(args) -> int:
+    from dataclasses import replace
+
+    from eyelab.analyze import analyze_spec, format_report
+    from eyelab.spec import load_spec
+
+    spec = load_spec(args.spec)
+    if args.fixation:
+        spec = replace(spec, fixation=args.fixation)
+    rep = analyze_spec(spec, no_lens=args.no_lens)
+    text = json.dumps(rep, indent=2)
+    if args.output:
+        _atomic_write(args.output, text + "\n")
+    print(text if args.json else format_report(rep))
+    return 0
+
+
+def _bench(args) -> int:
+    from eyelab.bench.optics import run_optics_bench
+
+    if args.points < 1000 or args.points > 20_000_000:
+        raise SpecError("--points", f"must be in [1000, 20000000], got {args.points}")
+    if args.repeats < 1 or args.repeats > 50:
+        raise SpecError("--repeats", f"must be in [1, 50], got {args.repeats}")
+    res = run_optics_bench(points=args.points, repeats=args.repeats)
+    _atomic_write(args.output, json.dumps(res, indent=2) + "\n")
+    for line in res["summary"]:
+        print(line)
+    print(f"wrote {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""Point analysis: the engine's public face (``eyelab analyze``).
+
+:func:`analyze_spec` runs the full chain for a :class:`~eyelab.spec.Spec` and returns a
+JSON-ready report; :func:`format_report` renders it for people.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from eyelab.optics.analysis import analyze_points, principal_angles, status_text
+from eyelab.optics.trace import Status
+from eyelab.spec import Spec
+
+
+def _v(a):
+    return [float(x) for x in a]
+
+
+def _principal(wave, x_axis, i):
+    k1, k2, ang = principal_angles(wave, x_axis)
+    return {"vergence_1_d": float(k1[i]), "vergence_2_d": float(k2[i]),
+            "direction_1_deg": float(np.degrees(ang[i])),
+            "mean_d": float(0.5 * (k1[i] + k2[i])), "cylinder_d": float(k2[i] - k1[i])}
+
+
+def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
+    """Run the chain for every point of ``spec``; returns a JSON-serialisable dict.
+
+    Units in keys: ``_mm``, ``_um``, ``_arcmin``, ``_deg``, ``_d`` (dioptres).
+    Directions and vergences are given in the eye's (x, y) frame of §4.4.1: x horizontal
+    (the wearer's right for a straight-ahead gaze), y up, angles counter-clockwise seen
+    from behind the wearer.
+    """
+    lens = None if no_lens else spec.lens
+    res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
+                         fixation=spec.fixation, accommodation=spec.accommodation)
+    maj, mnr, ang = res.blur_axes()
+    eye = spec.eye
+    out_points = []
+    for i in range(len(spec.points)):
+        st = int(res.status[i])
+        dist = float(spec.points.distance[i])
+        d = spec.points.direction[i]
+        entry = {
+            "index": i,
+            "status": status_text(st),
+            "object": {
+                "distance_m": dist if math.isfinite(dist) else "inf",
+                "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
+                              float(np.degrees(math.atan2(d[1], -d[2])))],
+            },
+        }
+        if st & int(Status.MISSED | Status.TIR | Status.NOT_CONVERGED | Status.BEHIND):
+            entry["reason"] = _reason(st)
+            out_points.append(entry)
+            continue
+        ch = res.chief
+        path = {"direction_to_eye": _v(ch.dir_out[i]),
+                "pupil_mm": _v(res.pupil[i] * 1e3),
+                "path_residual_rad": float(ch.residual[i]),
+                "path_iterations": int(ch.iterations[i])}
+        if lens is not None:
+            path.update({"entry_mm": _v(ch.entry[i] * 1e3), "exit_mm": _v(ch.exit[i] * 1e3),
+                         "direction_in": _v(ch.dir_in[i]),
+                         "direction_in_glass": _v(ch.dir_glass[i])})
+        entry["chief_ray"] = path
+        entry["wavefront_at_eye"] = _principal(res.wave_eye, res.eye_x, i)
+        if res.wave_vertex_sphere is not None:
+            entry["wavefront_at_vertex_sphere"] = _principal(res.wave_vertex_sphere,
+                                                             res.eye_x, i)
+        entry["accommodation_d"] = float(res.accommodation[i])
+        entry["blur"] = {
+            "major_um": float(maj[i] * 1e6), "minor_um": float(mnr[i] * 1e6),
+            "major_arcmin": float(res.to_arcmin(maj[i])),
+            "minor_arcmin": float(res.to_arcmin(mnr[i])),
+            "major_axis_deg": float(np.degrees(ang[i])),
+            "a_um": float(res.a[i] * 1e6), "b_um": float(res.b[i] * 1e6),
+            "omega_deg": float(np.degrees(res.omega[i])),
+            "matrix_um": (res.retina_matrix[i] * 1e6).tolist(),
+        }
+        out_points.append(entry)
+    k1, k2 = eye.refraction()
+    report = {
+        "source": spec.source,
+        "eye": {"power_min_d": eye.power_min, "astigmatism_d": eye.astigmatism,
+                "astigmatism_axis_deg": eye.astigmatism_axis_deg,
+                "accommodation_max_d": eye.accommodation_max,
+                "pupil_diameter_mm": eye.pupil_diameter * 1e3,
+                "retina_distance_mm": eye.retina_distance * 1e3,
+                "far_point_vergence_d": [k1, k2]},
+        "lens": None if lens is None else _lens_info(lens, spec.wavelength_nm),
+        "wavelength_nm": spec.wavelength_nm,
+        "fixation": spec.fixation,
+        "accommodation": "best effort (Kakimoto Eq. 13)" if spec.accommodation is None
+        else spec.accommodation,
+        "points": out_points,
+    }
+    return report
+
+
+def _lens_info(lens, wl):
+    f1, f2, a = lens.back_vertex_powers(wl)
+    return {"rx": None if lens.rx is None else lens.rx.format(),
+            "material": lens.material.name, "n": lens.material.n(wl),
+            "abbe": lens.material.v_d if lens.material.dispersive else "inf",
+            "center_thickness_mm": lens.center_thickness * 1e3,
+            "diameter_mm": lens.diameter * 1e3,
+            "vertex_distance_mm": lens.pose.vertex_distance * 1e3,
+            "pantoscopic_tilt_deg": lens.pose.pantoscopic_tilt_deg,
+            "wrap_deg": lens.pose.wrap_deg,
+            "back_vertex_powers_d": [f1, f2], "back_vertex_direction_1_deg": math.degrees(a)}
+
+
+def _reason(st):
+    if st & Status.BEHIND:
+        return "the point is behind the eye or the lens: no light path"
+    if st & Status.MISSED:
+        return "not visible through the lens (the chief ray misses the lens aperture)"
+    if st & Status.TIR:
+        return "total internal reflection in the lens"
+    return "the light path did not converge"
+
+
+def format_report(rep: dict) -> str:
+    """Human-readable text of a report from :func:`analyze_spec`."""
+    lines = [f"eyelab analyze — {rep['source']}"]
+    e = rep["eye"]
+    lines.append(f"eye: P_min {e['power_min_d']:.3f} D, astigmatism {e['astigmatism_d']:.3f} D "
+                 f"@ {e['astigmatism_axis_deg']:.1f} deg, amplitude {e['accommodation_max_d']:.2f} "
+                 f"D, pupil {e['pupil_diameter_mm']:.2f} mm, far-point vergences "
+                 f"{e['far_point_vergence_d'][0]:+.3f} / {e['far_point_vergence_d'][1]:+.3f} D")
+    if rep["lens"] is None:
+        lines.append("lens: none (naked eye)")
+    else:
+        ln = rep["lens"]
+        lines.append(f"lens: {ln['rx']} in {ln['material']} (n {ln['n']:.4f}), CT "
+                     f"{ln['center_thickness_mm']:.2f} mm, vertex {ln['vertex_distance_mm']:.1f} "
+                     f"mm, tilt {ln['pantoscopic_tilt_deg']:.1f} deg; traced back vertex powers "
+                     "{:+.4f} / {:+.4f} D".format(*ln["back_vertex_powers_d"]))
+    lines.append(f"wavelength {rep['wavelength_nm']} nm, fixation {rep['fixation']}, "
+                 f"accommodation {rep['accommodation']}")
+    for p in rep["points"]:
+        o = p["object"]
+        dist = o["distance_m"] if o["distance_m"] == "inf" else f"{o['distance_m']:g} m"
+        lines.append(f"\npoint {p['index']}: {dist} at field ({o['field_deg'][0]:+.1f}, "
+                     f"{o['field_deg'][1]:+.1f}) deg — {p['status']}")
+        if "reason" in p:
+            lines.append(f"  {p['reason']}")
+            continue
+        c = p["chief_ray"]
+        if "entry_mm" in c:
+            lines.append("  chief ray: enters lens at ({:+.2f}, {:+.2f}, {:+.2f}) mm, leaves at "
+                         "({:+.2f}, {:+.2f}, {:+.2f}) mm; residual {:.1e} rad in {} it."
+                         .format(*c["entry_mm"], *c["exit_mm"], c["path_residual_rad"],
+                                 c["path_iterations"]))
+        for key, label in (("wavefront_at_eye", "wavefront at eye"),
+                           ("wavefront_at_vertex_sphere", "at vertex sphere")):
+            if key in p:
+                w = p[key]
+                lines.append(f"  {label}: vergences {w['vergence_1_d']:+.4f} D @ "
+                             f"{w['direction_1_deg']:.1f} deg, {w['vergence_2_d']:+.4f} D "
+                             f"(mean {w['mean_d']:+.4f}, cyl {w['cylinder_d']:+.4f})")
+        b = p["blur"]
+        lines.append(f"  accommodation {p['accommodation_d']:.3f} D; retinal blur ellipse "
+                     f"{b['major_um']:.2f} x {b['minor_um']:.2f} um semi-axes "
+                     f"({b['major_arcmin']:.2f}' x {b['minor_arcmin']:.2f}'), major axis "
+                     f"{b['major_axis_deg']:.1f} deg")
+    return "\n".join(lines)

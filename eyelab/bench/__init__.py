@@ -1,0 +1,1 @@
+"""Benchmarks: ``eyelab bench ...`` print numbers and write JSON; never timed unit tests."""

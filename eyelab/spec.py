@@ -1,0 +1,261 @@
+"""Spec files (TOML): the eye, the lens and the object points for ``eyelab analyze``.
+
+Every field is validated; an error names the field (dotted path) and the allowed range.
+See ``eyelab/data/default.toml`` and the README for the format. Units: mm for lengths
+unless a key ends in ``_m``; D for powers; degrees for angles.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.eye import Eye, hofstetter_amplitude, watson_yellott_pupil
+from eyelab.optics.lens import LensPose, SpectacleLens
+from eyelab.optics.materials import get_material
+from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.surfaces import Asphere, Surface, Toric
+
+EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
+            "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
+            "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm"}
+LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
+             "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
+             "front", "back", "torus"}
+SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
+                "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
+ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
+POINT_KEYS = {"distance_m", "field_deg", "position_m"}
+
+
+@dataclass(frozen=True)
+class Spec:
+    eye: Eye
+    lens: SpectacleLens | None
+    points: ObjectPoints
+    wavelength_nm: float = 587.56
+    fixation: str = "fixed"
+    accommodation: float | None = None
+    source: str = "<built-in>"
+
+
+def _check_keys(table, allowed, where):
+    if not isinstance(table, dict):
+        raise SpecError(where, f"must be a table, got {table!r}")
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise SpecError(f"{where}.{unknown[0]}", f"unknown key; allowed keys: "
+                                                 f"{', '.join(sorted(allowed))}")
+
+
+def _num(table, key, where, lo, hi, default=None):
+    if key not in table:
+        return default
+    return check_range(f"{where}.{key}", table[key], lo, hi)
+
+
+def _rx(value, field):
+    if isinstance(value, Prescription):
+        return value
+    return Prescription.parse(value, field=field)
+
+
+def parse_eye(t: dict) -> Eye:
+    _check_keys(t, EYE_KEYS, "eye")
+    kw = {}
+    if "age" in t and "accommodation_max_d" in t:
+        raise SpecError("eye.age", "give either age or accommodation_max_d, not both")
+    if "age" in t:
+        kw["accommodation_max"] = hofstetter_amplitude(
+            check_range("eye.age", t["age"], 0, 120), t.get("amplitude_model", "mean"))
+    elif "accommodation_max_d" in t:
+        kw["accommodation_max"] = _num(t, "accommodation_max_d", "eye", 0, 16)
+    if "pupil_diameter_mm" in t and "luminance_cd_m2" in t:
+        raise SpecError("eye.pupil_diameter_mm",
+                        "give either pupil_diameter_mm or luminance_cd_m2, not both")
+    if "pupil_diameter_mm" in t:
+        kw["pupil_diameter"] = _num(t, "pupil_diameter_mm", "eye", 0.5, 10) * 1e-3
+    elif "luminance_cd_m2" in t:
+        kw["pupil_diameter"] = watson_yellott_pupil(t["luminance_cd_m2"],
+                                                    t.get("age", 30.0)) * 1e-3
+    if "n_vitreous" in t:
+        kw["n_vitreous"] = _num(t, "n_vitreous", "eye", 1.2, 1.6)
+    if "rotation_centre_mm" in t:
+        kw["rotation_centre"] = _num(t, "rotation_centre_mm", "eye", 5, 20) * 1e-3
+    explicit = {"power_min_d", "astigmatism_d", "astigmatism_axis_deg"} & set(t)
+    if "rx" in t:
+        if explicit:
+            raise SpecError(f"eye.{sorted(explicit)[0]}", "give either eye.rx or the explicit "
+                            "power_min_d / astigmatism_d / astigmatism_axis_deg, not both")
+        rx = _rx(t["rx"], "eye.rx")
+        vd = _num(t, "vertex_distance_mm", "eye", 5, 30, 12.0) * 1e-3
+        kind = t.get("kind", "refractive")
+        if "retina_distance_mm" in t:
+            kw["retina_distance"] = _num(t, "retina_distance_mm", "eye", 15, 35) * 1e-3
+        try:
+            return Eye.from_rx(rx, vertex_distance=vd, kind=kind, **kw)
+        except SpecError as e:
+            raise SpecError(e.field if e.field.startswith("eye") else "eye." + e.field,
+                            e.message) from None
+    if "power_min_d" in t:
+        kw["power_min"] = _num(t, "power_min_d", "eye", 40, 80)
+    if "astigmatism_d" in t:
+        kw["astigmatism"] = _num(t, "astigmatism_d", "eye", 0, 10)
+    if "astigmatism_axis_deg" in t:
+        kw["astigmatism_axis_deg"] = _num(t, "astigmatism_axis_deg", "eye", 0, 180)
+    if "retina_distance_mm" in t:
+        kw["retina_distance"] = _num(t, "retina_distance_mm", "eye", 15, 35) * 1e-3
+    return Eye(**kw)
+
+
+def _surface(t, where) -> Surface:
+    _check_keys(t, SURFACE_KEYS, where)
+    kind = t.get("type", "sphere")
+
+    def curv(ck, rk):
+        if ck in t and rk in t:
+            raise SpecError(f"{where}.{ck}", f"give either {ck} (1/m) or {rk}, not both")
+        if rk in t:
+            r = check_range(f"{where}.{rk}", t[rk], -1e9, 1e9)
+            if r == 0:
+                raise SpecError(f"{where}.{rk}", "must be non-zero (use curvature = 0 for a plane)")
+            return 1e3 / r
+        return check_range(f"{where}.{ck}", t.get(ck, 0.0), -200, 200)
+
+    if kind in ("sphere", "plane", "asphere", "conic"):
+        c = 0.0 if kind == "plane" else curv("curvature", "radius_mm")
+        k = check_range(f"{where}.conic", t.get("conic", 0.0), -100, 100)
+        coeffs = t.get("coefficients", [])
+        if not isinstance(coeffs, list):
+            raise SpecError(f"{where}.coefficients", "must be a list of numbers [A4, A6, ...]")
+        coeffs = tuple(check_range(f"{where}.coefficients[{i}]", v, -1e12, 1e12)
+                       for i, v in enumerate(coeffs))
+        return Asphere(c, k, coeffs)
+    if kind == "toric":
+        cx = curv("curvature_x", "radius_x_mm")
+        cy = curv("curvature_y", "radius_y_mm")
+        ax = math.radians(check_range(f"{where}.axis_deg", t.get("axis_deg", 0.0), -360, 360))
+        rev = t.get("revolve", "y")
+        if rev not in ("x", "y"):
+            raise SpecError(f"{where}.revolve", f"must be 'x' or 'y', got {rev!r}")
+        return Toric(cx, cy, ax, rev)
+    raise SpecError(f"{where}.type", f"must be one of sphere, plane, asphere, toric; got {kind!r}")
+
+
+def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
+    _check_keys(t, LENS_KEYS, "lens")
+    dec = t.get("decentration_mm", [0.0, 0.0])
+    if not (isinstance(dec, list) and len(dec) == 2):
+        raise SpecError("lens.decentration_mm", f"must be [x, y] in mm, got {dec!r}")
+    pose = LensPose(
+        vertex_distance=_num(t, "vertex_distance_mm", "lens", 5, 30, 12.0) * 1e-3,
+        pantoscopic_tilt_deg=_num(t, "pantoscopic_tilt_deg", "lens", -30, 30, 0.0),
+        wrap_deg=_num(t, "wrap_deg", "lens", -30, 30, 0.0),
+        decentration=tuple(check_range(f"lens.decentration_mm[{i}]", v, -20, 20) * 1e-3
+                           for i, v in enumerate(dec)))
+    material = get_material(t.get("material", "cr39"), field="lens.material")
+    ct = _num(t, "center_thickness_mm", "lens", 0.2, 30)
+    diam = _num(t, "diameter_mm", "lens", 10, 90)
+    if "front" in t or "back" in t:
+        for key in ("front", "back"):
+            if key not in t:
+                raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
+        for key in ("rx", "base_curve_d"):
+            if key in t:
+                raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
+        if ct is None:
+            raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
+        return SpectacleLens(_surface(t["front"], "lens.front"), _surface(t["back"], "lens.back"),
+                             ct * 1e-3, material, (diam or 60.0) * 1e-3, pose)
+    if "rx" in t:
+        rx = _rx(t["rx"], "lens.rx")
+    elif eye_rx is not None:
+        rx = eye_rx
+    else:
+        raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
+    return SpectacleLens.from_rx(
+        rx, material=material, base_curve=_num(t, "base_curve_d", "lens", -20, 30),
+        center_thickness=None if ct is None else ct * 1e-3,
+        diameter=None if diam is None else diam * 1e-3, pose=pose, torus=t.get("torus", "y"))
+
+
+def parse_points(items) -> ObjectPoints:
+    if not isinstance(items, list) or not items:
+        raise SpecError("points", "must be a non-empty array of tables [[points]]")
+    dirs, dists = [], []
+    for i, p in enumerate(items):
+        where = f"points[{i}]"
+        _check_keys(p, POINT_KEYS, where)
+        if "position_m" in p:
+            if "distance_m" in p or "field_deg" in p:
+                raise SpecError(f"{where}.position_m", "give position_m or distance_m + "
+                                                       "field_deg, not both")
+            pos = p["position_m"]
+            if not (isinstance(pos, list) and len(pos) == 3):
+                raise SpecError(f"{where}.position_m", f"must be [x, y, z] in m, got {pos!r}")
+            pos = np.array([check_range(f"{where}.position_m[{k}]", v, -1e6, 1e6)
+                            for k, v in enumerate(pos)])
+            d = float(np.linalg.norm(pos))
+            if d == 0:
+                raise SpecError(f"{where}.position_m", "must not be the pupil centre [0, 0, 0]")
+            dirs.append(pos / d)
+            dists.append(d)
+            continue
+        dist = p.get("distance_m", "inf")
+        if isinstance(dist, str) and dist.strip().lower() in ("inf", "infinity"):
+            dist = math.inf
+        else:
+            dist = check_range(f"{where}.distance_m", dist, 0.01, 1e7)
+        f = p.get("field_deg", [0.0, 0.0])
+        if not (isinstance(f, list) and len(f) == 2):
+            raise SpecError(f"{where}.field_deg", f"must be [x, y] in degrees, got {f!r}")
+        fx, fy = (check_range(f"{where}.field_deg[{k}]", v, -80, 80) for k, v in enumerate(f))
+        op = ObjectPoints.from_angles(dist, fx, fy)
+        dirs.append(op.direction[0])
+        dists.append(dist)
+    return ObjectPoints(np.array(dirs), np.array(dists, float))
+
+
+def parse_spec(data: dict, source: str = "<dict>") -> Spec:
+    _check_keys(data, {"eye", "lens", "analysis", "points"}, "spec")
+    eye_t = data.get("eye", {})
+    eye = parse_eye(eye_t)
+    lens = None
+    if "lens" in data:
+        eye_rx = _rx(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
+        lens = parse_lens(data["lens"], eye_rx)
+    an = data.get("analysis", {})
+    _check_keys(an, ANALYSIS_KEYS, "analysis")
+    wl = _num(an, "wavelength_nm", "analysis", 380, 780, 587.56)
+    fix = an.get("fixation", "fixed")
+    if fix not in ("fixed", "rotating"):
+        raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
+    acc = an.get("accommodation_d", "auto")
+    acc = None if acc == "auto" else check_range("analysis.accommodation_d", acc, 0, 16)
+    points = parse_points(data.get("points", [{"distance_m": "inf"}]))
+    return Spec(eye, lens, points, wl, fix, acc, source)
+
+
+def load_spec(path: str | Path | None = None) -> Spec:
+    """Load a TOML spec; ``None`` loads the built-in default scene."""
+    if path is None:
+        text = resources.files("eyelab").joinpath("data/default.toml").read_text()
+        source = "<built-in default>"
+    else:
+        p = Path(path)
+        if not p.is_file():
+            raise SpecError("spec", f"file not found: {str(p)!r}")
+        text = p.read_text()
+        source = str(p)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError("spec", f"{source} is not valid TOML: {e}") from None
+    return parse_spec(data, source)

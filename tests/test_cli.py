@@ -1,0 +1,90 @@
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from apps.cli import main
+from eyelab.analyze import analyze_spec
+from eyelab.spec import load_spec
+
+
+def test_analyze_default_in_process_matches_library(capsys, tmp_path):
+    out = tmp_path / "rep.json"
+    assert main(["analyze", "--json", "-o", str(out)]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    direct = analyze_spec(load_spec())
+    assert printed == json.loads(json.dumps(direct))
+    assert json.loads(out.read_text()) == printed
+    assert [p["status"] for p in printed["points"]] == ["ok", "ok", "ok"]
+    # the corrected far point: blur well under an arcminute
+    assert printed["points"][0]["blur"]["major_arcmin"] < 0.5
+
+
+def test_analyze_text_and_no_lens(capsys):
+    assert main(["analyze", "--no-lens"]) == 0
+    text = capsys.readouterr().out
+    assert "lens: none (naked eye)" in text
+    assert "retinal blur ellipse" in text
+
+
+def test_analyze_as_subprocess():
+    r = subprocess.run([sys.executable, "-m", "apps.cli", "analyze", "--json"],
+                       capture_output=True, text=True, check=False,
+                       cwd=os.path.dirname(os.path.dirname(__file__)))
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads(r.stdout)["points"]) == 3
+
+
+@pytest.mark.parametrize("body, field", [
+    ('[eye]\npupil_diameter_mm = 40\n', "eye.pupil_diameter_mm"),
+    ('[eye]\nrx = "-2 -1 x 400"\n', "eye.rx.axis"),
+    ('[eye]\ncolour = 3\n', "eye.colour"),
+    ('[lens]\nrx = "-2"\nmaterial = "glass?"\n', "lens.material"),
+    ('[[points]]\ndistance_m = -1\n', "points[0].distance_m"),
+    ('[[points]]\nfield_deg = [0]\n', "points[0].field_deg"),
+    ('[analysis]\nfixation = "wobbly"\n', "analysis.fixation"),
+    ('not toml = = 3', "spec"),
+])
+def test_bad_spec_exits_2_naming_the_field_and_writes_nothing(tmp_path, capsys, body, field):
+    spec = tmp_path / "bad.toml"
+    spec.write_text(body)
+    out = tmp_path / "out.json"
+    assert main(["analyze", str(spec), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"eyelab: error: {field}")
+    assert not out.exists()
+    assert "Traceback" not in err
+
+
+def test_missing_spec_file(capsys):
+    assert main(["analyze", "/nonexistent/spec.toml"]) == 2
+    assert "file not found" in capsys.readouterr().err
+
+
+def test_explicit_surfaces_spec(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text('[eye]\npower_min_d = 60.0\n[lens]\ncenter_thickness_mm = 2.5\n'
+                    'material = {n_d = 1.6, v_d = 40}\n[lens.front]\ntype = "sphere"\n'
+                    'radius_mm = 120\n[lens.back]\ntype = "toric"\nradius_x_mm = 80\n'
+                    'radius_y_mm = 70\naxis_deg = 30\n[[points]]\ndistance_m = 2\n'
+                    'field_deg = [5, 5]\n')
+    assert main(["analyze", str(spec), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["points"][0]["status"] == "ok"
+    assert rep["lens"]["rx"] is None
+
+
+def test_bench_optics_small(tmp_path, capsys):
+    out = tmp_path / "b.json"
+    assert main(["bench", "optics", "--points", "20000", "--repeats", "1", "-o", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert res["chain_ok_fraction"] > 0.9
+    assert res["chain_points_per_s"]["1_thread"] > 0
+    assert "M points/s" in capsys.readouterr().out
+
+
+def test_bench_bad_argument(capsys):
+    assert main(["bench", "optics", "--points", "5"]) == 2
+    assert "--points" in capsys.readouterr().err

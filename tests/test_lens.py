@@ -1,0 +1,113 @@
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from bruteforce import bundle_vergence
+from eyelab.errors import SpecError
+from eyelab.optics.analysis import analyze_points
+from eyelab.optics.eye import Eye
+from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens
+from eyelab.optics.materials import CATALOGUE
+from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.surfaces import Sphere, Toric
+from eyelab.optics.trace import Status
+
+
+@pytest.mark.parametrize("text", ["-6.00 DS", "+4.00 -2.00 x 30", "-2.25 -1.00 x 180",
+                                  "+10.00 DS", "-10.00 -4.00 x 135", "+6.00 -3.00 x 77"])
+@pytest.mark.parametrize("material", ["cr39", "polycarbonate", "1.74"])
+def test_designed_lens_back_vertex_power_equals_rx_by_tracing(text, material):
+    rx = Prescription.parse(text)
+    lens = SpectacleLens.from_rx(rx, material=material)
+    f1, f2, ang = lens.back_vertex_powers()
+    (pa, dir_a), (pb, _) = rx.principal_meridians()
+    assert sorted([f1, f2]) == pytest.approx(sorted([pa, pb]), abs=1e-10)
+    if rx.cylinder:
+        # the meridian of power f1 is the axis direction when S > S + C
+        want = dir_a if pa > pb else dir_a + math.pi / 2
+        assert math.cos(2 * (ang - want)) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_thick_lens_back_vertex_formula_on_axis():
+    # F_v = F1 / (1 - t F1 / n) + F2 (SCIENCE.md §7), for explicit surfaces
+    n = CATALOGUE["crown"].n_d
+    c1, c2, t = 9.0, 18.0, 0.004
+    lens = SpectacleLens(Sphere(c1), Sphere(c2), t, CATALOGUE["crown"])
+    f1, f2 = (n - 1) * c1, (1 - n) * c2
+    fv = f1 / (1 - t * f1 / n) + f2
+    assert lens.back_vertex_powers()[0] == pytest.approx(fv, rel=1e-12)
+
+
+def test_effective_power_at_cornea_minus_six_at_12mm():
+    lens = SpectacleLens.from_rx(Prescription(-6.0), pose=LensPose(vertex_distance=0.012))
+    res = analyze_points(Eye(), lens, ObjectPoints.from_angles(np.inf, 0.0, 0.0))
+    # SCIENCE.md §2: -6.00 D at 12 mm -> -5.597 D at the cornea
+    assert res.wave_eye.k11[0] == pytest.approx(-6.0 / (1 + 0.012 * 6.0), abs=1e-9)
+
+
+def test_plus_lens_edge_thickness_and_minus_centre_thickness():
+    plus = SpectacleLens.from_rx(Prescription(4.0, -1.0, 60))
+    r = plus.diameter / 2
+    ang = np.linspace(0, np.pi, 361)
+    edge = plus.center_thickness - plus.front.sag(r * np.cos(ang), r * np.sin(ang)) \
+        + plus.back.sag(r * np.cos(ang), r * np.sin(ang))
+    assert edge.min() == pytest.approx(MIN_EDGE_THICKNESS, abs=1e-6)
+    minus = SpectacleLens.from_rx(Prescription(-4.0), material="polycarbonate")
+    assert minus.center_thickness == pytest.approx(1.5e-3)
+
+
+def test_too_steep_explicit_diameter_is_a_clear_error():
+    with pytest.raises(SpecError, match="diameter|steep"):
+        SpectacleLens.from_rx(Prescription(-20.0), diameter=0.08)
+
+
+def test_mesh_is_closed_and_matches_surfaces():
+    lens = SpectacleLens.from_rx(Prescription(-3.0, -1.5, 20),
+                                 pose=LensPose(pantoscopic_tilt_deg=10.0))
+    v, f, part = lens.mesh(rings=12, segments=48)
+    m = trimesh.Trimesh(v, f, process=True)
+    assert m.is_watertight
+    assert m.volume > 0
+    # front vertices lie on the placed front surface
+    fs, _ = lens.placed_surfaces()
+    local = (v[part == 0] - fs.translation) @ fs.rotation
+    np.testing.assert_allclose(local[:, 2], fs.surface.sag(local[:, 0], local[:, 1]), atol=1e-15)
+
+
+LENSES = {
+    "sphere-10": SpectacleLens.from_rx(Prescription(-10.0)),
+    "sphere+10": SpectacleLens.from_rx(Prescription(10.0)),
+    "toric": SpectacleLens.from_rx(Prescription(3.0, -4.0, 30), material="polycarbonate"),
+    "toric-tilted": SpectacleLens.from_rx(
+        Prescription(-6.0, -2.0, 100), material="1.67",
+        pose=LensPose(pantoscopic_tilt_deg=10.0, wrap_deg=5.0, decentration=(0.002, -0.001))),
+    "explicit-toric-front": SpectacleLens(Toric(9.0, 5.0, 0.3, "x"), Sphere(14.0), 0.003,
+                                          CATALOGUE["trivex"]),
+}
+
+
+@pytest.mark.parametrize("name", LENSES)
+@pytest.mark.parametrize("fixation", ["fixed", "rotating"])
+def test_wavefront_tracer_matches_brute_force_ray_bundles(name, fixation):
+    """Acceptance (b): vergences from thousands of real rays agree to 1e-4 D, for powers up
+    to +-10 D and field angles up to 35 deg."""
+    lens = LENSES[name]
+    obj = ObjectPoints.from_angles([np.inf, 0.33, 2.0, 0.5, 6.0],
+                                   [0.0, 15.0, 25.0, -35.0, 0.0], [0.0, 10.0, -20.0, 0.0, 30.0])
+    res = analyze_points(Eye(), lens, obj, fixation=fixation)
+    expect_visible = np.ones(len(obj), bool)
+    if name == "sphere+10" and fixation == "rotating":
+        # a ray from the centre of rotation through the rim of this +10 D lens leaves at
+        # ~32 deg (prism 30 D at the rim), so the 35 deg point cannot be seen through it
+        expect_visible[3] = False
+        assert res.status[3] & Status.MISSED
+    np.testing.assert_array_equal(res.status == 0, expect_visible)
+    kxx, kxy, kyy = res.wave_eye.in_basis(res.eye_x)
+    for i in np.flatnonzero(expect_visible):
+        bf = bundle_vergence(lens, res.chief.start[i], res.chief.dir_in[i],
+                             bool(np.isfinite(obj.distance[i])), res.pupil[i],
+                             res.wave_eye.N[i], res.eye_x[i], radius=1e-5)
+        np.testing.assert_allclose([kxx[i], kxy[i], kyy[i]], bf[:3], atol=1e-4)
