@@ -1,0 +1,1 @@
+"""Procedural inputs with known properties: sample prescriptions, eyes and lens specs."""

@@ -1,0 +1,22 @@
+"""The optics engine: pure numpy, no display, no VTK.
+
+Prescriptions -> eye model and lens design -> surfaces -> exact rays and wavefronts ->
+chief-ray paths -> retinal blur (Kakimoto et al. 2007, §3-4).
+"""
+
+from eyelab.optics.analysis import PointAnalysis, analyze_points, trace_chain
+from eyelab.optics.eye import Eye, ReducedEye, hofstetter_amplitude, watson_yellott_pupil
+from eyelab.optics.lens import LensPose, SpectacleLens
+from eyelab.optics.materials import CATALOGUE, Material, get_material
+from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
+from eyelab.optics.prescription import Prescription, vertex_effective_power
+from eyelab.optics.surfaces import Asphere, Plane, Sphere, Toric
+from eyelab.optics.trace import Status
+from eyelab.optics.wavefront import Wavefront
+
+__all__ = [
+    "CATALOGUE", "Asphere", "ChiefRays", "Eye", "LensPose", "Material", "ObjectPoints",
+    "Plane", "PointAnalysis", "Prescription", "ReducedEye", "SpectacleLens", "Sphere",
+    "Status", "Toric", "Wavefront", "analyze_points", "find_chief_rays", "get_material",
+    "hofstetter_amplitude", "trace_chain", "vertex_effective_power", "watson_yellott_pupil",
+]
