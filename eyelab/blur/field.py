@@ -1,0 +1,216 @@
+"""The blur field (Kakimoto et al. 2007, §4.1): a voxel grid over a camera's view volume in
+which each voxel holds the 2x2 matrix (Eq. 9) mapping a unit-disc jitter seed to the NDC
+displacement of any vertex inside it.
+
+Grid: ``shape = (nz, ny, nx)``; voxel (k, j, i) covers NDC x in [-1 + 2i/nx, -1 + 2(i+1)/nx],
+likewise y, and depth slice k. Arrays are indexed ``[k, j, i]`` (z, y, x), the layout of a
+3D texture ``field[z, y, x, 4]``.
+
+Depth axis (``depth_mode``):
+
+* ``"ndc"`` — slices uniform in NDC z (the paper's choice). NDC z is affine in 1/w, so these
+  slices are uniform in dioptric distance from the camera's centre of projection, which is
+  what blur is linear in (blur diameter = pupil x dioptric defocus). Texture coordinate:
+  tc_z = 0.5 z_ndc + 0.5.
+* ``"linear"`` — slices uniform in eye-space depth w between near and far; spends the
+  slices on the far half, where blur changes least. Texture coordinate:
+  tc_z = (w - near) / (far - near), with w = gl_Position.w in the vertex shader.
+"""
+
+from __future__ import annotations
+
+import enum
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eyelab.errors import SpecError
+from eyelab.optics.camera import Camera
+
+DEPTH_MODES = ("ndc", "linear")
+
+
+class VoxelStatus(enum.IntEnum):
+    OK = 0
+    #: no light path from the voxel's wave source through the lens to the pupil
+    NOT_VISIBLE = 1
+    #: the wave source lies between the eye and the lens, or behind the eye
+    BEHIND = 2
+    #: outside the scene's bounds: not computed (matrix zero)
+    OUTSIDE_SCENE = 3
+
+
+@dataclass
+class BlurField:
+    """A computed blur field.
+
+    Attributes (arrays indexed [k, j, i]):
+
+    matrix : (nz, ny, nx, 2, 2) NDC units per unit seed (Eq. 9)
+    a, b : (nz, ny, nx) signed semi-axes of the retinal ellipse, m (Eq. 8; a for k'_1)
+    omega : (nz, ny, nx) rad, direction of k'_1 in the eye (x, y) frame
+    major_arcmin : (nz, ny, nx) major semi-axis as a visual angle, arcmin
+    accommodation : (nz, ny, nx) D used
+    status : (nz, ny, nx) uint8 :class:`VoxelStatus`
+    sources : (nz, ny, nx, 3) world positions of the wave sources, m
+    """
+
+    camera: Camera
+    shape: tuple
+    depth_mode: str
+    matrix: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    omega: np.ndarray
+    major_arcmin: np.ndarray
+    accommodation: np.ndarray
+    status: np.ndarray
+    sources: np.ndarray
+    method: str = "wavefront"
+    key: str = ""
+    report: dict = field(default_factory=dict)
+
+    # -------------------------------------------------------------- geometry
+    @property
+    def nz(self):
+        return self.shape[0]
+
+    def slice_bounds_depth(self):
+        """(nz + 1,) eye-space depths (m) of the slice boundaries, near to far."""
+        return slice_bounds(self.camera, self.nz, self.depth_mode)
+
+    def slice_depths(self):
+        """(nz,) eye-space depth (m) of each slice's centre (midpoint in the slice's own
+        parameter: NDC z or w)."""
+        return slice_centres(self.camera, self.nz, self.depth_mode)
+
+    def texcoords(self, points):
+        """(n, 3) texture coordinates in [0, 1] of world points, as the shader computes them."""
+        ndc = self.camera.world_to_ndc(points)
+        if self.depth_mode == "ndc":
+            tz = 0.5 * ndc[:, 2] + 0.5
+        else:
+            w = self.camera.depth(points)
+            tz = (w - self.camera.near) / (self.camera.far - self.camera.near)
+        return np.stack([0.5 * ndc[:, 0] + 0.5, 0.5 * ndc[:, 1] + 0.5, tz], -1)
+
+    def lookup(self, points, *, interpolate=True):
+        """(n, 2, 2) matrices at world points: trilinear between voxel centres (as a
+        GL_LINEAR 3D texture with clamp-to-edge) or nearest voxel."""
+        tc = self.texcoords(np.atleast_2d(points))
+        nz, ny, nx = self.shape
+        m = self.matrix.reshape(nz, ny, nx, 4)
+        if not interpolate:
+            idx = [np.clip((tc[:, a] * n).astype(int), 0, n - 1)
+                   for a, n in ((2, nz), (1, ny), (0, nx))]
+            return m[idx[0], idx[1], idx[2]].reshape(-1, 2, 2)
+        out = np.zeros((len(tc), 4))
+        coords = []
+        for a, n in ((2, nz), (1, ny), (0, nx)):
+            f = np.clip(tc[:, a] * n - 0.5, 0, n - 1)
+            i0 = np.minimum(np.floor(f).astype(int), n - 2) if n > 1 else np.zeros(len(f), int)
+            t = f - i0 if n > 1 else np.zeros(len(f))
+            coords.append((i0, t))
+        (z0, tz), (y0, ty), (x0, tx) = coords
+        for dz in (0, 1):
+            for dy in (0, 1):
+                for dx in (0, 1):
+                    wgt = ((tz if dz else 1 - tz) * (ty if dy else 1 - ty) * (tx if dx else 1 - tx))
+                    zi = np.minimum(z0 + dz, nz - 1)
+                    yi = np.minimum(y0 + dy, ny - 1)
+                    xi = np.minimum(x0 + dx, nx - 1)
+                    out += wgt[:, None] * m[zi, yi, xi]
+        return out.reshape(-1, 2, 2)
+
+    def texture_rgba(self):
+        """(nz, ny, nx, 4) float32 texel data (m00, m01, m10, m11) for the vertex shader."""
+        nz, ny, nx = self.shape
+        return np.ascontiguousarray(self.matrix.reshape(nz, ny, nx, 4), dtype=np.float32)
+
+    @property
+    def all_zero(self) -> bool:
+        return not np.any(self.matrix)
+
+    # ------------------------------------------------------------------- io
+    def save(self, path):
+        """Save to ``.npz`` (everything, exact) or ``.vti`` (VTK image data, via pyvista)."""
+        path = str(path)
+        if path.endswith(".vti"):
+            self.to_pyvista().save(path)
+            return
+        if not path.endswith(".npz"):
+            raise SpecError("path", f"blur fields save to .npz or .vti, got {path!r}")
+        cam = self.camera
+        meta = {"camera": {k: (list(map(float, v)) if isinstance(v, tuple) else float(v))
+                           for k, v in cam.__dict__.items()},
+                "shape": list(self.shape), "depth_mode": self.depth_mode,
+                "method": self.method, "key": self.key, "report": self.report}
+        np.savez_compressed(path, matrix=self.matrix, a=self.a, b=self.b, omega=self.omega,
+                            major_arcmin=self.major_arcmin, accommodation=self.accommodation,
+                            status=self.status, sources=self.sources,
+                            meta=np.array(json.dumps(meta, default=_json_default)))
+
+    @classmethod
+    def load(cls, path) -> BlurField:
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            c = meta["camera"]
+            cam = Camera(tuple(c["position"]), tuple(c["forward"]), tuple(c["up"]),
+                         c["fov_y_deg"], c["aspect"], c["near"], c["far"])
+            return cls(cam, tuple(meta["shape"]), meta["depth_mode"], z["matrix"], z["a"],
+                       z["b"], z["omega"], z["major_arcmin"], z["accommodation"], z["status"],
+                       z["sources"], meta["method"], meta["key"], meta["report"])
+
+    def to_pyvista(self, *, world=False):
+        """``pv.ImageData`` (NDC grid, ``world=False``) or ``pv.StructuredGrid`` (voxel centres in
+        world space) with named point arrays; see :mod:`eyelab.render.fields`."""
+        from eyelab.render.fields import blur_field_to_pyvista
+
+        return blur_field_to_pyvista(self, world=world)
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o))
+
+
+def slice_bounds(camera: Camera, nz: int, mode: str):
+    if mode == "ndc":
+        return camera.ndc_z_to_depth(np.linspace(-1.0, 1.0, nz + 1))
+    if mode == "linear":
+        return np.linspace(camera.near, camera.far, nz + 1)
+    raise SpecError("depth_mode", f"must be one of {DEPTH_MODES}, got {mode!r}")
+
+
+def slice_centres(camera: Camera, nz: int, mode: str):
+    if mode == "ndc":
+        return camera.ndc_z_to_depth(-1.0 + (2 * np.arange(nz) + 1.0) / nz)
+    if mode == "linear":
+        return camera.near + (np.arange(nz) + 0.5) * (camera.far - camera.near) / nz
+    raise SpecError("depth_mode", f"must be one of {DEPTH_MODES}, got {mode!r}")
+
+
+def cache_key(**parts) -> str:
+    """Stable hex key of every input that matters (dataclasses, numbers, strings, arrays)."""
+    def enc(o):
+        if hasattr(o, "__dataclass_fields__"):
+            return {"_type": type(o).__name__, **{k: enc(getattr(o, k))
+                                                  for k in o.__dataclass_fields__}}
+        if isinstance(o, np.ndarray):
+            return {"_array": hashlib.sha256(np.ascontiguousarray(o).tobytes()).hexdigest(),
+                    "shape": o.shape}
+        if isinstance(o, (list, tuple)):
+            return [enc(x) for x in o]
+        if isinstance(o, dict):
+            return {str(k): enc(v) for k, v in sorted(o.items())}
+        if isinstance(o, (float, np.floating)):
+            return repr(float(o))
+        return o if isinstance(o, (int, str, bool, type(None))) else repr(o)
+
+    blob = json.dumps(enc(parts), sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:24]
