@@ -43,10 +43,10 @@ def _build_parser() -> argparse.ArgumentParser:
     an.add_argument("--fixation", choices=("fixed", "rotating"),
                     help="override the spec's fixation model")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
-    be.add_argument("what", choices=("optics",))
-    be.add_argument("-o", "--output", default="bench-optics.json", help="JSON output file")
+    be.add_argument("what", choices=("optics", "blurfield"))
+    be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
     be.add_argument("--points", type=int, default=1_000_000,
-                    help="points per wavefront-tracing batch (default 1e6)")
+                    help="optics: points per wavefront-tracing batch (default 1e6)")
     be.add_argument("--repeats", type=int, default=3)
     return ap
 
@@ -83,14 +83,21 @@ def _analyze(args) -> int:
 
 
 def _bench(args) -> int:
-    from eyelab.bench.optics import run_optics_bench
-
     if args.points < 1000 or args.points > 20_000_000:
         raise SpecError("--points", f"must be in [1000, 20000000], got {args.points}")
     if args.repeats < 1 or args.repeats > 50:
         raise SpecError("--repeats", f"must be in [1, 50], got {args.repeats}")
-    res = run_optics_bench(points=args.points, repeats=args.repeats)
-    _atomic_write(args.output, json.dumps(res, indent=2) + "\n")
+    output = args.output or f"bench-{args.what}.json"
+    if args.what == "optics":
+        from eyelab.bench.optics import run_optics_bench
+
+        res = run_optics_bench(points=args.points, repeats=args.repeats)
+    else:
+        from eyelab.bench.blurfield import run_blurfield_bench
+
+        res = run_blurfield_bench(repeats=args.repeats)
+    args.output = output
+    _atomic_write(output, json.dumps(res, indent=2) + "\n")
     for line in res["summary"]:
         print(line)
     print(f"wrote {args.output}")

@@ -88,3 +88,15 @@ def test_bench_optics_small(tmp_path, capsys):
 def test_bench_bad_argument(capsys):
     assert main(["bench", "optics", "--points", "5"]) == 2
     assert "--points" in capsys.readouterr().err
+
+
+def test_bench_blurfield_writes_json(tmp_path, monkeypatch):
+    import eyelab.bench.blurfield as bb
+
+    monkeypatch.setattr(bb, "GRIDS", [(16, 4, 4), (32, 8, 8)])
+    out = tmp_path / "bf.json"
+    assert main(["bench", "blurfield", "--repeats", "1", "-o", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert [r["grid"] for r in res["grids"]] == ["4x4x16", "8x8x32"]
+    assert res["path_sharing"]["ellipse_rel_error"]["max"] < 0.05
+    assert {r["depth_mode"] for r in res["depth_sampling_accuracy"]} == {"ndc", "linear"}

@@ -99,30 +99,39 @@ class BlurField:
     def lookup(self, points, *, interpolate=True):
         """(n, 2, 2) matrices at world points: trilinear between voxel centres (as a
         GL_LINEAR 3D texture with clamp-to-edge) or nearest voxel."""
+        nz, ny, nx = self.shape
+        return self.sample(self.matrix.reshape(nz, ny, nx, 4), points,
+                           interpolate=interpolate).reshape(-1, 2, 2)
+
+    def sample(self, volume, points, *, interpolate=True):
+        """Sample any (nz, ny, nx, ...) array at world points like the shader samples the
+        texture: (n, ...)."""
         tc = self.texcoords(np.atleast_2d(points))
         nz, ny, nx = self.shape
-        m = self.matrix.reshape(nz, ny, nx, 4)
         if not interpolate:
             idx = [np.clip((tc[:, a] * n).astype(int), 0, n - 1)
                    for a, n in ((2, nz), (1, ny), (0, nx))]
-            return m[idx[0], idx[1], idx[2]].reshape(-1, 2, 2)
-        out = np.zeros((len(tc), 4))
+            return volume[idx[0], idx[1], idx[2]]
         coords = []
         for a, n in ((2, nz), (1, ny), (0, nx)):
             f = np.clip(tc[:, a] * n - 0.5, 0, n - 1)
-            i0 = np.minimum(np.floor(f).astype(int), n - 2) if n > 1 else np.zeros(len(f), int)
-            t = f - i0 if n > 1 else np.zeros(len(f))
-            coords.append((i0, t))
+            if n > 1:
+                i0 = np.minimum(np.floor(f).astype(int), n - 2)
+                coords.append((i0, f - i0))
+            else:
+                coords.append((np.zeros(len(f), int), np.zeros(len(f))))
         (z0, tz), (y0, ty), (x0, tx) = coords
+        out = np.zeros((len(tc),) + volume.shape[3:])
+        extra = (slice(None),) + (None,) * (volume.ndim - 3)
         for dz in (0, 1):
             for dy in (0, 1):
                 for dx in (0, 1):
-                    wgt = ((tz if dz else 1 - tz) * (ty if dy else 1 - ty) * (tx if dx else 1 - tx))
+                    wgt = (tz if dz else 1 - tz) * (ty if dy else 1 - ty) * (tx if dx else 1 - tx)
                     zi = np.minimum(z0 + dz, nz - 1)
                     yi = np.minimum(y0 + dy, ny - 1)
                     xi = np.minimum(x0 + dx, nx - 1)
-                    out += wgt[:, None] * m[zi, yi, xi]
-        return out.reshape(-1, 2, 2)
+                    out += wgt[extra] * volume[zi, yi, xi]
+        return out
 
     def texture_rgba(self):
         """(nz, ny, nx, 4) float32 texel data (m00, m01, m10, m11) for the vertex shader."""
