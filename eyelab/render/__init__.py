@@ -1,0 +1,1 @@
+"""Everything that touches VTK / PyVista lives here (and only here)."""
