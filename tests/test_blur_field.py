@@ -156,3 +156,26 @@ def test_depth_modes_place_slices_as_documented(mode):
         np.testing.assert_allclose(np.diff(1 / w), np.diff(1 / w)[0], rtol=1e-9)
     else:
         np.testing.assert_allclose(np.diff(w), np.diff(w)[0], rtol=1e-9)
+
+
+def test_vti_round_trip_is_exact(tmp_path):
+    eye = Eye.from_rx(Prescription(-1.0, -0.5, 10))
+    f = compute_blur_field(eye, None, shape=SMALL)
+    p = tmp_path / "f.vti"
+    f.save(p)
+    g = BlurField.load(p)
+    for name in ("matrix", "a", "b", "omega", "major_arcmin", "accommodation", "sources"):
+        np.testing.assert_array_equal(getattr(g, name), getattr(f, name))
+    assert g.key == f.key and g.camera == f.camera
+
+
+def test_cache_hits_and_misses(tmp_path):
+    from eyelab.blur.wavefront import cached_blur_field
+
+    eye = Eye.from_rx(Prescription(-1.5))
+    a = cached_blur_field(tmp_path, eye, None, shape=SMALL)
+    b = cached_blur_field(tmp_path, eye, None, shape=SMALL)
+    c = cached_blur_field(tmp_path, eye, None, shape=SMALL, focus=0.5)
+    assert (a.report["cache"], b.report["cache"], c.report["cache"]) == ("miss", "hit", "miss")
+    np.testing.assert_array_equal(a.matrix, b.matrix)
+    assert len(list(tmp_path.glob("*.npz"))) == 2

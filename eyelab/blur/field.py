@@ -143,34 +143,73 @@ class BlurField:
         return not np.any(self.matrix)
 
     # ------------------------------------------------------------------- io
-    def save(self, path):
-        """Save to ``.npz`` (everything, exact) or ``.vti`` (VTK image data, via pyvista)."""
-        path = str(path)
-        if path.endswith(".vti"):
-            self.to_pyvista().save(path)
-            return
-        if not path.endswith(".npz"):
-            raise SpecError("path", f"blur fields save to .npz or .vti, got {path!r}")
+    def _meta(self):
         cam = self.camera
-        meta = {"camera": {k: (list(map(float, v)) if isinstance(v, tuple) else float(v))
+        return {"camera": {k: (list(map(float, v)) if isinstance(v, tuple) else float(v))
                            for k, v in cam.__dict__.items()},
                 "shape": list(self.shape), "depth_mode": self.depth_mode,
                 "method": self.method, "key": self.key, "report": self.report}
-        np.savez_compressed(path, matrix=self.matrix, a=self.a, b=self.b, omega=self.omega,
-                            major_arcmin=self.major_arcmin, accommodation=self.accommodation,
-                            status=self.status, sources=self.sources,
-                            meta=np.array(json.dumps(meta, default=_json_default)))
+
+    def save(self, path):
+        """Save to ``.npz`` (compressed numpy) or ``.vti`` (VTK image data on the NDC grid, for
+        ParaView); both load back exactly with :meth:`load`. Written atomically."""
+        import os
+
+        path = str(path)
+        if not path.endswith((".npz", ".vti")):
+            raise SpecError("path", f"blur fields save to .npz or .vti, got {path!r}")
+        tmp = path + ".tmp" + path[-4:]
+        meta = json.dumps(self._meta(), default=_json_default)
+        try:
+            if path.endswith(".vti"):
+                grid = self.to_pyvista()
+                grid.cell_data["sources"] = self.sources.reshape(-1, 3)
+                grid.cell_data["a_m"] = self.a.ravel()
+                grid.cell_data["b_m"] = self.b.ravel()
+                grid.cell_data["omega_rad"] = self.omega.ravel()
+                grid.field_data["eyelab_meta"] = [meta]
+                grid.save(tmp)
+            else:
+                with open(tmp, "wb") as fh:
+                    np.savez_compressed(fh, matrix=self.matrix, a=self.a, b=self.b,
+                                        omega=self.omega, major_arcmin=self.major_arcmin,
+                                        accommodation=self.accommodation, status=self.status,
+                                        sources=self.sources, meta=np.array(meta))
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
 
     @classmethod
     def load(cls, path) -> BlurField:
-        with np.load(path) as z:
-            meta = json.loads(str(z["meta"]))
-            c = meta["camera"]
-            cam = Camera(tuple(c["position"]), tuple(c["forward"]), tuple(c["up"]),
-                         c["fov_y_deg"], c["aspect"], c["near"], c["far"])
-            return cls(cam, tuple(meta["shape"]), meta["depth_mode"], z["matrix"], z["a"],
-                       z["b"], z["omega"], z["major_arcmin"], z["accommodation"], z["status"],
-                       z["sources"], meta["method"], meta["key"], meta["report"])
+        """Load a field saved by :meth:`save` (``.npz`` or ``.vti``)."""
+        path = str(path)
+        if path.endswith(".vti"):
+            import pyvista as pv
+
+            g = pv.read(path)
+            meta = json.loads(str(g.field_data["eyelab_meta"][0]))
+            nz, ny, nx = meta["shape"]
+            cd = g.cell_data
+            arr = {"matrix": np.asarray(cd["matrix"]).reshape(nz, ny, nx, 2, 2),
+                   "a": np.asarray(cd["a_m"]).reshape(nz, ny, nx),
+                   "b": np.asarray(cd["b_m"]).reshape(nz, ny, nx),
+                   "omega": np.asarray(cd["omega_rad"]).reshape(nz, ny, nx),
+                   "major_arcmin": np.asarray(cd["blur_arcmin"]).reshape(nz, ny, nx),
+                   "accommodation": np.asarray(cd["accommodation_d"]).reshape(nz, ny, nx),
+                   "status": np.asarray(cd["status"]).reshape(nz, ny, nx),
+                   "sources": np.asarray(cd["sources"]).reshape(nz, ny, nx, 3)}
+        else:
+            with np.load(path) as z:
+                meta = json.loads(str(z["meta"]))
+                arr = {k: z[k] for k in ("matrix", "a", "b", "omega", "major_arcmin",
+                                         "accommodation", "status", "sources")}
+        c = meta["camera"]
+        cam = Camera(tuple(c["position"]), tuple(c["forward"]), tuple(c["up"]),
+                     c["fov_y_deg"], c["aspect"], c["near"], c["far"])
+        return cls(cam, tuple(meta["shape"]), meta["depth_mode"], arr["matrix"], arr["a"],
+                   arr["b"], arr["omega"], arr["major_arcmin"], arr["accommodation"],
+                   arr["status"], arr["sources"], meta["method"], meta["key"], meta["report"])
 
     def to_pyvista(self, *, world=False):
         """``pv.ImageData`` (NDC grid, ``world=False``) or ``pv.StructuredGrid`` (voxel centres in

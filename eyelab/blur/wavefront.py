@@ -155,6 +155,35 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
                      out["major"], out["acc"], status, sources, "wavefront", key, report)
 
 
+def cached_blur_field(cache_dir, eye, lens=None, camera=None, *, method="wavefront",
+                      **kwargs) -> BlurField:
+    """:func:`compute_blur_field` (or the bundle method) through an on-disk cache.
+
+    The file name is a hash of every input that matters (eye, lens, camera, grid, method and
+    options); a hit loads the ``.npz`` and marks ``report["cache"] = "hit"``.
+    """
+    from pathlib import Path
+
+    if method not in ("wavefront", "bundle"):
+        raise SpecError("method", f"must be 'wavefront' or 'bundle', got {method!r}")
+    key = cache_key(method=method, eye=eye, lens=lens, camera=camera, **kwargs)
+    path = Path(cache_dir) / f"blurfield-{key}.npz"
+    if path.is_file():
+        field = BlurField.load(path)
+        field.report = dict(field.report, cache="hit", cache_file=str(path))
+        return field
+    if method == "wavefront":
+        field = compute_blur_field(eye, lens, camera, **kwargs)
+    else:
+        from eyelab.blur.bundle import compute_blur_field_bundles
+
+        field = compute_blur_field_bundles(eye, lens, camera, **kwargs)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    field.report = dict(field.report, cache="miss", cache_file=str(path))
+    field.save(path)
+    return field
+
+
 def _shifted(points, pupil):
     return ObjectPoints.from_positions(points - pupil)
 
