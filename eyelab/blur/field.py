@@ -105,13 +105,20 @@ class BlurField:
 
     def sample(self, volume, points, *, interpolate=True):
         """Sample any (nz, ny, nx, ...) array at world points like the shader samples the
-        texture: (n, ...)."""
-        tc = self.texcoords(np.atleast_2d(points))
+        texture: (n, ...). Points at or behind the camera plane (clipped by the rasteriser)
+        get zeros."""
+        points = np.atleast_2d(points)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tc = self.texcoords(points)
+        behind = (self.camera.depth(points) <= 0) | ~np.all(np.isfinite(tc), axis=1)
+        tc = np.where(behind[:, None], 0.5, tc)
         nz, ny, nx = self.shape
         if not interpolate:
             idx = [np.clip((tc[:, a] * n).astype(int), 0, n - 1)
                    for a, n in ((2, nz), (1, ny), (0, nx))]
-            return volume[idx[0], idx[1], idx[2]]
+            out = volume[idx[0], idx[1], idx[2]].copy()
+            out[behind] = 0
+            return out
         coords = []
         for a, n in ((2, nz), (1, ny), (0, nx)):
             f = np.clip(tc[:, a] * n - 0.5, 0, n - 1)
@@ -131,6 +138,7 @@ class BlurField:
                     yi = np.minimum(y0 + dy, ny - 1)
                     xi = np.minimum(x0 + dx, nx - 1)
                     out += wgt[extra] * volume[zi, yi, xi]
+        out[behind] = 0
         return out
 
     def texture_rgba(self):

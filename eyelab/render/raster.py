@@ -1,0 +1,514 @@
+"""The real-time renderer (Kakimoto et al. 2007, §3 and §4.5), on VTK, offscreen-first.
+
+Per frame:
+
+1. naked-eye view: the scene from the eye camera, each vertex displaced in NDC by its
+   naked-eye blur-field matrix times a per-pass seed (vertex shader), S passes averaged;
+2. through the lens (only if the lens is in view): the same with the virtual camera and the
+   through-lens blur field -> the environment image; per-vertex ray tracing gives every
+   lens vertex its texture coordinates into it (one set per colour channel when the lens
+   disperses); the lens is drawn from the eye with them;
+3. composite: the lens view inside the lens's outline, the naked view around it, the rim.
+
+Blur-field matrices are looked up per vertex on the CPU (trilinear, as a 3D texture is
+sampled; VTK_NOTES route D) and passed as a vertex attribute, so a pass only changes the
+``seed`` uniform: no shader rebuild, no data upload. Accumulation: 8-bit read-back summed
+in uint16 (S <= 256).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import vtk
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+
+from eyelab.blur.bundle import disc_seeds
+from eyelab.blur.wavefront import compute_blur_field
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.camera import Camera, fit_virtual_camera
+from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.render.shader import inject_vertex
+from eyelab.scene.pervertex import lens_texcoords
+from eyelab.scene.raycast import EmbreeIntersector
+from eyelab.scene.refine import refine_for_fields
+from eyelab.scene.scene import Scene, SceneMesh
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """width, height: pixels (16-4096); samples: S passes (1-256); fov_y_deg; near, far (m);
+    field_shape: blur-field grid (nz, ny, nx); chromatic: R/G/B refraction through the lens;
+    refine: adaptive tessellation; lens_rings/lens_segments: lens mesh resolution;
+    focus: None (best accommodation per voxel) or a fixed accommodation (D)."""
+
+    width: int = 640
+    height: int = 480
+    samples: int = 10
+    fov_y_deg: float = 60.0
+    near: float = 0.05
+    far: float = 100.0
+    field_shape: tuple = (128, 32, 32)
+    chromatic: bool = True
+    refine: bool = True
+    lens_rings: int = 24
+    lens_segments: int = 96
+    focus: float | None = None
+    rim_color: tuple = (30, 30, 30)
+    invalid_color: tuple = (128, 128, 128)
+
+    def __post_init__(self):
+        check_range("render.width", self.width, 16, 4096)
+        check_range("render.height", self.height, 16, 4096)
+        check_range("render.samples", self.samples, 1, 256)
+        check_range("render.fov_y_deg", self.fov_y_deg, 5, 150)
+        check_range("render.near", self.near, 1e-3, 10)
+        if not self.far > self.near:
+            raise SpecError("render.far", f"must be > near ({self.near}), got {self.far}")
+
+    def eye_camera(self) -> Camera:
+        return Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), self.fov_y_deg,
+                      self.width / self.height, self.near, self.far)
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray                 # (h, w, 3) uint8, row 0 at the top
+    report: dict
+    progressive: list = field(default_factory=list)   # [(passes, image)] if asked
+    naked: np.ndarray | None = None
+    environment: np.ndarray | None = None
+
+
+def seeds_for(samples: int) -> np.ndarray:
+    """The fixed seed set for S passes: the centre for S = 1, else Vogel's spiral (equal-area
+    points of the unit disc), so the same S gives the same image."""
+    return np.zeros((1, 2)) if samples == 1 else disc_seeds(samples)
+
+
+class _Window:
+    """One offscreen render window with its renderer."""
+
+    def __init__(self):
+        self.win = vtk.vtkRenderWindow()
+        self.win.SetOffScreenRendering(1)
+        self.win.SetMultiSamples(0)
+        self.ren = vtk.vtkRenderer()
+        self.win.AddRenderer(self.ren)
+        self.size = (0, 0)
+        # one shader property for every displaced actor: one GL program per shading
+        # variant (textured / coloured), compiled once per window; one uniform per pass
+        self.shader = vtk.vtkOpenGLShaderProperty()
+        inject_vertex(self.shader, "displace.dec")
+        inject_vertex(self.shader, "displace.impl")
+        self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+        self.actors = {}
+
+    def set_seed(self, seed):
+        self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [float(seed[0]),
+                                                                    float(seed[1])])
+
+    def show(self, items):
+        """Show exactly these (key, factory) actors, reusing cached ones."""
+        keep = {}
+        self.ren.RemoveAllViewProps()
+        for key, factory in items:
+            actor = self.actors.get(key)
+            if actor is None:
+                actor = factory()
+                actor.SetShaderProperty(self.shader)
+            keep[key] = actor
+            self.ren.AddActor(actor)
+        self.actors = keep
+        return list(keep.values())
+
+    def set_view(self, cam: Camera, size, background):
+        if tuple(size) != self.size:
+            self.win.SetSize(int(size[0]), int(size[1]))
+            self.size = tuple(size)
+        c = self.ren.GetActiveCamera()
+        pos = np.asarray(cam.position, float)
+        c.SetPosition(*pos)
+        c.SetFocalPoint(*(pos + cam.basis[2]))
+        c.SetViewUp(*cam.basis[1])
+        c.SetViewAngle(cam.fov_y_deg)
+        c.SetClippingRange(cam.near, cam.far)
+        self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
+
+    def grab(self) -> np.ndarray:
+        """Render and read RGB (h, w, 3) uint8, row 0 at the bottom (GL order)."""
+        self.win.Render()
+        w, h = self.size
+        arr = vtk.vtkUnsignedCharArray()
+        self.win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, arr)
+        return vtk_to_numpy(arr).reshape(h, w, 4)[..., :3]
+
+    def clear(self):
+        self.ren.RemoveAllViewProps()
+
+    def close(self):
+        self.clear()
+        self.actors.clear()
+        self.win.Finalize()
+
+
+def _polydata(vertices, faces):
+    pts = vtk.vtkPoints()
+    pts.SetData(numpy_to_vtk(np.ascontiguousarray(vertices, dtype=float), deep=True))
+    cells = vtk.vtkCellArray()
+    conn = np.ascontiguousarray(faces.ravel(), dtype=np.int64)
+    offs = np.arange(0, len(conn) + 1, 3, dtype=np.int64)
+    cells.SetData(numpy_to_vtk(offs, deep=True), numpy_to_vtk(conn, deep=True))
+    pd = vtk.vtkPolyData()
+    pd.SetPoints(pts)
+    pd.SetPolys(cells)
+    return pd
+
+
+def _texture(img_top_first):
+    """vtkTexture from an (h, w, 3) uint8 image with row 0 at the top (VTK wants bottom)."""
+    h, w = img_top_first.shape[:2]
+    data = vtk.vtkImageData()
+    data.SetDimensions(w, h, 1)
+    arr = numpy_to_vtk(np.ascontiguousarray(img_top_first[::-1].reshape(-1, 3)), deep=True)
+    arr.SetName("rgb")
+    data.GetPointData().SetScalars(arr)
+    tex = vtk.vtkTexture()
+    tex.SetInputData(data)
+    tex.InterpolateOn()
+    tex.RepeatOff()
+    tex.EdgeClampOn()
+    tex.SetColorModeToDirectScalars()
+    return tex
+
+
+def _mesh_actor(mesh: SceneMesh, blur_rows: np.ndarray | None):
+    pd = _polydata(mesh.vertices, mesh.faces)
+    mapper = vtk.vtkOpenGLPolyDataMapper()
+    actor = vtk.vtkActor()
+    if mesh.texture is not None:
+        tc = numpy_to_vtk(np.ascontiguousarray(mesh.uv, dtype=np.float32), deep=True)
+        tc.SetName("uv")
+        pd.GetPointData().SetTCoords(tc)
+        actor.SetTexture(_texture(mesh.texture))
+        mapper.ScalarVisibilityOff()
+    else:
+        col = numpy_to_vtk(np.ascontiguousarray(mesh.colors), deep=True)
+        col.SetName("colors")
+        pd.GetPointData().AddArray(col)
+        mapper.SetScalarModeToUsePointFieldData()
+        mapper.SelectColorArray("colors")
+        mapper.SetColorModeToDirectScalars()
+        mapper.ScalarVisibilityOn()
+    rows = np.zeros((len(mesh.vertices), 4), np.float32) if blur_rows is None else blur_rows
+    b = numpy_to_vtk(np.ascontiguousarray(rows, dtype=np.float32), deep=True)
+    b.SetName("blurM")
+    pd.GetPointData().AddArray(b)
+    mapper.SetInputData(pd)
+    mapper.MapDataArrayToVertexAttribute("blurM", "blurM",
+                                         vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, -1)
+    actor.SetMapper(mapper)
+    actor.GetProperty().LightingOff()
+    return actor
+
+
+class RasterRenderer:
+    """Renders what an eye sees, with or without a spectacle lens. Reuse one instance for
+    many frames: windows and caches (blur fields, lens texture coordinates, refined meshes)
+    persist while their inputs do not change."""
+
+    def __init__(self, settings: RenderSettings | None = None):
+        self.settings = settings or RenderSettings()
+        self._eye_win = None
+        self._env_win = None
+        self._fields = {}
+        self._refined = {}
+
+    def close(self):
+        for w in (self._eye_win, self._env_win):
+            if w is not None:
+                w.close()
+        self._eye_win = self._env_win = None
+        self._fields.clear()
+        self._refined.clear()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ------------------------------------------------------------------ fields
+    def _field(self, eye, lens, cam, bounds, report, label):
+        from eyelab.blur.field import cache_key
+
+        s = self.settings
+        key = cache_key(eye=eye, lens=lens, camera=cam, shape=s.field_shape, focus=s.focus,
+                        bounds=np.asarray(bounds, float))
+        if key in self._fields:
+            report["fields"][label] = {"cache": "hit"}
+            return self._fields[key]
+        f = compute_blur_field(eye, lens, cam, shape=s.field_shape, focus=s.focus,
+                               scene_bounds=bounds)
+        if len(self._fields) > 8:
+            self._fields.clear()
+        self._fields[key] = f
+        report["fields"][label] = {"cache": "miss", "voxels_total": f.report["voxels_total"],
+                                   "voxels_computed": f.report["voxels_computed"],
+                                   "skipped_why": f.report["skipped_why"],
+                                   "all_zero": f.all_zero, "time_s": f.report["timings"]["total_s"]}
+        return f
+
+    # ------------------------------------------------------------------ render
+    def render(self, scene: Scene, eye, lens=None, *, progressive: bool = False
+               ) -> RenderResult:
+        s = self.settings
+        t_start = time.perf_counter()
+        timings = {}
+        report = {"settings": {"size": [s.width, s.height], "samples": s.samples,
+                               "field_shape": list(s.field_shape)},
+                  "fields": {}, "passes": {}, "skipped": [], "refinement": []}
+        eye_cam = s.eye_camera()
+        bounds = scene.bounds()
+        # --- is the lens in view?
+        lens_in_view = False
+        if lens is None:
+            report["skipped"].append("lens passes: no lens")
+        else:
+            v, _, part = lens.mesh(rings=8, segments=32)
+            ndc = eye_cam.world_to_ndc(v[part == 1])
+            in_front = eye_cam.depth(v[part == 1]) > 0
+            lens_in_view = bool(np.any(in_front & (np.abs(ndc[:, 0]) <= 1)
+                                       & (np.abs(ndc[:, 1]) <= 1)))
+            if not lens_in_view:
+                report["skipped"].append("lens passes: the lens is outside the view")
+        t = time.perf_counter()
+        f_naked = self._field(eye, None, eye_cam, bounds, report, "naked")
+        f_lens = vcam = None
+        if lens_in_view:
+            vcam = fit_virtual_camera(lens, eye_cam).camera
+            f_lens = self._field(eye, lens, vcam, bounds, report, "through_lens")
+        timings["fields_s"] = time.perf_counter() - t
+        # --- refinement
+        t = time.perf_counter()
+        meshes = []
+        for m in scene.meshes:
+            if s.refine:
+                key = (id(m), m.n_triangles, f_naked.key, None if f_lens is None else f_lens.key)
+                if key not in self._refined:
+                    self._refined[key] = refine_for_fields(m, [f_naked, f_lens])
+                rm, info = self._refined[key]
+                meshes.append(rm)
+                report["refinement"].append(info)
+            else:
+                meshes.append(m)
+        if not s.refine:
+            report["skipped"].append("refinement: disabled")
+        timings["refine_s"] = time.perf_counter() - t
+        # --- passes
+        seeds_n = seeds_for(s.samples)
+        n_naked = 1 if f_naked.all_zero else s.samples
+        if f_naked.all_zero and s.samples > 1:
+            report["skipped"].append(f"naked view: blur field all zero: 1 pass instead of "
+                                     f"{s.samples}")
+        t = time.perf_counter()
+        if self._eye_win is None:
+            self._eye_win = _Window()
+        ew = self._eye_win
+        ew.set_view(eye_cam, (s.width, s.height), scene.background)
+        ew.show([((id(m), f_naked.key), _factory(m, f_naked)) for m in meshes])
+        timings["setup_naked_s"] = time.perf_counter() - t
+        env_state = None
+        if lens_in_view:
+            t = time.perf_counter()
+            env_state = self._setup_env(scene, meshes, lens, vcam, f_lens, report, eye_cam)
+            timings["setup_lens_s"] = time.perf_counter() - t
+        checkpoints = _checkpoints(s.samples) if progressive else [s.samples]
+        acc_naked = np.zeros((s.height, s.width, 3), np.uint16)
+        acc_env = None if env_state is None else np.zeros(env_state["size"][::-1] + (3,),
+                                                          np.uint16)
+        prog = []
+        t_naked = t_env = t_lens = 0.0
+        done = 0
+        image = naked = env = None
+        for cp in checkpoints:
+            for k in range(done, cp):
+                sd = seeds_n[k] if s.samples > 1 else (0.0, 0.0)
+                t = time.perf_counter()
+                if k < n_naked:
+                    ew.set_seed(sd)
+                    np.add(acc_naked, ew.grab(), out=acc_naked)
+                t_naked += time.perf_counter() - t
+                if env_state is not None and k < env_state["passes"]:
+                    t = time.perf_counter()
+                    self._env_win.set_seed(sd)
+                    np.add(acc_env, self._env_win.grab(), out=acc_env)
+                    t_env += time.perf_counter() - t
+            done = cp
+            naked = _mean(acc_naked, min(cp, n_naked))
+            image = naked.copy()
+            if env_state is not None:
+                t = time.perf_counter()
+                env = _mean(acc_env, min(cp, env_state["passes"]))
+                image = self._composite(naked, env, env_state, report)
+                t_lens += time.perf_counter() - t
+            if progressive:
+                prog.append((cp, image.copy()))
+        ew.set_seed((0.0, 0.0))
+        report["passes"]["naked"] = n_naked
+        report["passes"]["environment"] = 0 if env_state is None else env_state["passes"]
+        timings.update(naked_passes_s=t_naked, env_passes_s=t_env, lens_composite_s=t_lens,
+                       total_s=time.perf_counter() - t_start)
+        report["timings"] = timings
+        return RenderResult(image, report, prog, naked,
+                            env if env_state is not None else None)
+
+    def _setup_env(self, scene, meshes, lens, vcam, f_lens, report, eye_cam):
+        s = self.settings
+        if self._env_win is None:
+            self._env_win = _Window()
+        w_env = s.width
+        h_env = max(16, int(round(s.width / vcam.aspect)))
+        env_win = self._env_win
+        env_win.set_view(vcam, (w_env, h_env), scene.background)
+        actors = env_win.show([((id(m), f_lens.key), _factory(m, f_lens)) for m in meshes])
+        passes = 1 if f_lens.all_zero else s.samples
+        if f_lens.all_zero and s.samples > 1:
+            report["skipped"].append(f"environment: through-lens blur field all zero: 1 pass "
+                                     f"instead of {s.samples}")
+        # lens mesh as the eye sees it: the back surface, slightly inside the rim
+        lv, lf = _lens_back_mesh(lens, s.lens_rings, s.lens_segments)
+        disperses = s.chromatic and lens.material.dispersive
+        wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
+        if not disperses:
+            report["skipped"].append("chromatic: " + ("disabled" if not s.chromatic else
+                                                      "the lens material does not disperse")
+                                     + ": one texture-coordinate set")
+        tc = lens_texcoords(lens, lv, vcam, EmbreeIntersector(scene), wavelengths=wls)
+        report["lens"] = {"vertices": int(len(lv)), "texcoord_sets": len(wls),
+                          "vertices_missing_lens": int((~tc.lens_ok).any(0).sum()),
+                          "rays_missing_scene": int((~tc.scene_hit).sum()),
+                          "virtual_camera": {"position": list(map(float, vcam.position)),
+                                             "fov_y_deg": vcam.fov_y_deg,
+                                             "aspect": vcam.aspect}}
+        return {"actors": actors, "passes": passes, "size": (w_env, h_env), "lens_v": lv,
+                "lens_f": lf, "tc": tc, "eye_cam": eye_cam}
+
+    def _composite(self, naked, env, st, report):
+        s = self.settings
+        ew = self._eye_win
+        saved = list(_actors(ew.ren))
+        for a in saved:
+            a.VisibilityOff()
+        bg = ew.ren.GetBackground()
+        ew.ren.SetBackground(0, 0, 0)
+        cam = ew.ren.GetActiveCamera()
+        clip = cam.GetClippingRange()
+        cam.SetClippingRange(1e-3, 1.0)   # the lens sits ~12 mm from the eye
+        tex = _texture(env)
+        tc = st["tc"]
+        lens_img = np.zeros_like(naked)
+        for ch in range(3):
+            uv = tc.uv[min(ch, len(tc.uv) - 1)]
+            mesh = SceneMesh("lens", st["lens_v"], st["lens_f"], texture=env, uv=uv)
+            pd = _polydata(mesh.vertices, mesh.faces)
+            arr = numpy_to_vtk(np.ascontiguousarray(uv, dtype=np.float32), deep=True)
+            pd.GetPointData().SetTCoords(arr)
+            mapper = vtk.vtkOpenGLPolyDataMapper()
+            mapper.SetInputData(pd)
+            mapper.ScalarVisibilityOff()
+            actor = vtk.vtkActor()
+            actor.SetMapper(mapper)
+            actor.SetTexture(tex)
+            actor.GetProperty().LightingOff()
+            ew.ren.AddActor(actor)
+            img = ew.grab()[::-1]
+            ew.ren.RemoveActor(actor)
+            if len(tc.uv) == 1:
+                lens_img = img
+                break
+            lens_img[..., ch] = img[..., ch]
+        # outline / validity masks: vertex colours white (valid) or black (invalid)
+        valid = tc.lens_ok.all(0)
+        cols = np.where(valid[:, None], 255, 0).astype(np.uint8) * np.ones((1, 3), np.uint8)
+        mactor = _mesh_actor(SceneMesh("mask", st["lens_v"], st["lens_f"], colors=cols), None)
+        ew.ren.AddActor(mactor)
+        vimg = ew.grab()[::-1]
+        ew.ren.RemoveActor(mactor)
+        full = SceneMesh("mask", st["lens_v"], st["lens_f"], colors=np.full((1, 3), 255,
+                                                                            np.uint8))
+        mactor = _mesh_actor(full, None)
+        ew.ren.AddActor(mactor)
+        mimg = ew.grab()[::-1]
+        ew.ren.RemoveActor(mactor)
+        ew.ren.SetBackground(*bg)
+        cam.SetClippingRange(*clip)
+        for a in saved:
+            a.VisibilityOn()
+        inside = mimg[..., 0] > 127
+        out = np.where(inside[..., None], lens_img, naked)
+        invalid = inside & (vimg[..., 0] < 128)
+        out[invalid] = s.invalid_color
+        rim = inside & ~_erode(inside)
+        out[rim] = s.rim_color
+        report["lens"]["pixels_inside"] = int(inside.sum())
+        report["lens"]["pixels_invalid"] = int(invalid.sum())
+        return out
+
+
+def _factory(mesh, field):
+    return lambda: _mesh_actor(mesh, field.lookup(mesh.vertices).reshape(-1, 4)
+                               .astype(np.float32))
+
+
+def _actors(ren):
+    col = ren.GetActors()
+    col.InitTraversal()
+    for _ in range(col.GetNumberOfItems()):
+        yield col.GetNextActor()
+
+
+def _erode(mask):
+    m = mask.copy()
+    m[1:] &= mask[:-1]
+    m[:-1] &= mask[1:]
+    m[:, 1:] &= mask[:, :-1]
+    m[:, :-1] &= mask[:, 1:]
+    return m
+
+
+def _mean(acc, n):
+    """Average of n summed passes, rounded, row 0 at the top."""
+    return np.clip(np.round(acc[::-1].astype(np.float32) / max(n, 1)), 0, 255).astype(np.uint8)
+
+
+def _checkpoints(samples):
+    cps, k = [], 1
+    while k < samples:
+        cps.append(k)
+        k *= 2
+    return cps + [samples]
+
+
+def _lens_back_mesh(lens, rings, segments):
+    """The lens's back surface as a polar grid (world), out to 99.5 % of the radius."""
+    r = np.linspace(0.0, 0.995 * lens.diameter / 2, rings + 1)[1:]
+    th = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    rr, tt = np.meshgrid(r, th, indexing="ij")
+    x = np.concatenate([[0.0], (rr * np.cos(tt)).ravel()])
+    y = np.concatenate([[0.0], (rr * np.sin(tt)).ravel()])
+    _, back = lens.placed_surfaces()
+    z = back.surface.sag(x, y)
+    v = np.stack([x, y, z], 1) @ back.rotation.T + back.translation
+    faces = []
+    for i in range(segments):
+        faces.append((0, 1 + i, 1 + (i + 1) % segments))
+    for ring in range(rings - 1):
+        for i in range(segments):
+            j = (i + 1) % segments
+            a, b = 1 + ring * segments + i, 1 + ring * segments + j
+            faces += [(a, a + segments, b + segments), (a, b + segments, b)]
+    return v, np.array(faces)

@@ -1,0 +1,94 @@
+"""Ray casting against a scene: embree (embreex) fast path and a pure-numpy twin.
+
+Both return, per ray: hit distance (inf on a miss), mesh index, triangle index and the
+barycentric (u, v); the numpy twin exists to test the embree path (parity test).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eyelab.scene.scene import Scene
+
+
+class Hits:
+    def __init__(self, t, mesh, tri, uv):
+        self.t, self.mesh, self.tri, self.uv = t, mesh, tri, uv
+
+    @property
+    def hit(self):
+        return np.isfinite(self.t)
+
+    def colors(self, scene: Scene):
+        """(n, 3) float colours at the hits; the background colour on misses."""
+        out = np.broadcast_to(np.asarray(scene.background, float), (len(self.t), 3)).copy()
+        for k, m in enumerate(scene.meshes):
+            sel = self.hit & (self.mesh == k)
+            if sel.any():
+                out[sel] = m.color_at(self.tri[sel], self.uv[sel])
+        return out
+
+
+class EmbreeIntersector:
+    """Embree scene of all meshes (float32 geometry, as embree requires)."""
+
+    def __init__(self, scene: Scene):
+        from embreex import mesh_construction, rtcore_scene
+
+        self._scene = rtcore_scene.EmbreeScene()
+        self._meshes = []
+        for m in scene.meshes:
+            self._meshes.append(mesh_construction.TriangleMesh(
+                self._scene, m.vertices.astype(np.float32), m.faces.astype(np.int32)))
+
+    def intersect(self, origins, directions) -> Hits:
+        """Nearest hits of rays (n, 3) (directions unit); float32 inside embree, so callers
+        offset secondary rays' origins by a scale-aware epsilon."""
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(directions, dtype=np.float32)
+        r = self._scene.run(o, d, output=1)
+        hit = r["geomID"] >= 0
+        t = np.where(hit, r["tfar"].astype(float), np.inf)
+        uv = np.stack([r["u"], r["v"]], 1).astype(float)
+        return Hits(t, np.where(hit, r["geomID"], -1), np.where(hit, r["primID"], -1), uv)
+
+
+class NumpyIntersector:
+    """Brute-force Moeller-Trumbore over all triangles (float64), for tests and tiny scenes."""
+
+    def __init__(self, scene: Scene):
+        self._tris = [(m.vertices[m.faces[:, 0]], m.vertices[m.faces[:, 1]],
+                       m.vertices[m.faces[:, 2]]) for m in scene.meshes]
+
+    def intersect(self, origins, directions, *, t_min: float = 0.0, chunk: int = 4096
+                  ) -> Hits:
+        o = np.asarray(origins, float)
+        d = np.asarray(directions, float)
+        n = len(o)
+        best_t = np.full(n, np.inf)
+        best_m = np.full(n, -1)
+        best_f = np.full(n, -1)
+        best_uv = np.zeros((n, 2))
+        for k, (a, b, c) in enumerate(self._tris):
+            e1, e2 = b - a, c - a
+            for s in range(0, len(a), chunk):
+                sl = slice(s, s + chunk)
+                p = np.cross(d[:, None], e2[None, sl])
+                det = np.einsum("nti,ti->nt", p, e1[sl])
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    inv = 1.0 / det
+                    tv = o[:, None] - a[None, sl]
+                    u = np.einsum("nti,nti->nt", tv, p) * inv
+                    q = np.cross(tv, e1[None, sl])
+                    v = np.einsum("ni,nti->nt", d, q) * inv
+                    t = np.einsum("nti,ti->nt", q, e2[sl]) * inv
+                ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+                t = np.where(ok, t, np.inf)
+                j = np.argmin(t, axis=1)
+                tj = t[np.arange(n), j]
+                better = tj < best_t
+                best_t[better] = tj[better]
+                best_m[better] = k
+                best_f[better] = s + j[better]
+                best_uv[better] = np.stack([u[np.arange(n), j], v[np.arange(n), j]], 1)[better]
+        return Hits(best_t, best_m, best_f, best_uv)

@@ -1,0 +1,129 @@
+"""Scene meshes: triangles with per-vertex colours or a texture, in world metres.
+
+Colours are sRGB-encoded uint8, shown unlit (the raster and the reference renderers use
+the same unlit shading, so that their differences measure optics, not lighting).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eyelab.errors import SpecError
+
+
+@dataclass
+class SceneMesh:
+    """vertices (n, 3) float m; faces (m, 3) int; colors (n, 3) uint8 or None;
+    texture (h, w, 3) uint8 or None with uv (n, 2) in [0, 1] (v = 0 at the image's bottom
+    row, the OpenGL convention: texture row 0 is the top of the image)."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    colors: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    uv: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=float)
+        self.faces = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if self.vertices.ndim != 2 or self.vertices.shape[1] != 3:
+            raise SpecError(f"scene.{self.name}.vertices", "must be (n, 3)")
+        if self.faces.ndim != 2 or self.faces.shape[1] != 3 or (
+                len(self.faces) and (self.faces.min() < 0 or
+                                     self.faces.max() >= len(self.vertices))):
+            raise SpecError(f"scene.{self.name}.faces", "must be (m, 3) indices into vertices")
+        if self.texture is not None:
+            if self.uv is None or len(self.uv) != len(self.vertices):
+                raise SpecError(f"scene.{self.name}.uv", "a textured mesh needs (n, 2) uv")
+            self.texture = np.ascontiguousarray(self.texture[..., :3], dtype=np.uint8)
+            self.uv = np.ascontiguousarray(self.uv, dtype=float)
+        elif self.colors is None:
+            self.colors = np.full((len(self.vertices), 3), 200, np.uint8)
+        if self.colors is not None:
+            self.colors = np.ascontiguousarray(
+                np.broadcast_to(self.colors, (len(self.vertices), 3)), dtype=np.uint8)
+
+    @property
+    def n_triangles(self):
+        return len(self.faces)
+
+    def color_at(self, face_ids, bary_uv):
+        """Colours (k, 3) float in [0, 255] at points given by triangle ids and barycentric
+        (u, v) (weights 1-u-v, u, v of the triangle's vertices 0, 1, 2): bilinear texture
+        look-up (clamped) or interpolated vertex colours, as the rasteriser shades them."""
+        f = self.faces[face_ids]
+        u, v = bary_uv[:, 0:1], bary_uv[:, 1:2]
+        w0 = 1.0 - u - v
+        if self.texture is not None:
+            uv = w0 * self.uv[f[:, 0]] + u * self.uv[f[:, 1]] + v * self.uv[f[:, 2]]
+            return sample_texture(self.texture, uv)
+        c = self.colors.astype(float)
+        return w0 * c[f[:, 0]] + u * c[f[:, 1]] + v * c[f[:, 2]]
+
+    def bounds(self):
+        return self.vertices.min(0), self.vertices.max(0)
+
+
+def sample_texture(tex, uv):
+    """Bilinear sample of an (h, w, 3) uint8 texture at uv (k, 2) (texel centres at
+    (i + 0.5)/w, clamped to the edge, v = 0 at the bottom row) -> (k, 3) float."""
+    h, w = tex.shape[:2]
+    x = np.clip(uv[:, 0] * w - 0.5, 0, w - 1)
+    y = np.clip((1.0 - uv[:, 1]) * h - 0.5, 0, h - 1)
+    x0 = np.minimum(np.floor(x).astype(int), max(w - 2, 0))
+    y0 = np.minimum(np.floor(y).astype(int), max(h - 2, 0))
+    tx = (x - x0)[:, None]
+    ty = (y - y0)[:, None]
+    x1 = np.minimum(x0 + 1, w - 1)
+    y1 = np.minimum(y0 + 1, h - 1)
+    t = tex.astype(float)
+    return ((1 - ty) * ((1 - tx) * t[y0, x0] + tx * t[y0, x1])
+            + ty * ((1 - tx) * t[y1, x0] + tx * t[y1, x1]))
+
+
+@dataclass
+class Scene:
+    """A list of meshes plus a background colour (sRGB uint8)."""
+
+    meshes: list = field(default_factory=list)
+    background: tuple = (255, 255, 255)
+    name: str = "scene"
+
+    @property
+    def n_triangles(self):
+        return sum(m.n_triangles for m in self.meshes)
+
+    @property
+    def n_vertices(self):
+        return sum(len(m.vertices) for m in self.meshes)
+
+    def bounds(self):
+        lo = np.min([m.bounds()[0] for m in self.meshes], axis=0)
+        hi = np.max([m.bounds()[1] for m in self.meshes], axis=0)
+        return lo, hi
+
+
+def load_mesh(path, *, name=None, transform=None) -> SceneMesh:
+    """Load any mesh trimesh reads (OBJ, PLY, STL, GLB, ...) as one SceneMesh, with its
+    vertex colours or texture and uv if present. ``transform``: (4, 4) applied to it."""
+    import trimesh
+
+    try:
+        loaded = trimesh.load(path, force="mesh")
+    except Exception as e:  # trimesh raises many types for unreadable files
+        raise SpecError("scene.mesh", f"cannot read {str(path)!r}: {e}") from None
+    if transform is not None:
+        loaded.apply_transform(np.asarray(transform, float))
+    tex = uv = colors = None
+    vis = loaded.visual
+    if getattr(vis, "kind", None) == "texture" and getattr(vis, "uv", None) is not None \
+            and getattr(vis.material, "image", None) is not None:
+        tex = np.asarray(vis.material.image.convert("RGB"))
+        uv = np.asarray(vis.uv, float)
+    elif getattr(vis, "kind", None) in ("vertex", "face"):
+        colors = np.asarray(vis.vertex_colors)[:, :3]
+    return SceneMesh(name or str(path), np.asarray(loaded.vertices), np.asarray(loaded.faces),
+                     colors, tex, uv)
