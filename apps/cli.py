@@ -42,6 +42,20 @@ def _build_parser() -> argparse.ArgumentParser:
     an.add_argument("--no-lens", action="store_true", help="naked-eye values")
     an.add_argument("--fixation", choices=("fixed", "rotating"),
                     help="override the spec's fixation model")
+    rn = sub.add_parser("render", help="render what the spec's eye sees to a PNG")
+    rn.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    rn.add_argument("-o", "--output", default="eyelab-render.png", help="PNG file")
+    rn.add_argument("--report", help="also write the render report (JSON) here")
+    rn.add_argument("--no-lens", action="store_true", help="the naked eye")
+    rn.add_argument("--samples", type=int, help="override render.samples")
+    rn.add_argument("--width", type=int, help="override render.width")
+    rn.add_argument("--height", type=int, help="override render.height")
+    dm = sub.add_parser("demo", help="side-by-side image: uncorrected, corrected, emmetrope")
+    dm.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file")
+    dm.add_argument("--samples", type=int, help="override render.samples")
+    dm.add_argument("--width", type=int, help="override render.width (per panel)")
+    dm.add_argument("--height", type=int, help="override render.height")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
     be.add_argument("what", choices=("optics", "blurfield"))
     be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
@@ -59,6 +73,8 @@ def main(argv=None) -> int:
             return _analyze(args)
         if args.command == "bench":
             return _bench(args)
+        if args.command in ("render", "demo"):
+            return _render(args)
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
         return 2
@@ -79,6 +95,34 @@ def _analyze(args) -> int:
     if args.output:
         _atomic_write(args.output, text + "\n")
     print(text if args.json else format_report(rep))
+    return 0
+
+
+def _render(args) -> int:
+    from eyelab.spec import load_spec
+
+    spec = load_spec(args.spec)
+    if not args.output.lower().endswith(".png"):
+        raise SpecError("--output", f"must be a .png file, got {args.output!r}")
+    from eyelab.render.jobs import demo, render_spec, write_json, write_png
+
+    over = {"samples": args.samples, "width": args.width, "height": args.height}
+    if args.command == "render":
+        res = render_spec(spec, no_lens=args.no_lens, **over)
+        write_png(args.output, res.image)
+        if args.report:
+            write_json(args.report, res.report)
+        t = res.report["timings"]
+        print(f"wrote {args.output} ({res.image.shape[1]}x{res.image.shape[0]}, "
+              f"{res.report['passes']['naked']} naked + {res.report['passes']['environment']} "
+              f"through-lens passes, {t['total_s']:.2f} s)")
+        for why in res.report["skipped"]:
+            print(f"  skipped {why}")
+    else:
+        image, rep = demo(spec, **over)
+        write_png(args.output, image)
+        write_json(args.output[:-4] + ".json", rep)
+        print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
     return 0
 
 

@@ -33,6 +33,9 @@ SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curv
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m"}
+RENDER_KEYS = {"scene", "width", "height", "samples", "fov_y_deg", "near_m", "far_m",
+               "chromatic", "refine", "field_shape", "focus_d"}
+SCENE_NAMES = ("room", "chart", "page", "tilted_page", "depth_ramp")
 
 
 @dataclass(frozen=True)
@@ -44,6 +47,7 @@ class Spec:
     fixation: str = "fixed"
     accommodation: float | None = None
     source: str = "<built-in>"
+    render: dict | None = None
 
 
 def _check_keys(table, allowed, where):
@@ -223,8 +227,53 @@ def parse_points(items) -> ObjectPoints:
     return ObjectPoints(np.array(dirs), np.array(dists, float))
 
 
-def parse_spec(data: dict, source: str = "<dict>") -> Spec:
-    _check_keys(data, {"eye", "lens", "analysis", "points"}, "spec")
+def parse_render(t: dict, base: Path | None = None) -> dict:
+    """The [render] table -> keyword arguments: scene (a built-in name or a mesh file),
+    RenderSettings fields."""
+    _check_keys(t, RENDER_KEYS, "render")
+    out = {}
+    scene = t.get("scene", "room")
+    if not isinstance(scene, str):
+        raise SpecError("render.scene", f"must be one of {SCENE_NAMES} or a mesh file path")
+    if scene not in SCENE_NAMES:
+        p = Path(scene) if base is None or Path(scene).is_absolute() else base / scene
+        if not p.is_file():
+            raise SpecError("render.scene", f"{scene!r} is neither a built-in scene "
+                            f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
+        scene = str(p)
+    out["scene"] = scene
+    settings = {}
+    for key, lo, hi in (("width", 16, 4096), ("height", 16, 4096), ("samples", 1, 256)):
+        if key in t:
+            v = check_range(f"render.{key}", t[key], lo, hi)
+            if v != int(v):
+                raise SpecError(f"render.{key}", f"must be an integer, got {t[key]!r}")
+            settings[key] = int(v)
+    if "fov_y_deg" in t:
+        settings["fov_y_deg"] = check_range("render.fov_y_deg", t["fov_y_deg"], 5, 150)
+    if "near_m" in t:
+        settings["near"] = check_range("render.near_m", t["near_m"], 1e-3, 10)
+    if "far_m" in t:
+        settings["far"] = check_range("render.far_m", t["far_m"], 0.1, 1e5)
+    for key in ("chromatic", "refine"):
+        if key in t:
+            if not isinstance(t[key], bool):
+                raise SpecError(f"render.{key}", f"must be true or false, got {t[key]!r}")
+            settings[key] = t[key]
+    if "field_shape" in t:
+        fs = t["field_shape"]
+        if not (isinstance(fs, list) and len(fs) == 3):
+            raise SpecError("render.field_shape", f"must be [nz, ny, nx], got {fs!r}")
+        settings["field_shape"] = tuple(int(check_range(f"render.field_shape[{i}]", v, 1, 512))
+                                        for i, v in enumerate(fs))
+    if "focus_d" in t:
+        settings["focus"] = check_range("render.focus_d", t["focus_d"], 0, 16)
+    out["settings"] = settings
+    return out
+
+
+def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:
+    _check_keys(data, {"eye", "lens", "analysis", "points", "render"}, "spec")
     eye_t = data.get("eye", {})
     eye = parse_eye(eye_t)
     lens = None
@@ -240,7 +289,8 @@ def parse_spec(data: dict, source: str = "<dict>") -> Spec:
     acc = an.get("accommodation_d", "auto")
     acc = None if acc == "auto" else check_range("analysis.accommodation_d", acc, 0, 16)
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
-    return Spec(eye, lens, points, wl, fix, acc, source)
+    render = parse_render(data.get("render", {}), base)
+    return Spec(eye, lens, points, wl, fix, acc, source, render)
 
 
 def load_spec(path: str | Path | None = None) -> Spec:
@@ -248,14 +298,16 @@ def load_spec(path: str | Path | None = None) -> Spec:
     if path is None:
         text = resources.files("eyelab").joinpath("data/default.toml").read_text()
         source = "<built-in default>"
+        base = None
     else:
         p = Path(path)
         if not p.is_file():
             raise SpecError("spec", f"file not found: {str(p)!r}")
         text = p.read_text()
         source = str(p)
+        base = p.parent
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SpecError("spec", f"{source} is not valid TOML: {e}") from None
-    return parse_spec(data, source)
+    return parse_spec(data, source, base)
