@@ -250,7 +250,7 @@ def parse_render(t: dict, base: Path | None = None) -> dict:
                 raise SpecError(f"render.{key}", f"must be an integer, got {t[key]!r}")
             settings[key] = int(v)
     if "fov_y_deg" in t:
-        settings["fov_y_deg"] = check_range("render.fov_y_deg", t["fov_y_deg"], 5, 150)
+        settings["fov_y_deg"] = check_range("render.fov_y_deg", t["fov_y_deg"], 1, 150)
     if "near_m" in t:
         settings["near"] = check_range("render.near_m", t["near_m"], 1e-3, 10)
     if "far_m" in t:

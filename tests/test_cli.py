@@ -100,3 +100,31 @@ def test_bench_blurfield_writes_json(tmp_path, monkeypatch):
     assert [r["grid"] for r in res["grids"]] == ["4x4x16", "8x8x32"]
     assert res["path_sharing"]["ellipse_rel_error"]["max"] < 0.05
     assert {r["depth_mode"] for r in res["depth_sampling_accuracy"]} == {"ndc", "linear"}
+
+
+def test_render_and_demo_commands(tmp_path, capsys):
+    out = tmp_path / "r.png"
+    rep = tmp_path / "r.json"
+    assert main(["render", "-o", str(out), "--report", str(rep), "--samples", "2",
+                 "--width", "96", "--height", "72"]) == 0
+    import matplotlib.image as mpimg
+
+    assert mpimg.imread(out).shape[:2] == (72, 96)
+    assert json.loads(rep.read_text())["passes"]["naked"] == 2
+    demo = tmp_path / "d.png"
+    assert main(["demo", "-o", str(demo), "--samples", "2", "--width", "96",
+                 "--height", "72"]) == 0
+    assert json.loads((tmp_path / "d.json").read_text())["panels"].keys() == {
+        "uncorrected", "with the lens", "emmetrope"}
+
+
+def test_render_bad_input_leaves_no_file(tmp_path, capsys):
+    out = tmp_path / "r.png"
+    assert main(["render", "-o", str(out), "--samples", "999"]) == 2
+    assert "render.samples" in capsys.readouterr().err
+    assert not out.exists()
+    spec = tmp_path / "s.toml"
+    spec.write_text('[render]\nscene = "nowhere.obj"\n')
+    assert main(["render", str(spec), "-o", str(out)]) == 2
+    assert "render.scene" in capsys.readouterr().err
+    assert main(["render", "-o", str(tmp_path / "x.jpg")]) == 2

@@ -64,7 +64,7 @@ class RenderSettings:
         check_range("render.width", self.width, 16, 4096)
         check_range("render.height", self.height, 16, 4096)
         check_range("render.samples", self.samples, 1, 256)
-        check_range("render.fov_y_deg", self.fov_y_deg, 5, 150)
+        check_range("render.fov_y_deg", self.fov_y_deg, 1, 150)
         check_range("render.near", self.near, 1e-3, 10)
         if not self.far > self.near:
             raise SpecError("render.far", f"must be > near ({self.near}), got {self.far}")
@@ -81,6 +81,7 @@ class RenderResult:
     progressive: list = field(default_factory=list)   # [(passes, image)] if asked
     naked: np.ndarray | None = None
     environment: np.ndarray | None = None
+    lens_mask: np.ndarray | None = None       # (h, w) bool: pixels seen through the lens
 
 
 def seeds_for(samples: int) -> np.ndarray:
@@ -278,18 +279,14 @@ class RasterRenderer:
         if lens is None:
             report["skipped"].append("lens passes: no lens")
         else:
-            v, _, part = lens.mesh(rings=8, segments=32)
-            ndc = eye_cam.world_to_ndc(v[part == 1])
-            in_front = eye_cam.depth(v[part == 1]) > 0
-            lens_in_view = bool(np.any(in_front & (np.abs(ndc[:, 0]) <= 1)
-                                       & (np.abs(ndc[:, 1]) <= 1)))
+            lens_in_view = lens_in_view_of(lens, eye_cam)
             if not lens_in_view:
                 report["skipped"].append("lens passes: the lens is outside the view")
         t = time.perf_counter()
         f_naked = self._field(eye, None, eye_cam, bounds, report, "naked")
         f_lens = vcam = None
         if lens_in_view:
-            vcam = fit_virtual_camera(lens, eye_cam).camera
+            vcam, _ = env_view(fit_virtual_camera(lens, eye_cam).camera, s.width)
             f_lens = self._field(eye, lens, vcam, bounds, report, "through_lens")
         timings["fields_s"] = time.perf_counter() - t
         # --- refinement
@@ -364,14 +361,14 @@ class RasterRenderer:
                        total_s=time.perf_counter() - t_start)
         report["timings"] = timings
         return RenderResult(image, report, prog, naked,
-                            env if env_state is not None else None)
+                            env if env_state is not None else None,
+                            None if env_state is None else env_state.get("mask"))
 
     def _setup_env(self, scene, meshes, lens, vcam, f_lens, report, eye_cam):
         s = self.settings
         if self._env_win is None:
             self._env_win = _Window()
-        w_env = s.width
-        h_env = max(16, int(round(s.width / vcam.aspect)))
+        vcam, (w_env, h_env) = env_view(vcam, s.width)
         env_win = self._env_win
         env_win.set_view(vcam, (w_env, h_env), scene.background)
         actors = env_win.show([((id(m), f_lens.key), _factory(m, f_lens)) for m in meshes])
@@ -456,7 +453,30 @@ class RasterRenderer:
         out[rim] = s.rim_color
         report["lens"]["pixels_inside"] = int(inside.sum())
         report["lens"]["pixels_invalid"] = int(invalid.sum())
+        st["mask"] = inside
         return out
+
+
+def env_view(vcam: Camera, width: int):
+    """The environment window for a virtual camera: (camera, (w, h)) with the camera's
+    aspect set to exactly w / h of the integer window, so VTK and eyelab project alike."""
+    import dataclasses
+
+    h = max(16, int(round(width / vcam.aspect)))
+    return dataclasses.replace(vcam, aspect=width / h), (width, h)
+
+
+def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
+    """True if any ray of a ``samples`` x ``samples`` grid over the camera's view (edges
+    included) passes through the lens."""
+    g = np.linspace(-1.0, 1.0, samples)
+    gx, gy = np.meshgrid(g, g)
+    d = cam.ray_directions(gx.ravel(), gy.ravel())
+    o = np.broadcast_to(np.asarray(cam.position, float), d.shape)
+    res = lens.trace(o, d, reverse=True)
+    from eyelab.optics.trace import FATAL
+
+    return bool(np.any((res["status"] & np.uint8(FATAL)) == 0))
 
 
 def _factory(mesh, field):

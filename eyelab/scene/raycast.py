@@ -82,7 +82,9 @@ class NumpyIntersector:
                     q = np.cross(tv, e1[None, sl])
                     v = np.einsum("ni,nti->nt", d, q) * inv
                     t = np.einsum("nti,ti->nt", q, e2[sl]) * inv
-                ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+                    # rays parallel to a triangle (det = 0) give inf/nan here; masked next
+                    ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) \
+                        & (t > t_min)
                 t = np.where(ok, t, np.inf)
                 j = np.argmin(t, axis=1)
                 tj = t[np.arange(n), j]

@@ -1,0 +1,85 @@
+import numpy as np
+import pytest
+import trimesh
+
+from data_generators.scenes import SCENES, chart_texture, room_scene
+from eyelab.blur import compute_blur_field
+from eyelab.errors import SpecError
+from eyelab.optics.camera import eye_camera
+from eyelab.optics.eye import Eye
+from eyelab.optics.prescription import Prescription
+from eyelab.scene.raycast import EmbreeIntersector, NumpyIntersector
+from eyelab.scene.refine import refine_for_fields
+from eyelab.scene.scene import Scene, SceneMesh, load_mesh, sample_texture
+
+
+def test_embree_matches_numpy_twin():
+    s = trimesh.creation.icosphere(3)
+    rng = np.random.default_rng(0)
+    mesh = SceneMesh("s", s.vertices - [0, 0, 3], s.faces,
+                     colors=rng.integers(0, 255, (len(s.vertices), 3)))
+    scene = Scene([mesh])
+    d = rng.normal(size=(400, 3))
+    d[:, 2] = -np.abs(d[:, 2]) * 5
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.zeros((400, 3))
+    a = EmbreeIntersector(scene).intersect(o, d)
+    b = NumpyIntersector(scene).intersect(o, d)
+    np.testing.assert_array_equal(a.hit, b.hit)
+    assert a.hit.sum() > 50 and (~a.hit).sum() > 50
+    # embree is float32: 1e-6 relative on ~3 m
+    np.testing.assert_allclose(a.t[a.hit], b.t[b.hit], atol=1e-5)
+    np.testing.assert_array_equal(a.tri, b.tri)
+    np.testing.assert_allclose(a.colors(scene), b.colors(scene), atol=0.05)
+
+
+def test_sample_texture_conventions():
+    tex = np.zeros((2, 2, 3), np.uint8)
+    tex[0, 0] = 255                    # top-left texel
+    assert sample_texture(tex, np.array([[0.25, 0.75]]))[0, 0] == 255   # v up: top row
+    assert sample_texture(tex, np.array([[0.25, 0.25]]))[0, 0] == 0
+
+
+def test_chart_letters_have_the_right_angular_size():
+    img, (w, h) = chart_texture(6.0, rows=(1.0,), px_per_mm=1.0)
+    ink = np.argwhere(img[..., 0] == 0)
+    height_mm = ink[:, 0].max() - ink[:, 0].min() + 1
+    want_mm = 6000 * np.tan(np.radians(50 / 60))      # 20/200: 50 arcmin at 6 m
+    assert height_mm == pytest.approx(want_mm, abs=5)
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_scenes_build(name):
+    s = SCENES[name]()
+    assert s.n_triangles > 0
+    lo, hi = s.bounds()
+    assert (hi >= lo).all()
+
+
+def test_refinement_only_where_needed():
+    scene = room_scene()
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
+    f = compute_blur_field(eye, None, eye_camera(near=0.05, far=100.0), shape=(64, 32, 32))
+    out = {m.name: refine_for_fields(m, [f]) for m in scene.meshes}
+    assert out["box_near"][1]["refined"]
+    assert out["box_near"][0].n_triangles > scene.meshes[3].n_triangles
+    v = out["box_near"][0].vertices
+    e = np.linalg.norm(v[out["box_near"][0].faces[:, 0]] - v[out["box_near"][0].faces[:, 1]],
+                       axis=1)
+    assert e.max() <= out["box_near"][1]["threshold_m"] + 1e-12
+    sharp = Eye(accommodation_max=10.0)
+    g = compute_blur_field(sharp, None, eye_camera(near=0.3, far=100.0), shape=(16, 8, 8))
+    _, info = refine_for_fields(scene.meshes[3], [g])
+    assert not info["refined"] and "no blur" in info["why"]
+
+
+def test_load_mesh_round_trip(tmp_path):
+    box = trimesh.creation.box(extents=(1, 2, 3))
+    box.visual.vertex_colors = np.tile([10, 20, 30, 255], (len(box.vertices), 1))
+    p = tmp_path / "b.ply"
+    box.export(p)
+    m = load_mesh(p)
+    assert m.n_triangles == 12
+    assert (m.colors == [10, 20, 30]).all()
+    with pytest.raises(SpecError, match="scene.mesh"):
+        load_mesh(tmp_path / "missing.obj")
