@@ -57,7 +57,7 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("--width", type=int, help="override render.width (per panel)")
     dm.add_argument("--height", type=int, help="override render.height")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
-    be.add_argument("what", choices=("optics", "blurfield"))
+    be.add_argument("what", choices=("optics", "blurfield", "render"))
     be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
     be.add_argument("--points", type=int, default=1_000_000,
                     help="optics: points per wavefront-tracing batch (default 1e6)")
@@ -136,6 +136,10 @@ def _bench(args) -> int:
         from eyelab.bench.optics import run_optics_bench
 
         res = run_optics_bench(points=args.points, repeats=args.repeats)
+    elif args.what == "render":
+        from eyelab.bench.render import run_render_bench
+
+        res = run_render_bench(repeats=min(args.repeats, 3))
     else:
         from eyelab.bench.blurfield import run_blurfield_bench
 

@@ -128,3 +128,17 @@ def test_render_bad_input_leaves_no_file(tmp_path, capsys):
     assert main(["render", str(spec), "-o", str(out)]) == 2
     assert "render.scene" in capsys.readouterr().err
     assert main(["render", "-o", str(tmp_path / "x.jpg")]) == 2
+
+
+def test_bench_render_small(tmp_path, monkeypatch):
+    import eyelab.bench.render as br
+
+    orig = br.run_render_bench
+    monkeypatch.setattr(br, "run_render_bench", lambda repeats=1: orig(
+        width=96, height=72, triangles=(600,), samples=(1, 4), repeats=1))
+    out = tmp_path / "r.json"
+    assert main(["bench", "render", "--repeats", "1", "-o", str(out)]) == 0
+    res = json.loads(out.read_text())
+    assert {r["view"] for r in res["rows"]} == {"naked", "through_lens"}
+    assert res["skip_speedups"]["one_pass_for_zero_field"] > 1.0
+    assert all(r["gl_render_s"] > 0 for r in res["rows"])

@@ -59,6 +59,9 @@ class RenderSettings:
     focus: float | None = None
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
+    #: skip passes a scene does not need (an all-zero field -> 1 pass); False only to
+    #: measure what the skipping saves
+    skip_unneeded: bool = True
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -107,6 +110,9 @@ class _Window:
         inject_vertex(self.shader, "displace.impl")
         self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
         self.actors = {}
+        self.render_s = 0.0      # time spent inside Render() (pure rendering + GPU sync)
+        self.readback_s = 0.0
+        self._buf = vtk.vtkUnsignedCharArray()
 
     def set_seed(self, seed):
         self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [float(seed[0]),
@@ -139,13 +145,22 @@ class _Window:
         c.SetClippingRange(cam.near, cam.far)
         self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
 
-    def grab(self) -> np.ndarray:
-        """Render and read RGB (h, w, 3) uint8, row 0 at the bottom (GL order)."""
+    def grab_rgba(self) -> np.ndarray:
+        """Render and read RGBA (h, w, 4) uint8 (a view of a reused buffer: copy or consume
+        before the next grab), row 0 at the bottom (GL order)."""
+        t0 = time.perf_counter()
         self.win.Render()
+        t1 = time.perf_counter()
         w, h = self.size
-        arr = vtk.vtkUnsignedCharArray()
-        self.win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, arr)
-        return vtk_to_numpy(arr).reshape(h, w, 4)[..., :3]
+        self.win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, self._buf)
+        out = vtk_to_numpy(self._buf).reshape(h, w, 4)
+        self.render_s += t1 - t0
+        self.readback_s += time.perf_counter() - t1
+        return out
+
+    def grab(self) -> np.ndarray:
+        """Render and read RGB (h, w, 3) uint8 (a copy), row 0 at the bottom (GL order)."""
+        return self.grab_rgba()[..., :3].copy()
 
     def clear(self):
         self.ren.RemoveAllViewProps()
@@ -227,6 +242,7 @@ class RasterRenderer:
         self._env_win = None
         self._fields = {}
         self._refined = {}
+        self._lens_cache = {}
 
     def close(self):
         for w in (self._eye_win, self._env_win):
@@ -235,6 +251,7 @@ class RasterRenderer:
         self._eye_win = self._env_win = None
         self._fields.clear()
         self._refined.clear()
+        self._lens_cache.clear()
 
     def __enter__(self):
         return self
@@ -307,14 +324,17 @@ class RasterRenderer:
         timings["refine_s"] = time.perf_counter() - t
         # --- passes
         seeds_n = seeds_for(s.samples)
-        n_naked = 1 if f_naked.all_zero else s.samples
-        if f_naked.all_zero and s.samples > 1:
+        n_naked = 1 if (f_naked.all_zero and s.skip_unneeded) else s.samples
+        if n_naked == 1 and s.samples > 1:
             report["skipped"].append(f"naked view: blur field all zero: 1 pass instead of "
                                      f"{s.samples}")
         t = time.perf_counter()
         if self._eye_win is None:
             self._eye_win = _Window()
         ew = self._eye_win
+        ew.render_s = ew.readback_s = 0.0
+        if self._env_win is not None:
+            self._env_win.render_s = self._env_win.readback_s = 0.0
         ew.set_view(eye_cam, (s.width, s.height), scene.background)
         ew.show([((id(m), f_naked.key), _factory(m, f_naked)) for m in meshes])
         timings["setup_naked_s"] = time.perf_counter() - t
@@ -324,8 +344,8 @@ class RasterRenderer:
             env_state = self._setup_env(scene, meshes, lens, vcam, f_lens, report, eye_cam)
             timings["setup_lens_s"] = time.perf_counter() - t
         checkpoints = _checkpoints(s.samples) if progressive else [s.samples]
-        acc_naked = np.zeros((s.height, s.width, 3), np.uint16)
-        acc_env = None if env_state is None else np.zeros(env_state["size"][::-1] + (3,),
+        acc_naked = np.zeros((s.height, s.width, 4), np.uint16)
+        acc_env = None if env_state is None else np.zeros(env_state["size"][::-1] + (4,),
                                                           np.uint16)
         prog = []
         t_naked = t_env = t_lens = 0.0
@@ -337,16 +357,16 @@ class RasterRenderer:
                 t = time.perf_counter()
                 if k < n_naked:
                     ew.set_seed(sd)
-                    np.add(acc_naked, ew.grab(), out=acc_naked)
+                    np.add(acc_naked, ew.grab_rgba(), out=acc_naked)
                 t_naked += time.perf_counter() - t
                 if env_state is not None and k < env_state["passes"]:
                     t = time.perf_counter()
                     self._env_win.set_seed(sd)
-                    np.add(acc_env, self._env_win.grab(), out=acc_env)
+                    np.add(acc_env, self._env_win.grab_rgba(), out=acc_env)
                     t_env += time.perf_counter() - t
             done = cp
             naked = _mean(acc_naked, min(cp, n_naked))
-            image = naked.copy()
+            image = naked
             if env_state is not None:
                 t = time.perf_counter()
                 env = _mean(acc_env, min(cp, env_state["passes"]))
@@ -357,8 +377,10 @@ class RasterRenderer:
         ew.set_seed((0.0, 0.0))
         report["passes"]["naked"] = n_naked
         report["passes"]["environment"] = 0 if env_state is None else env_state["passes"]
+        gl = ew.render_s + (self._env_win.render_s if env_state is not None else 0.0)
+        rb = ew.readback_s + (self._env_win.readback_s if env_state is not None else 0.0)
         timings.update(naked_passes_s=t_naked, env_passes_s=t_env, lens_composite_s=t_lens,
-                       total_s=time.perf_counter() - t_start)
+                       gl_render_s=gl, readback_s=rb, total_s=time.perf_counter() - t_start)
         report["timings"] = timings
         return RenderResult(image, report, prog, naked,
                             env if env_state is not None else None,
@@ -372,8 +394,8 @@ class RasterRenderer:
         env_win = self._env_win
         env_win.set_view(vcam, (w_env, h_env), scene.background)
         actors = env_win.show([((id(m), f_lens.key), _factory(m, f_lens)) for m in meshes])
-        passes = 1 if f_lens.all_zero else s.samples
-        if f_lens.all_zero and s.samples > 1:
+        passes = 1 if (f_lens.all_zero and s.skip_unneeded) else s.samples
+        if passes == 1 and s.samples > 1:
             report["skipped"].append(f"environment: through-lens blur field all zero: 1 pass "
                                      f"instead of {s.samples}")
         # lens mesh as the eye sees it: the back surface, slightly inside the rim
@@ -384,7 +406,19 @@ class RasterRenderer:
             report["skipped"].append("chromatic: " + ("disabled" if not s.chromatic else
                                                       "the lens material does not disperse")
                                      + ": one texture-coordinate set")
-        tc = lens_texcoords(lens, lv, vcam, EmbreeIntersector(scene), wavelengths=wls)
+        from eyelab.blur.field import cache_key
+
+        tkey = (id(scene), scene.n_triangles, cache_key(lens=lens, camera=vcam, wls=wls,
+                                                        rings=s.lens_rings,
+                                                        segments=s.lens_segments))
+        if tkey in self._lens_cache:
+            tc = self._lens_cache[tkey]
+            report["skipped"].append("lens texture coordinates: unchanged inputs, reused")
+        else:
+            tc = lens_texcoords(lens, lv, vcam, EmbreeIntersector(scene), wavelengths=wls)
+            if len(self._lens_cache) > 16:
+                self._lens_cache.clear()
+            self._lens_cache[tkey] = tc
         report["lens"] = {"vertices": int(len(lv)), "texcoord_sets": len(wls),
                           "vertices_missing_lens": int((~tc.lens_ok).any(0).sum()),
                           "rays_missing_scene": int((~tc.scene_hit).sum()),
@@ -392,7 +426,7 @@ class RasterRenderer:
                                              "fov_y_deg": vcam.fov_y_deg,
                                              "aspect": vcam.aspect}}
         return {"actors": actors, "passes": passes, "size": (w_env, h_env), "lens_v": lv,
-                "lens_f": lf, "tc": tc, "eye_cam": eye_cam}
+                "lens_f": lf, "tc": tc, "eye_cam": eye_cam, "mask_key": tkey}
 
     def _composite(self, naked, env, st, report):
         s = self.settings
@@ -422,34 +456,42 @@ class RasterRenderer:
             actor.SetTexture(tex)
             actor.GetProperty().LightingOff()
             ew.ren.AddActor(actor)
-            img = ew.grab()[::-1]
+            img = ew.grab_rgba()[::-1]
             ew.ren.RemoveActor(actor)
             if len(tc.uv) == 1:
-                lens_img = img
+                lens_img = img[..., :3].copy()
                 break
             lens_img[..., ch] = img[..., ch]
-        # outline / validity masks: vertex colours white (valid) or black (invalid)
-        valid = tc.lens_ok.all(0)
-        cols = np.where(valid[:, None], 255, 0).astype(np.uint8) * np.ones((1, 3), np.uint8)
-        mactor = _mesh_actor(SceneMesh("mask", st["lens_v"], st["lens_f"], colors=cols), None)
-        ew.ren.AddActor(mactor)
-        vimg = ew.grab()[::-1]
-        ew.ren.RemoveActor(mactor)
-        full = SceneMesh("mask", st["lens_v"], st["lens_f"], colors=np.full((1, 3), 255,
-                                                                            np.uint8))
-        mactor = _mesh_actor(full, None)
-        ew.ren.AddActor(mactor)
-        mimg = ew.grab()[::-1]
-        ew.ren.RemoveActor(mactor)
+        # outline / validity masks (cached with the texture coordinates): vertex colours
+        # white (valid) or black (invalid)
+        mkey = ("masks", st["mask_key"], ew.size)
+        if mkey in self._lens_cache:
+            pass
+        else:
+            valid = tc.lens_ok.all(0)
+            cols = np.where(valid[:, None], 255, 0).astype(np.uint8) * np.ones((1, 3),
+                                                                                np.uint8)
+            mactor = _mesh_actor(SceneMesh("mask", st["lens_v"], st["lens_f"], colors=cols),
+                                 None)
+            ew.ren.AddActor(mactor)
+            vimg = ew.grab()[::-1]
+            ew.ren.RemoveActor(mactor)
+            full = SceneMesh("mask", st["lens_v"], st["lens_f"],
+                             colors=np.full((1, 3), 255, np.uint8))
+            mactor = _mesh_actor(full, None)
+            ew.ren.AddActor(mactor)
+            mimg = ew.grab()[::-1]
+            ew.ren.RemoveActor(mactor)
+            inside = mimg[..., 0] > 127
+            self._lens_cache[mkey] = (inside & (vimg[..., 0] < 128), inside,
+                                      inside & ~_erode(inside))
         ew.ren.SetBackground(*bg)
         cam.SetClippingRange(*clip)
         for a in saved:
             a.VisibilityOn()
-        inside = mimg[..., 0] > 127
+        invalid, inside, rim = self._lens_cache[mkey]
         out = np.where(inside[..., None], lens_img, naked)
-        invalid = inside & (vimg[..., 0] < 128)
         out[invalid] = s.invalid_color
-        rim = inside & ~_erode(inside)
         out[rim] = s.rim_color
         report["lens"]["pixels_inside"] = int(inside.sum())
         report["lens"]["pixels_invalid"] = int(invalid.sum())
@@ -501,8 +543,14 @@ def _erode(mask):
 
 
 def _mean(acc, n):
-    """Average of n summed passes, rounded, row 0 at the top."""
-    return np.clip(np.round(acc[::-1].astype(np.float32) / max(n, 1)), 0, 255).astype(np.uint8)
+    """RGB average of n summed RGBA passes, rounded, row 0 at the top."""
+    rgb = acc[::-1, :, :3]
+    if n <= 1:
+        return rgb.astype(np.uint8)
+    out = rgb.astype(np.float32)
+    out *= np.float32(1.0 / n)
+    out += np.float32(0.5)                       # round half up (values are >= 0)
+    return out.astype(np.uint8)
 
 
 def _checkpoints(samples):
