@@ -34,6 +34,14 @@ def settings_from(spec, **overrides) -> RenderSettings:
         raise SpecError(e.field, e.message) from None
 
 
+def _publish(tmp, path) -> None:
+    """Move a finished temporary file into place with the usual permissions (umask)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)
+    os.replace(tmp, path)
+
+
 def write_png(path, image: np.ndarray) -> None:
     """Atomic PNG write (no partial file on failure)."""
     import matplotlib.image as mpimg
@@ -44,7 +52,7 @@ def write_png(path, image: np.ndarray) -> None:
     os.close(fd)
     try:
         mpimg.imsave(tmp, image)
-        os.replace(tmp, p)
+        _publish(tmp, p)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -56,7 +64,7 @@ def write_json(path, obj) -> None:
     fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
     with os.fdopen(fd, "w") as f:
         json.dump(obj, f, indent=2, default=_default)
-    os.replace(tmp, p)
+    _publish(tmp, p)
 
 
 def _default(o):
