@@ -34,7 +34,7 @@ SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curv
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m"}
 RENDER_KEYS = {"scene", "width", "height", "samples", "fov_y_deg", "near_m", "far_m",
-               "chromatic", "refine", "field_shape", "focus_d"}
+               "chromatic", "refine", "field_shape", "focus_d", "cvd", "cvd_severity"}
 SCENE_NAMES = ("room", "chart", "page", "tilted_page", "depth_ramp")
 
 
@@ -268,6 +268,14 @@ def parse_render(t: dict, base: Path | None = None) -> dict:
                                         for i, v in enumerate(fs))
     if "focus_d" in t:
         settings["focus"] = check_range("render.focus_d", t["focus_d"], 0, 16)
+    if "cvd" in t:
+        from eyelab.color import CVD_KINDS
+
+        if t["cvd"] not in CVD_KINDS:
+            raise SpecError("render.cvd", f"must be one of {CVD_KINDS}, got {t['cvd']!r}")
+        settings["cvd"] = t["cvd"]
+    if "cvd_severity" in t:
+        settings["cvd_severity"] = check_range("render.cvd_severity", t["cvd_severity"], 0, 1)
     out["settings"] = settings
     return out
 

@@ -223,3 +223,17 @@ def test_no_vtk_leak_over_200_renders():
             r.render(scene, eye, lens if i % 2 else None)
         after = rss_mb()
     assert after - before < 50.0
+
+
+def test_cvd_post_process_is_the_colour_module_applied_to_the_render(chart):
+    from eyelab.color import simulate_cvd
+
+    scene = room_scene()
+    eye = Eye(accommodation_max=5.0)
+    with RasterRenderer(RenderSettings(width=96, height=72, samples=1)) as r:
+        plain = r.render(scene, eye)
+    with RasterRenderer(RenderSettings(width=96, height=72, samples=1, cvd="deutan",
+                                       cvd_severity=0.6)) as r:
+        cvd = r.render(scene, eye)
+    np.testing.assert_array_equal(cvd.image, simulate_cvd(plain.image, "deutan", 0.6))
+    assert cvd.report["cvd"]["kind"] == "deutan"

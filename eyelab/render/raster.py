@@ -62,6 +62,9 @@ class RenderSettings:
     #: skip passes a scene does not need (an all-zero field -> 1 pass); False only to
     #: measure what the skipping saves
     skip_unneeded: bool = True
+    #: colour-vision deficiency post-process: None, "protan", "deutan", "tritan", "achromat"
+    cvd: str | None = None
+    cvd_severity: float = 1.0
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -69,6 +72,11 @@ class RenderSettings:
         check_range("render.samples", self.samples, 1, 256)
         check_range("render.fov_y_deg", self.fov_y_deg, 1, 150)
         check_range("render.near", self.near, 1e-3, 10)
+        from eyelab.color import CVD_KINDS
+
+        if self.cvd is not None and self.cvd not in CVD_KINDS:
+            raise SpecError("render.cvd", f"must be one of {CVD_KINDS}, got {self.cvd!r}")
+        check_range("render.cvd_severity", self.cvd_severity, 0.0, 1.0)
         if not self.far > self.near:
             raise SpecError("render.far", f"must be > near ({self.near}), got {self.far}")
 
@@ -372,9 +380,15 @@ class RasterRenderer:
                 env = _mean(acc_env, min(cp, env_state["passes"]))
                 image = self._composite(naked, env, env_state, report)
                 t_lens += time.perf_counter() - t
+            if s.cvd is not None:
+                from eyelab.color import simulate_cvd
+
+                image = simulate_cvd(image, s.cvd, s.cvd_severity)
             if progressive:
                 prog.append((cp, image.copy()))
         ew.set_seed((0.0, 0.0))
+        report["cvd"] = None if s.cvd is None else {"kind": s.cvd, "severity": s.cvd_severity,
+                                                    "model": "Machado 2009, linear RGB"}
         report["passes"]["naked"] = n_naked
         report["passes"]["environment"] = 0 if env_state is None else env_state["passes"]
         gl = ew.render_s + (self._env_win.render_s if env_state is not None else 0.0)
