@@ -65,6 +65,9 @@ class RenderSettings:
     #: colour-vision deficiency post-process: None, "protan", "deutan", "tritan", "achromat"
     cvd: str | None = None
     cvd_severity: float = 1.0
+    #: "texture": the field as a 3D float texture sampled in the vertex shader (default);
+    #: "attribute": matrices looked up per vertex on the CPU (fallback, VTK_NOTES route D)
+    field_route: str = "texture"
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -77,6 +80,9 @@ class RenderSettings:
         if self.cvd is not None and self.cvd not in CVD_KINDS:
             raise SpecError("render.cvd", f"must be one of {CVD_KINDS}, got {self.cvd!r}")
         check_range("render.cvd_severity", self.cvd_severity, 0.0, 1.0)
+        if self.field_route not in ("texture", "attribute"):
+            raise SpecError("render.field_route", f"must be 'texture' or 'attribute', got "
+                            f"{self.field_route!r}")
         if not self.far > self.near:
             raise SpecError("render.far", f"must be > near ({self.near}), got {self.far}")
 
@@ -113,11 +119,18 @@ class _Window:
         self.size = (0, 0)
         # one shader property for every displaced actor: one GL program per shading
         # variant (textured / coloured), compiled once per window; one uniform per pass
-        self.shader = vtk.vtkOpenGLShaderProperty()
-        inject_vertex(self.shader, "displace.dec")
-        inject_vertex(self.shader, "displace.impl")
-        self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+        self.shaders = {}
+        for route, names in (("attribute", ("displace.dec", "displace.impl")),
+                             ("texture", ("field3d.dec", "field3d.impl"))):
+            sp = vtk.vtkOpenGLShaderProperty()
+            for name in names:
+                inject_vertex(sp, name)
+            sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+            self.shaders[route] = sp
+        self.shader = self.shaders["attribute"]
         self.actors = {}
+        self.field_texture = None
+        self.field_texture_key = None
         self.render_s = 0.0      # time spent inside Render() (pure rendering + GPU sync)
         self.readback_s = 0.0
         self._buf = vtk.vtkUnsignedCharArray()
@@ -125,6 +138,34 @@ class _Window:
     def set_seed(self, seed):
         self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [float(seed[0]),
                                                                     float(seed[1])])
+
+    def use_field(self, field, route: str):
+        """Select the route; for "texture", upload the field (once per field) as a 3D
+        RGBA32F texture with linear filtering and clamp-to-edge."""
+        self.shader = self.shaders[route]
+        if route != "texture":
+            return
+        u = self.shader.GetVertexCustomUniforms()
+        cam = field.camera
+        u.SetUniformf("depthMode", 0.0 if field.depth_mode == "ndc" else 1.0)
+        u.SetUniformf("nearPlane", float(cam.near))
+        u.SetUniformf("farPlane", float(cam.far))
+        if self.field_texture_key == field.key:
+            return
+        self.win.Initialize()
+        if self.field_texture is not None:
+            self.field_texture.ReleaseGraphicsResources(self.win)
+        tex = vtk.vtkTextureObject()
+        tex.SetContext(self.win)
+        nz, ny, nx = field.shape
+        self._field_data = field.texture_rgba()          # keep alive while uploaded
+        tex.Create3DFromRaw(nx, ny, nz, 4, vtk.VTK_FLOAT, self._field_data)
+        for f in (tex.SetWrapS, tex.SetWrapT, tex.SetWrapR):
+            f(vtk.vtkTextureObject.ClampToEdge)
+        tex.SetMinificationFilter(vtk.vtkTextureObject.Linear)
+        tex.SetMagnificationFilter(vtk.vtkTextureObject.Linear)
+        self.field_texture = tex
+        self.field_texture_key = field.key
 
     def show(self, items):
         """Show exactly these (key, factory) actors, reusing cached ones."""
@@ -135,6 +176,8 @@ class _Window:
             if actor is None:
                 actor = factory()
                 actor.SetShaderProperty(self.shader)
+                if self.shader is self.shaders["texture"]:
+                    _bind_field_texture(actor.GetMapper(), self)
             keep[key] = actor
             self.ren.AddActor(actor)
         self.actors = keep
@@ -176,7 +219,25 @@ class _Window:
     def close(self):
         self.clear()
         self.actors.clear()
+        if self.field_texture is not None:
+            self.field_texture.ReleaseGraphicsResources(self.win)
+            self.field_texture = None
         self.win.Finalize()
+
+
+def _bind_field_texture(mapper, window):
+    """Bind the window's field texture to the mapper's shader program before each draw
+    (UpdateShaderEvent fires on vtkOpenGLPolyDataMapper; VTK_NOTES Q2 route A)."""
+
+    @vtk.calldata_type(vtk.VTK_OBJECT)
+    def bind(caller, event, program):
+        tex = window.field_texture
+        if tex is not None and program is not None:
+            tex.Activate()
+            program.SetUniformi("blurField", tex.GetTextureUnit())
+
+    mapper.AddObserver(vtk.vtkCommand.UpdateShaderEvent, bind)
+    mapper._eyelab_bind = bind   # keep the callback alive with the mapper
 
 
 def _polydata(vertices, faces):
@@ -344,7 +405,9 @@ class RasterRenderer:
         if self._env_win is not None:
             self._env_win.render_s = self._env_win.readback_s = 0.0
         ew.set_view(eye_cam, (s.width, s.height), scene.background)
-        ew.show([((id(m), f_naked.key), _factory(m, f_naked)) for m in meshes])
+        ew.use_field(f_naked, s.field_route)
+        ew.show([((id(m), f_naked.key, s.field_route), _factory(m, f_naked, s.field_route))
+                 for m in meshes])
         timings["setup_naked_s"] = time.perf_counter() - t
         env_state = None
         if lens_in_view:
@@ -407,7 +470,9 @@ class RasterRenderer:
         vcam, (w_env, h_env) = env_view(vcam, s.width)
         env_win = self._env_win
         env_win.set_view(vcam, (w_env, h_env), scene.background)
-        actors = env_win.show([((id(m), f_lens.key), _factory(m, f_lens)) for m in meshes])
+        env_win.use_field(f_lens, s.field_route)
+        actors = env_win.show([((id(m), f_lens.key, s.field_route),
+                                _factory(m, f_lens, s.field_route)) for m in meshes])
         passes = 1 if (f_lens.all_zero and s.skip_unneeded) else s.samples
         if passes == 1 and s.samples > 1:
             report["skipped"].append(f"environment: through-lens blur field all zero: 1 pass "
@@ -535,7 +600,9 @@ def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
     return bool(np.any((res["status"] & np.uint8(FATAL)) == 0))
 
 
-def _factory(mesh, field):
+def _factory(mesh, field, route):
+    if route == "texture":
+        return lambda: _mesh_actor(mesh, None)
     return lambda: _mesh_actor(mesh, field.lookup(mesh.vertices).reshape(-1, 4)
                                .astype(np.float32))
 

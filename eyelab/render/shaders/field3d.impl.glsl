@@ -1,0 +1,12 @@
+//VTK::PositionVC::Impl
+  {
+    // eyelab: look the vertex's blur-field matrix up in the 3D texture and displace it in
+    // NDC by B * seed (Kakimoto 2007, §4.5). mat2 is column-major.
+    vec3 ndcP = gl_Position.xyz / gl_Position.w;
+    float tz = depthMode < 0.5 ? ndcP.z * 0.5 + 0.5
+                               : (gl_Position.w - nearPlane) / (farPlane - nearPlane);
+    vec4 m = texture(blurField, vec3(ndcP.xy * 0.5 + 0.5, tz));
+    if (gl_Position.w > 0.0) {
+      gl_Position.xy += (mat2(m.x, m.z, m.y, m.w) * seed) * gl_Position.w;
+    }
+  }
