@@ -9,6 +9,7 @@ from eyelab.optics.camera import eye_camera  # noqa: E402
 from eyelab.optics.eye import Eye  # noqa: E402
 from eyelab.optics.paths import ObjectPoints  # noqa: E402
 from eyelab.optics.prescription import Prescription  # noqa: E402
+from eyelab.render import fields as sf  # noqa: E402
 from eyelab.render.fields import ellipse_glyphs, sturm_conoid  # noqa: E402
 
 
@@ -87,3 +88,17 @@ def test_gallery_writes_images(tmp_path):
         img = mpimg.imread(p)
         assert img.shape[:2] == (150, 200)
         assert (img[..., :3] < 0.9).any()   # something drawn on the white background
+
+
+def test_voxel_conoid_and_plot_helpers(field):
+    eye = Eye.from_rx(Prescription(-2.0, -1.5, 30), accommodation_max=1.0)
+    k, j, i = 2, 2, 3
+    parts = sf.voxel_conoid(field, eye, None, (k, j, i))
+    r = np.linalg.norm(parts["retina_section"].points[:, :2], axis=1)
+    big = max(abs(field.a[k, j, i]), abs(field.b[k, j, i])) * 1e3
+    assert r.max() == pytest.approx(big, rel=1e-3)
+    p = sf.plot_volume(field)
+    p2 = sf.plot_glyphs(field, depth=float(field.slice_depths()[5]))
+    assert len(p.renderer.actors) >= 1 and len(p2.renderer.actors) == 1
+    p.close()
+    p2.close()

@@ -150,3 +150,45 @@ def sturm_conoid(eye, wave_k, accommodation: float, *, rays: int = 48, rings: in
             if poly.n_points:
                 poly.points[:, :2] *= transverse_scale
     return parts
+
+
+def voxel_conoid(field: BlurField, eye, lens, index, **kwargs):
+    """The Sturm conoid (see :func:`sturm_conoid`) of voxel ``index`` = (k, j, i): the wave
+    from the voxel's wave source, traced through the lens, with the field's accommodation."""
+    from eyelab.optics.analysis import analyze_points
+    from eyelab.optics.paths import ObjectPoints
+
+    k, j, i = index
+    res = analyze_points(eye, lens, ObjectPoints.from_positions(field.sources[k, j, i][None]),
+                         accommodation=float(field.accommodation[k, j, i]))
+    wave = [v[0] for v in res.wave_eye.in_basis(res.eye_x)]
+    return sturm_conoid(eye, wave, float(res.accommodation[0]), **kwargs)
+
+
+def plot_volume(field: BlurField, plotter=None, *, scalars="blur_arcmin", world=False,
+                cmap="magma"):
+    """Add the field as a volume (NDC grid) or, with ``world=True``, as its frustum of voxels
+    coloured by ``scalars``; returns the plotter (offscreen if none was given)."""
+    p = plotter or pv.Plotter(off_screen=True)
+    grid = blur_field_to_pyvista(field, world=world)
+    if world:
+        p.add_mesh(grid, scalars=scalars, cmap=cmap, opacity=0.4)
+    else:
+        p.add_volume(grid.cell_data_to_point_data(), scalars=scalars, cmap=cmap,
+                     opacity="linear")
+        p.add_mesh(grid.outline(), color="black")
+    return p
+
+
+def plot_glyphs(field: BlurField, plotter=None, *, depth=None, **kwargs):
+    """Add Sturm-conoid ellipse glyphs, all slices or the slice containing ``depth`` (m);
+    returns the plotter."""
+    p = plotter or pv.Plotter(off_screen=True)
+    slices = None
+    if depth is not None:
+        bounds = field.slice_bounds_depth()
+        slices = int(np.clip(np.searchsorted(bounds, depth) - 1, 0, field.shape[0] - 1))
+    glyphs = ellipse_glyphs(field, slices=slices, **kwargs)
+    if glyphs.n_points:
+        p.add_mesh(glyphs, scalars="blur_arcmin", line_width=2)
+    return p
