@@ -68,6 +68,9 @@ class RenderSettings:
     #: "texture": the field as a 3D float texture sampled in the vertex shader (default);
     #: "attribute": matrices looked up per vertex on the CPU (fallback, VTK_NOTES route D)
     field_route: str = "texture"
+    #: environment-image pixels per radian relative to the eye view's: the lens view is
+    #: resampled from it, so it needs more than the final image's density (2 = 4x pixels)
+    env_oversample: float = 2.0
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -372,7 +375,11 @@ class RasterRenderer:
         f_naked = self._field(eye, None, eye_cam, bounds, report, "naked")
         f_lens = vcam = None
         if lens_in_view:
-            vcam, _ = env_view(fit_virtual_camera(lens, eye_cam).camera, s.width)
+            vkey = ("vcam", lens, eye_cam)
+            if vkey not in self._lens_cache:
+                fitted = fit_virtual_camera(lens, eye_cam).camera
+                self._lens_cache[vkey] = env_view(fitted, self._env_width(eye_cam, fitted))[0]
+            vcam = self._lens_cache[vkey]
             f_lens = self._field(eye, lens, vcam, bounds, report, "through_lens")
         timings["fields_s"] = time.perf_counter() - t
         # --- refinement
@@ -467,7 +474,7 @@ class RasterRenderer:
         s = self.settings
         if self._env_win is None:
             self._env_win = _Window()
-        vcam, (w_env, h_env) = env_view(vcam, s.width)
+        vcam, (w_env, h_env) = env_view(vcam, self._env_width(eye_cam, vcam))
         env_win = self._env_win
         env_win.set_view(vcam, (w_env, h_env), scene.background)
         env_win.use_field(f_lens, s.field_route)
@@ -506,6 +513,11 @@ class RasterRenderer:
                                              "aspect": vcam.aspect}}
         return {"actors": actors, "passes": passes, "size": (w_env, h_env), "lens_v": lv,
                 "lens_f": lf, "tc": tc, "eye_cam": eye_cam, "mask_key": tkey}
+
+    def _env_width(self, eye_cam, vcam) -> int:
+        s = self.settings
+        ratio = vcam.tan_half[0] / eye_cam.tan_half[0]
+        return int(min(4096, max(16, round(s.width * ratio * s.env_oversample))))
 
     def _composite(self, naked, env, st, report):
         s = self.settings

@@ -1,0 +1,108 @@
+import math
+
+import numpy as np
+import pytest
+
+from data_generators.scenes import chart_scene, room_scene
+from eyelab.optics.eye import Eye
+from eyelab.optics.lens import SpectacleLens
+from eyelab.optics.materials import Material
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.surfaces import Plane
+from eyelab.reference import ReferenceRenderer, ReferenceSettings, compare_images
+from eyelab.reference.metrics import to_linear
+
+
+def _ref(scene, eye, lens=None, **kw):
+    s = dict(width=48, height=36, spp=16, fov_y_deg=20.0, near=0.1, far=20.0)
+    s.update(kw)
+    return ReferenceRenderer(ReferenceSettings(**s)).render(scene, eye, lens)
+
+
+def test_converges_at_least_like_one_over_sqrt_spp():
+    scene = chart_scene(1.0)
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.0)
+    _, truth, _ = _ref(scene, eye, spp=4096)
+    errs = []
+    spps = (16, 64, 256)
+    for spp in spps:
+        e = [np.sqrt(np.mean((_ref(scene, eye, spp=spp, seed=k)[1] - truth) ** 2))
+             for k in range(2)]
+        errs.append(np.mean(e))
+    slope = np.polyfit(np.log(spps), np.log(errs), 1)[0]
+    assert slope < -0.45          # 1/sqrt(spp) is -0.5; stratified samples do better
+    assert errs[-1] < errs[0]
+
+
+def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
+    """A chart at 0.5 m seen by a 4 D myope without accommodation: each point spreads into a
+    uniform disc of angular radius r_p * dV (Eq. 8 with a circular pupil); the reference
+    image must equal the sharp image convolved with that disc."""
+    from scipy.ndimage import convolve
+
+    scene = chart_scene(0.5, px_per_mm=4.0)
+    w, h, fov = 96, 96, 8.0
+    # the sharp image point-samples the texture: take it 3x finer and convolve there, so
+    # that the comparison integrates the texture as the blurred rays do
+    f = 3
+    sharp = _ref(scene, Eye(accommodation_max=10.0), width=f * w, height=f * h,
+                 fov_y_deg=fov, spp=3)[1]
+    eye = Eye.from_rx(Prescription(-4.0), vertex_distance=0.0, accommodation_max=0.0,
+                      pupil_diameter=6e-3)
+    blurred = _ref(scene, eye, width=w, height=h, fov_y_deg=fov, spp=1024)[1]
+    dv = 4.0 - 2.0                                         # far point 0.25 m, object 0.5 m
+    r_px = 3e-3 * dv * (h / 2) / math.tan(math.radians(fov / 2))
+    r_hi = f * r_px
+    k = int(math.ceil(r_hi)) + 1
+    yy, xx = np.mgrid[-k:k + 1, -k:k + 1]
+    # area-weighted disc kernel (8x supersampled pixels)
+    sub = (np.arange(8) + 0.5) / 8 - 0.5
+    ker = np.zeros_like(xx, float)
+    for dy in sub:
+        for dx in sub:
+            ker += (xx + dx) ** 2 + (yy + dy) ** 2 <= r_hi**2
+    ker /= ker.sum()
+    conv = np.stack([convolve(sharp[..., c], ker, mode="nearest") for c in range(3)], -1)
+    conv = conv[1::f, 1::f]                      # fine pixel 3i+1 is coarse pixel i's centre
+    m = int(math.ceil(r_px)) + 1
+    inner = (slice(m, -m), slice(m, -m))
+    diff = np.abs(conv[inner] - blurred[inner])
+    assert r_px > 3
+    assert diff.mean() < 2.0           # grey levels, of 255
+    assert np.percentile(diff, 99) < 12.0
+
+
+def test_index_one_lens_changes_nothing_and_rays_are_counted():
+    scene = room_scene()
+    eye = Eye.from_rx(Prescription(-1.0), accommodation_max=0.5)
+    nothing = SpectacleLens(Plane(), Plane(), 0.002, Material("vacuum", 1.0))
+    a, fa, rep = _ref(scene, eye, None, spp=32, fov_y_deg=60.0)
+    b, fb, rep2 = _ref(scene, eye, nothing, spp=32, fov_y_deg=60.0)
+    # identical up to embree's float32 arithmetic: a ray that grazes an edge may pick the
+    # other side when its origin moves to the lens (one pixel of 1728 here)
+    d = np.abs(fa - fb)
+    assert d.mean() < 0.05
+    assert (d.max(axis=2) > 1.0).mean() <= 0.002
+    assert rep["rays"] == 48 * 36 * (32 + 1)
+    assert rep2["rays_per_s"] > 0
+
+
+def test_fons_model_matches_the_thin_eye_for_spherical_errors():
+    scene = chart_scene(1.0)
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.0)
+    a = _ref(scene, eye, spp=256)[0]
+    b = _ref(scene, eye, model="fons", fons_n=8, fons_m=16)[0]
+    assert compare_images(b, a)["ssim"] > 0.97
+
+
+def test_metrics_identity_and_ordering():
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 255, (40, 50, 3)).astype(np.uint8)
+    m = compare_images(img, img)
+    assert m["psnr_db"] == float("inf") and m["ssim"] == pytest.approx(1.0)
+    assert m["blur_size_error"] == pytest.approx(0.0)
+    from scipy.ndimage import uniform_filter
+
+    soft = uniform_filter(img.astype(float), size=(3, 3, 1)).astype(np.uint8)
+    assert compare_images(soft, img)["blur_size_error"] > 0.2
+    assert to_linear(np.array([[[255, 0, 0]]], np.uint8))[0, 0, 0] == pytest.approx(1.0)
