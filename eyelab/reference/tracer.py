@@ -149,7 +149,7 @@ class ReferenceRenderer:
         s = self.settings
         m = len(d)
         pupil = np.zeros(3)
-        n2, zr, rp = eye.n_vitreous, eye.retina_distance, eye.pupil_diameter / 2
+        rp = eye.pupil_diameter / 2
         nrays = m
         # 1. chief rays: through the lens where they pass it
         through = np.zeros(m, bool)
