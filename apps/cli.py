@@ -60,7 +60,13 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("--width", type=int, help="override render.width (per panel)")
     dm.add_argument("--height", type=int, help="override render.height")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
-    be.add_argument("what", choices=("optics", "blurfield", "render"))
+    be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability"))
+    pre = be.add_mutually_exclusive_group()
+    pre.add_argument("--quick", action="store_true",
+                     help="quality/stability: the small preset that CI runs (default)")
+    pre.add_argument("--full", action="store_true",
+                     help="quality: 1024x768 and every configuration; stability: 1e6 cases")
+    be.add_argument("--plot", help="quality: also write the error-vs-time plot (PNG) here")
     be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
     be.add_argument("--points", type=int, default=1_000_000,
                     help="optics: points per wavefront-tracing batch (default 1e6)")
@@ -143,6 +149,14 @@ def _bench(args) -> int:
         from eyelab.bench.render import run_render_bench
 
         res = run_render_bench(repeats=min(args.repeats, 3))
+    elif args.what == "quality":
+        from eyelab.bench.quality import run_quality_bench
+
+        res = run_quality_bench(quick=not args.full, plot_path=args.plot)
+    elif args.what == "stability":
+        from eyelab.bench.stability import run_stability_bench
+
+        res = run_stability_bench(cases=1_000_000 if args.full else 100_000)
     else:
         from eyelab.bench.blurfield import run_blurfield_bench
 

@@ -43,6 +43,7 @@ from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.trace import FATAL
 from eyelab.optics.wavefront import _cross
 from eyelab.parallel import map_row_chunks
+from eyelab.render_support import pixel_jitter
 from eyelab.scene.raycast import EmbreeIntersector
 from eyelab.scene.scene import Scene
 
@@ -89,13 +90,17 @@ class ReferenceRenderer:
     def __init__(self, settings: ReferenceSettings | None = None):
         self.settings = settings or ReferenceSettings()
 
-    def pixel_directions(self):
+    def pixel_ndc(self):
+        """(n, 2) NDC of the pixel centres, row 0 at the top."""
         s = self.settings
-        cam = s.eye_camera()
         x = -1.0 + (2 * np.arange(s.width) + 1.0) / s.width
-        y = 1.0 - (2 * np.arange(s.height) + 1.0) / s.height       # row 0 at the top
+        y = 1.0 - (2 * np.arange(s.height) + 1.0) / s.height
         gx, gy = np.meshgrid(x, y)
-        return cam.ray_directions(gx.ravel(), gy.ravel())
+        return np.column_stack([gx.ravel(), gy.ravel()])
+
+    def pixel_directions(self):
+        ndc = self.pixel_ndc()
+        return self.settings.eye_camera().ray_directions(ndc[:, 0], ndc[:, 1])
 
     def pupil_samples(self):
         s = self.settings
@@ -111,6 +116,7 @@ class ReferenceRenderer:
         """Returns (image uint8 (h, w, 3), float image (h, w, 3) in [0, 255], report)."""
         s = self.settings
         t0 = time.perf_counter()
+        ndc = self.pixel_ndc()
         dirs = self.pixel_directions()
         n = len(dirs)
         inter = EmbreeIntersector(scene)
@@ -125,7 +131,8 @@ class ReferenceRenderer:
 
         def run(a, b):
             rng = np.random.default_rng(seeds[a // block])
-            col, nrays = self._pixels(dirs[a:b], scene, inter, eye, lens, samples, wls, rng)
+            col, nrays = self._pixels(dirs[a:b], ndc[a:b], scene, inter, eye, lens, samples,
+                                      wls, rng)
             out[a:b] = col
             counts["rays"] += nrays
 
@@ -145,7 +152,7 @@ class ReferenceRenderer:
                   "size": [s.width, s.height]}
         return np.clip(np.round(img), 0, 255).astype(np.uint8), img, report
 
-    def _pixels(self, d, scene, inter, eye, lens, samples, wls, rng):
+    def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng):
         s = self.settings
         m = len(d)
         pupil = np.zeros(3)
@@ -205,7 +212,17 @@ class ReferenceRenderer:
             gx = (pxx - e)[:, None] * rho_x + pxy[:, None] * rho_y       # incoming slope G rho
             gy = pxy[:, None] * rho_x + (pyy - e)[:, None] * rho_y
         origins = pupil + rho_x[..., None] * x_e[:, None] + rho_y[..., None] * y_e[:, None]
-        dirs = _unit(d[:, None] - gx[..., None] * x_e[:, None] - gy[..., None] * y_e[:, None])
+        # each sample's ray leaves a point of the pixel (box filter, as the raster's jittered
+        # passes): R2 offsets, shifted per pixel (Cranley-Patterson rotation)
+        k = samples.shape[0]
+        jit = np.mod(pixel_jitter(k)[None] + 0.5 + rng.uniform(0, 1, (m, 1, 2)), 1.0) - 0.5
+        cam = s.eye_camera()
+        tx, ty = cam.tan_half
+        b = cam.basis
+        jx = ndc[:, None, 0] + 2 * jit[..., 0] / s.width
+        jy = ndc[:, None, 1] + 2 * jit[..., 1] / s.height
+        d_s = _unit((jx * tx)[..., None] * b[0] + (jy * ty)[..., None] * b[1] + b[2])
+        dirs = _unit(d_s - gx[..., None] * x_e[:, None] - gy[..., None] * y_e[:, None])
         o = origins.reshape(-1, 3)
         dd = dirs.reshape(-1, 3)
         col = np.zeros((m, 3))

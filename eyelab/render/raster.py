@@ -32,6 +32,7 @@ from eyelab.errors import SpecError, check_range
 from eyelab.optics.camera import Camera, fit_virtual_camera
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.shader import inject_vertex
+from eyelab.render_support import pixel_jitter
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.raycast import EmbreeIntersector
 from eyelab.scene.refine import refine_for_fields
@@ -56,6 +57,10 @@ class RenderSettings:
     refine: bool = True
     lens_rings: int = 24
     lens_segments: int = 96
+    #: the lens mesh that carries the texture coordinates: vertices where eye rays on a grid
+    #: of this many pixels meet the back surface (the warp is sampled evenly over the view;
+    #: the polar rings x segments mesh gives the lens's outline)
+    lens_grid_px: int = 4
     focus: float | None = None
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
@@ -71,6 +76,8 @@ class RenderSettings:
     #: environment-image pixels per radian relative to the eye view's: the lens view is
     #: resampled from it, so it needs more than the final image's density (2 = 4x pixels)
     env_oversample: float = 2.0
+    #: jitter each pass by a sub-pixel offset (R2 sequence): the S passes antialias too
+    antialias: bool = True
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -129,6 +136,7 @@ class _Window:
             for name in names:
                 inject_vertex(sp, name)
             sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+            sp.GetVertexCustomUniforms().SetUniform2f("jitter", [0.0, 0.0])
             self.shaders[route] = sp
         self.shader = self.shaders["attribute"]
         self.actors = {}
@@ -138,9 +146,13 @@ class _Window:
         self.readback_s = 0.0
         self._buf = vtk.vtkUnsignedCharArray()
 
-    def set_seed(self, seed):
-        self.shader.GetVertexCustomUniforms().SetUniform2f("seed", [float(seed[0]),
-                                                                    float(seed[1])])
+    def set_seed(self, seed, jitter_px=(0.0, 0.0)):
+        """Per-pass uniforms: the unit-disc seed and a sub-pixel offset (pixels)."""
+        u = self.shader.GetVertexCustomUniforms()
+        u.SetUniform2f("seed", [float(seed[0]), float(seed[1])])
+        w, h = self.size
+        u.SetUniform2f("jitter", [2.0 * float(jitter_px[0]) / max(w, 1),
+                                  2.0 * float(jitter_px[1]) / max(h, 1)])
 
     def use_field(self, field, route: str):
         """Select the route; for "texture", upload the field (once per field) as a 3D
@@ -256,8 +268,11 @@ def _polydata(vertices, faces):
     return pd
 
 
-def _texture(img_top_first):
-    """vtkTexture from an (h, w, 3) uint8 image with row 0 at the top (VTK wants bottom)."""
+def _texture(img_top_first, mipmap=False):
+    """vtkTexture from an (h, w, 3) uint8 image with row 0 at the top (VTK wants bottom).
+    ``mipmap``: trilinear mip-mapping, for scene textures seen smaller than their texels
+    (each pass then samples the texture pre-filtered to the pixel footprint, as the
+    reference's many rays per pixel average it)."""
     h, w = img_top_first.shape[:2]
     data = vtk.vtkImageData()
     data.SetDimensions(w, h, 1)
@@ -270,6 +285,8 @@ def _texture(img_top_first):
     tex.RepeatOff()
     tex.EdgeClampOn()
     tex.SetColorModeToDirectScalars()
+    if mipmap:
+        tex.MipmapOn()
     return tex
 
 
@@ -400,6 +417,7 @@ class RasterRenderer:
         timings["refine_s"] = time.perf_counter() - t
         # --- passes
         seeds_n = seeds_for(s.samples)
+        jit = pixel_jitter(s.samples) if s.antialias else np.zeros((s.samples, 2))
         n_naked = 1 if (f_naked.all_zero and s.skip_unneeded) else s.samples
         if n_naked == 1 and s.samples > 1:
             report["skipped"].append(f"naked view: blur field all zero: 1 pass instead of "
@@ -433,13 +451,15 @@ class RasterRenderer:
             for k in range(done, cp):
                 sd = seeds_n[k] if s.samples > 1 else (0.0, 0.0)
                 t = time.perf_counter()
+                jk = jit[k] if n_naked > 1 else (0.0, 0.0)
                 if k < n_naked:
-                    ew.set_seed(sd)
+                    ew.set_seed(sd, jk)
                     np.add(acc_naked, ew.grab_rgba(), out=acc_naked)
                 t_naked += time.perf_counter() - t
                 if env_state is not None and k < env_state["passes"]:
                     t = time.perf_counter()
-                    self._env_win.set_seed(sd)
+                    self._env_win.set_seed(sd, jit[k] if env_state["passes"] > 1
+                                           else (0.0, 0.0))
                     np.add(acc_env, self._env_win.grab_rgba(), out=acc_env)
                     t_env += time.perf_counter() - t
             done = cp
@@ -486,6 +506,7 @@ class RasterRenderer:
                                      f"instead of {s.samples}")
         # lens mesh as the eye sees it: the back surface, slightly inside the rim
         lv, lf = _lens_back_mesh(lens, s.lens_rings, s.lens_segments)
+        gv, gf = _lens_view_mesh(lens, eye_cam, s.width, s.height, s.lens_grid_px)
         disperses = s.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
         if not disperses:
@@ -496,23 +517,33 @@ class RasterRenderer:
 
         tkey = (id(scene), scene.n_triangles, cache_key(lens=lens, camera=vcam, wls=wls,
                                                         rings=s.lens_rings,
-                                                        segments=s.lens_segments))
+                                                        segments=s.lens_segments,
+                                                        grid=s.lens_grid_px, eye=eye_cam))
         if tkey in self._lens_cache:
             tc = self._lens_cache[tkey]
             report["skipped"].append("lens texture coordinates: unchanged inputs, reused")
         else:
-            tc = lens_texcoords(lens, lv, vcam, EmbreeIntersector(scene), wavelengths=wls)
+            inter = EmbreeIntersector(scene)
+            tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls)
+            # the texture coordinates on the view grid, through the lens extended beyond its
+            # rim (the outline mask clips it), so that rim cells are filled
+            wide = _widened(lens)
+            tc_grid = lens_texcoords(wide, gv, vcam, inter, wavelengths=wls)
             if len(self._lens_cache) > 16:
                 self._lens_cache.clear()
-            self._lens_cache[tkey] = tc
-        report["lens"] = {"vertices": int(len(lv)), "texcoord_sets": len(wls),
+            self._lens_cache[tkey] = (tc, tc_grid)
+            tc = (tc, tc_grid)
+        tc, tc_grid = tc
+        report["lens"] = {"vertices": int(len(gv)), "outline_vertices": int(len(lv)),
+                          "texcoord_sets": len(wls),
                           "vertices_missing_lens": int((~tc.lens_ok).any(0).sum()),
-                          "rays_missing_scene": int((~tc.scene_hit).sum()),
+                          "rays_missing_scene": int((~tc_grid.scene_hit).sum()),
                           "virtual_camera": {"position": list(map(float, vcam.position)),
                                              "fov_y_deg": vcam.fov_y_deg,
                                              "aspect": vcam.aspect}}
         return {"actors": actors, "passes": passes, "size": (w_env, h_env), "lens_v": lv,
-                "lens_f": lf, "tc": tc, "eye_cam": eye_cam, "mask_key": tkey}
+                "lens_f": lf, "tc": tc, "grid_v": gv, "grid_f": gf, "tc_grid": tc_grid,
+                "eye_cam": eye_cam, "mask_key": tkey}
 
     def _env_width(self, eye_cam, vcam) -> int:
         s = self.settings
@@ -532,10 +563,11 @@ class RasterRenderer:
         cam.SetClippingRange(1e-3, 1.0)   # the lens sits ~12 mm from the eye
         tex = _texture(env)
         tc = st["tc"]
+        tcg = st["tc_grid"]
         lens_img = np.zeros_like(naked)
         for ch in range(3):
-            uv = tc.uv[min(ch, len(tc.uv) - 1)]
-            mesh = SceneMesh("lens", st["lens_v"], st["lens_f"], texture=env, uv=uv)
+            uv = tcg.uv[min(ch, len(tcg.uv) - 1)]
+            mesh = SceneMesh("lens", st["grid_v"], st["grid_f"], texture=env, uv=uv)
             pd = _polydata(mesh.vertices, mesh.faces)
             arr = numpy_to_vtk(np.ascontiguousarray(uv, dtype=np.float32), deep=True)
             pd.GetPointData().SetTCoords(arr)
@@ -549,7 +581,7 @@ class RasterRenderer:
             ew.ren.AddActor(actor)
             img = ew.grab_rgba()[::-1]
             ew.ren.RemoveActor(actor)
-            if len(tc.uv) == 1:
+            if len(tcg.uv) == 1:
                 lens_img = img[..., :3].copy()
                 break
             lens_img[..., ch] = img[..., ch]
@@ -652,6 +684,43 @@ def _checkpoints(samples):
         cps.append(k)
         k *= 2
     return cps + [samples]
+
+
+def _widened(lens):
+    """The same lens with a 15 % larger aperture (where its surfaces allow): used only for
+    texture coordinates of grid vertices just outside the rim."""
+    import dataclasses
+
+    d = min(lens.diameter * 1.15, 0.09)
+    r = d / 2
+    for surf in (lens.front, lens.back):
+        if not bool(np.all(surf.derivatives(np.array([r, 0.0, -r, 0.0]),
+                                            np.array([0.0, r, 0.0, -r])).valid)):
+            return lens
+    return dataclasses.replace(lens, diameter=d)
+
+
+def _lens_view_mesh(lens, cam, width, height, step_px):
+    """Grid mesh on the lens's back surface: where eye rays through every ``step_px``-th pixel
+    (one cell of margin around the view) meet it; cells whose corners all meet it."""
+    nx = max(2, int(math.ceil(width / step_px)) + 3)
+    ny = max(2, int(math.ceil(height / step_px)) + 3)
+    gx = np.linspace(-1 - 2 * step_px / width, 1 + 2 * step_px / width, nx)
+    gy = np.linspace(-1 - 2 * step_px / height, 1 + 2 * step_px / height, ny)
+    mx, my = np.meshgrid(gx, gy)
+    d = cam.ray_directions(mx.ravel(), my.ravel())
+    from eyelab.optics.trace import intersect
+
+    _, back = _widened(lens).placed_surfaces()
+    hit = intersect(back, np.zeros_like(d), d)
+    ok = hit.status == 0
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, c], 1)])
+    faces = faces[ok[faces].all(1)]
+    pts = np.where(ok[:, None], hit.points, 0.0)
+    return pts, faces
 
 
 def _lens_back_mesh(lens, rings, segments):

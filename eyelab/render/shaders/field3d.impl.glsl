@@ -7,6 +7,7 @@
                                : (gl_Position.w - nearPlane) / (farPlane - nearPlane);
     vec4 m = texture(blurField, vec3(ndcP.xy * 0.5 + 0.5, tz));
     if (gl_Position.w > 0.0) {
-      gl_Position.xy += (mat2(m.x, m.z, m.y, m.w) * seed) * gl_Position.w;
+      // plus the pass's sub-pixel `jitter` (NDC): the S passes also antialias
+      gl_Position.xy += (mat2(m.x, m.z, m.y, m.w) * seed + jitter) * gl_Position.w;
     }
   }

@@ -1,0 +1,160 @@
+"""``eyelab bench quality``: run time against error for every renderer.
+
+For each standard scene (chart at 0.4 m and 6 m, the tilted page at 6-11 cm, the room) and
+eye/lens configuration, a converged reference (distribution ray tracing, many samples) is
+the ground truth; the raster renderer runs at S = 1, 2, 4, ... and the reference at
+increasing samples per pixel; each result gets its wall time and its error against the
+ground truth (PSNR, SSIM, blur-size error, RMSE; linear RGB). The Pareto picture is error
+against time. Raster times are steady-state frames (caches and shaders warm), as an
+interactive viewer sees them; the first (cold) frame time is recorded beside them.
+
+``quick``: small images, a subset of configurations; asserts that at equal wall time the
+raster error is below the reference's, and that at S = 32 the raster image reaches
+SSIM >= 0.95 against the converged reference on every scene.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from eyelab.optics.eye import Eye
+from eyelab.optics.lens import SpectacleLens
+from eyelab.optics.prescription import Prescription
+from eyelab.reference.metrics import compare_images, to_linear
+from eyelab.reference.tracer import ReferenceRenderer, ReferenceSettings
+from eyelab.render.raster import RasterRenderer, RenderSettings
+
+
+def scenes():
+    from data_generators.scenes import chart_scene, room_scene, tilted_page_scene
+
+    return {"chart_0.4m": (chart_scene(0.4), 12.0, 0.1, 2.0),
+            "chart_6m": (chart_scene(6.0), 10.0, 1.0, 20.0),
+            "tilted_page": (tilted_page_scene(), 40.0, 0.03, 1.0),
+            "room": (room_scene(), 60.0, 0.05, 20.0)}
+
+
+def configs(quick: bool):
+    myope = Eye.from_rx(Prescription(-3.0), accommodation_max=1.0)
+    out = {
+        "myope_uncorrected": (myope, None),
+        "myope_corrected_-3D": (myope, SpectacleLens.from_rx(Prescription(-3.0))),
+    }
+    if not quick:
+        out.update({
+            "presbyope": (Eye(accommodation_max=0.5), None),
+            "oblique_astigmat": (Eye.from_rx(Prescription(-1.0, -2.0, 45),
+                                             accommodation_max=2.0), None),
+            "-4D_lens": (Eye.from_rx(Prescription(-4.0), accommodation_max=1.5),
+                         SpectacleLens.from_rx(Prescription(-4.0))),
+            "+3D_lens": (Eye.from_rx(Prescription(3.0), accommodation_max=1.0),
+                         SpectacleLens.from_rx(Prescription(3.0))),
+        })
+    return out
+
+
+def _rmse(a, b):
+    return float(np.sqrt(np.mean((to_linear(a) - to_linear(b)) ** 2)))
+
+
+def run_quality_bench(quick: bool = True, size=None, plot_path=None) -> dict:
+    w, h = size or ((160, 120) if quick else (1024, 768))
+    raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
+    ref_spp = (4, 16, 64) if quick else (4, 16, 64, 256, 1024)
+    truth_spp = 256 if quick else 4096
+    rows = []
+    cases = []
+    for sname, (scene, fov, near, far) in scenes().items():
+        for cname, (eye, lens) in configs(quick).items():
+            rs = dict(width=w, height=h, fov_y_deg=fov, near=near, far=far)
+            t = time.perf_counter()
+            truth, _, trep = ReferenceRenderer(ReferenceSettings(spp=truth_spp, **rs)).render(
+                scene, eye, lens)
+            t_truth = time.perf_counter() - t
+            case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
+                    "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],
+                    "raster": [], "reference": []}
+            for s in raster_s:
+                with RasterRenderer(RenderSettings(samples=s, **rs)) as r:
+                    t = time.perf_counter()
+                    r.render(scene, eye, lens)
+                    cold = time.perf_counter() - t
+                    t = time.perf_counter()
+                    res = r.render(scene, eye, lens)
+                    warm = time.perf_counter() - t
+                m = compare_images(res.image, truth)
+                m.update(rmse=_rmse(res.image, truth), time_s=warm, cold_time_s=cold,
+                         samples=s, skipped=res.report["skipped"])
+                case["raster"].append(m)
+            for spp in ref_spp:
+                t = time.perf_counter()
+                img, _, rep = ReferenceRenderer(ReferenceSettings(spp=spp, seed=1, **rs)).render(
+                    scene, eye, lens)
+                dt = time.perf_counter() - t
+                m = compare_images(img, truth)
+                m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,
+                         rays_per_s=rep["rays_per_s"])
+                case["reference"].append(m)
+            # equal wall time: the reference's RMSE interpolated (log-log) at each raster time
+            rt = np.array([m["time_s"] for m in case["reference"]])
+            re = np.array([m["rmse"] for m in case["reference"]])
+            for m in case["raster"]:
+                m["reference_rmse_at_same_time"] = float(np.exp(np.interp(
+                    np.log(m["time_s"]), np.log(rt), np.log(re))))
+                m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
+            cases.append(case)
+            s32 = [m for m in case["raster"] if m["samples"] == 32]
+            rows.append(f"{sname:>12} {cname:>22}: raster S=32 SSIM "
+                        f"{s32[0]['ssim']:.4f} PSNR {s32[0]['psnr_db']:.1f} dB in "
+                        f"{s32[0]['time_s'] * 1e3:.0f} ms; reference {ref_spp[-1]} spp SSIM "
+                        f"{case['reference'][-1]['ssim']:.4f} in "
+                        f"{case['reference'][-1]['time_s'] * 1e3:.0f} ms; truth "
+                        f"{truth_spp} spp at {trep['rays_per_s'] / 1e6:.2f} M rays/s")
+    wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
+    checks = {
+        "raster_ssim_at_32_min": min(m["ssim"] for c in cases for m in c["raster"]
+                                     if m["samples"] == 32),
+        # the interactive setting: S = 8 passes against the reference given the same time
+        "raster_wins_at_equal_time_S8": all(m["raster_wins_at_same_time"] for c in cases
+                                            for m in c["raster"] if m["samples"] == 8),
+        "raster_wins_fraction_all_S": float(np.mean(wins)),
+        "reference_rays_per_s_max": max(c["truth_rays_per_s"] for c in cases),
+        "reference_rays_per_s_median": float(np.median([c["truth_rays_per_s"]
+                                                        for c in cases])),
+    }
+    out = {"benchmark": "quality", "preset": "quick" if quick else "full", "size": [w, h],
+           "cases": cases, "checks": checks, "summary": rows}
+    rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
+                f"error below the reference's at equal time: S=8 "
+                f"{checks['raster_wins_at_equal_time_S8']}, all S "
+                f"{checks['raster_wins_fraction_all_S'] * 100:.0f} % of cases; reference "
+                f"{checks['reference_rays_per_s_median'] / 1e6:.2f} M rays/s median, "
+                f"{checks['reference_rays_per_s_max'] / 1e6:.2f} max")
+    if plot_path:
+        _plot(cases, plot_path)
+        out["plot"] = str(plot_path)
+    return out
+
+
+def _plot(cases, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 5), dpi=100)
+    for c in cases:
+        lab = f"{c['scene']} / {c['config']}"
+        ax.loglog([m["time_s"] for m in c["raster"]], [m["rmse"] for m in c["raster"]], "o-",
+                  label=f"raster, {lab}")
+        ax.loglog([m["time_s"] for m in c["reference"]], [m["rmse"] for m in c["reference"]],
+                  "s--", label=f"reference, {lab}")
+    ax.set_xlabel("wall time per image (s)")
+    ax.set_ylabel("RMSE vs converged reference (linear RGB)")
+    ax.set_title("eyelab: error against time")
+    ax.legend(fontsize=5, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
