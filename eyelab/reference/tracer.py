@@ -36,7 +36,7 @@ import numpy as np
 from eyelab.blur.bundle import disc_seeds
 from eyelab.errors import SpecError, check_range
 from eyelab.optics.analysis import UP
-from eyelab.optics.camera import Camera
+from eyelab.optics.camera import Camera, eye_camera
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.optics.paths import ChiefRays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
@@ -78,8 +78,7 @@ class ReferenceSettings:
                                                f"{self.model!r}")
 
     def eye_camera(self) -> Camera:
-        return Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), self.fov_y_deg,
-                      self.width / self.height, self.near, self.far)
+        return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
 
 
 def _unit(v):

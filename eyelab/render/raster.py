@@ -29,7 +29,7 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from eyelab.blur.bundle import disc_seeds
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.errors import SpecError, check_range
-from eyelab.optics.camera import Camera, fit_virtual_camera
+from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.shader import inject_vertex
 from eyelab.render_support import pixel_jitter
@@ -97,8 +97,7 @@ class RenderSettings:
             raise SpecError("render.far", f"must be > near ({self.near}), got {self.far}")
 
     def eye_camera(self) -> Camera:
-        return Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), self.fov_y_deg,
-                      self.width / self.height, self.near, self.far)
+        return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
 
 
 @dataclass
@@ -588,9 +587,7 @@ class RasterRenderer:
         # outline / validity masks (cached with the texture coordinates): vertex colours
         # white (valid) or black (invalid)
         mkey = ("masks", st["mask_key"], ew.size)
-        if mkey in self._lens_cache:
-            pass
-        else:
+        if mkey not in self._lens_cache:
             valid = tc.lens_ok.all(0)
             cols = np.where(valid[:, None], 255, 0).astype(np.uint8) * np.ones((1, 3),
                                                                                 np.uint8)
