@@ -3,6 +3,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from apps.cli import main
@@ -140,5 +141,8 @@ def test_bench_render_small(tmp_path, monkeypatch):
     assert main(["bench", "render", "--repeats", "1", "-o", str(out)]) == 0
     res = json.loads(out.read_text())
     assert {r["view"] for r in res["rows"]} == {"naked", "through_lens"}
-    assert res["skip_speedups"]["one_pass_for_zero_field"] > 1.0
+    # the numbers are measurements (no timing assertions in tests): check their presence
+    assert set(res["skip_speedups"]) == {"one_pass_for_zero_field", "no_lens_passes",
+                                         "one_texcoord_set", "caches_reused"}
+    assert all(np.isfinite(v) and v > 0 for v in res["skip_speedups"].values())
     assert all(r["gl_render_s"] > 0 for r in res["rows"])

@@ -60,7 +60,7 @@ class RenderSettings:
     #: the lens mesh that carries the texture coordinates: vertices where eye rays on a grid
     #: of this many pixels meet the back surface (the warp is sampled evenly over the view;
     #: the polar rings x segments mesh gives the lens's outline)
-    lens_grid_px: int = 4
+    lens_grid_px: int = 8
     focus: float | None = None
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
@@ -74,8 +74,8 @@ class RenderSettings:
     #: "attribute": matrices looked up per vertex on the CPU (fallback, VTK_NOTES route D)
     field_route: str = "texture"
     #: environment-image pixels per radian relative to the eye view's: the lens view is
-    #: resampled from it, so it needs more than the final image's density (2 = 4x pixels)
-    env_oversample: float = 2.0
+    #: resampled from it, so it needs more than the final image's density (1.5 = 2.25x pixels)
+    env_oversample: float = 1.5
     #: jitter each pass by a sub-pixel offset (R2 sequence): the S passes antialias too
     antialias: bool = True
 
