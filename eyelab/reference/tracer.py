@@ -125,7 +125,7 @@ class ReferenceRenderer:
         out = np.zeros((n, 3))
         counts = {"rays": 0}
         rng_root = np.random.SeedSequence(s.seed)
-        block = max(1, 4096 // len(samples))
+        block = max(1, 16384 // len(samples))   # ~16k rays per task: numpy-friendly
         seeds = rng_root.spawn(int(math.ceil(n / block)))
 
         def run(a, b):

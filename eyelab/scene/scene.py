@@ -60,7 +60,7 @@ class SceneMesh:
         if self.texture is not None:
             uv = w0 * self.uv[f[:, 0]] + u * self.uv[f[:, 1]] + v * self.uv[f[:, 2]]
             return sample_texture(self.texture, uv)
-        c = self.colors.astype(float)
+        c = self.colors
         return w0 * c[f[:, 0]] + u * c[f[:, 1]] + v * c[f[:, 2]]
 
     def bounds(self):
@@ -79,9 +79,9 @@ def sample_texture(tex, uv):
     ty = (y - y0)[:, None]
     x1 = np.minimum(x0 + 1, w - 1)
     y1 = np.minimum(y0 + 1, h - 1)
-    t = tex.astype(float)
-    return ((1 - ty) * ((1 - tx) * t[y0, x0] + tx * t[y0, x1])
-            + ty * ((1 - tx) * t[y1, x0] + tx * t[y1, x1]))
+    # gather the four texels first (converting the whole texture per call is the slow way)
+    return ((1 - ty) * ((1 - tx) * tex[y0, x0] + tx * tex[y0, x1])
+            + ty * ((1 - tx) * tex[y1, x0] + tx * tex[y1, x1]))
 
 
 @dataclass
