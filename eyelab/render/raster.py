@@ -78,6 +78,11 @@ class RenderSettings:
     env_oversample: float = 1.5
     #: jitter each pass by a sub-pixel offset (R2 sequence): the S passes antialias too
     antialias: bool = True
+    #: reconstruction filter: S displaced copies sample each blur disc at S points, which
+    #: ghosts when the disc spans many pixels; each pixel is smoothed by a Gaussian of
+    #: RECON_SIGMA x the spacing of the S samples in its own blur disc (from the depth buffer
+    #: and the field; in-focus pixels untouched)
+    reconstruct: bool = True
 
     def __post_init__(self):
         check_range("render.width", self.width, 16, 4096)
@@ -209,6 +214,13 @@ class _Window:
         c.SetViewAngle(cam.fov_y_deg)
         c.SetClippingRange(cam.near, cam.far)
         self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
+
+    def depth(self) -> np.ndarray:
+        """(h, w) z-buffer of the last render in [0, 1], row 0 at the bottom."""
+        w, h = self.size
+        arr = vtk.vtkFloatArray()
+        self.win.GetZbufferData(0, 0, w - 1, h - 1, arr)
+        return vtk_to_numpy(arr).reshape(h, w).copy()
 
     def grab_rgba(self) -> np.ndarray:
         """Render and read RGBA (h, w, 4) uint8 (a view of a reused buffer: copy or consume
@@ -446,6 +458,7 @@ class RasterRenderer:
         t_naked = t_env = t_lens = 0.0
         done = 0
         image = naked = env = None
+        z_naked = z_env = None
         for cp in checkpoints:
             for k in range(done, cp):
                 sd = seeds_n[k] if s.samples > 1 else (0.0, 0.0)
@@ -454,19 +467,33 @@ class RasterRenderer:
                 if k < n_naked:
                     ew.set_seed(sd, jk)
                     np.add(acc_naked, ew.grab_rgba(), out=acc_naked)
+                    if k == 0 and n_naked > 1 and s.reconstruct:
+                        z_naked = ew.depth()
                 t_naked += time.perf_counter() - t
                 if env_state is not None and k < env_state["passes"]:
                     t = time.perf_counter()
                     self._env_win.set_seed(sd, jit[k] if env_state["passes"] > 1
                                            else (0.0, 0.0))
                     np.add(acc_env, self._env_win.grab_rgba(), out=acc_env)
+                    if k == 0 and env_state["passes"] > 1 and s.reconstruct:
+                        z_env = self._env_win.depth()
                     t_env += time.perf_counter() - t
             done = cp
             naked = _mean(acc_naked, min(cp, n_naked))
+            if z_naked is not None:
+                t = time.perf_counter()
+                naked = self._reconstruct(naked, z_naked, eye_cam, f_naked, min(cp, n_naked),
+                                          ("naked", id(scene), f_naked.key))
+                timings["reconstruct_s"] = timings.get("reconstruct_s", 0.0) \
+                    + time.perf_counter() - t
             image = naked
             if env_state is not None:
                 t = time.perf_counter()
                 env = _mean(acc_env, min(cp, env_state["passes"]))
+                if z_env is not None:
+                    env = self._reconstruct(env, z_env, env_state["vcam"], f_lens,
+                                            min(cp, env_state["passes"]),
+                                            ("env", id(scene), f_lens.key))
                 image = self._composite(naked, env, env_state, report)
                 t_lens += time.perf_counter() - t
             if s.cvd is not None:
@@ -540,9 +567,54 @@ class RasterRenderer:
                           "virtual_camera": {"position": list(map(float, vcam.position)),
                                              "fov_y_deg": vcam.fov_y_deg,
                                              "aspect": vcam.aspect}}
-        return {"actors": actors, "passes": passes, "size": (w_env, h_env), "lens_v": lv,
+        return {"actors": actors, "passes": passes, "size": (w_env, h_env), "vcam": vcam,
+                "lens_v": lv,
                 "lens_f": lf, "tc": tc, "grid_v": gv, "grid_f": gf, "tc_grid": tc_grid,
                 "eye_cam": eye_cam, "mask_key": tkey}
+
+    def _reconstruct(self, img, zbuf, cam, field, passes, key):
+        """Spatially varying Gaussian reconstruction (see RenderSettings.reconstruct): sigma
+        per pixel = RECON_SIGMA x max(sqrt(pi a b / S), 2 a / S) for the pixel's blur ellipse
+        semi-axes a >= b (px); evaluated on every 2nd pixel (nearest voxel), cached per
+        geometry and field, applied by blending Gaussian-filtered copies at sigma levels."""
+        from scipy.ndimage import gaussian_filter
+
+        h, w = img.shape[:2]
+        ckey = ("sigma", key, w, h, passes)
+        sig = self._lens_cache.get(ckey)
+        if sig is None:
+            zb = zbuf[::-1][::2, ::2]
+            ys, xs = np.mgrid[0:h:2, 0:w:2]
+            ndc = np.stack([(2 * xs + 1.0) / w - 1, 1 - (2 * ys + 1.0) / h, 2 * zb - 1], -1)
+            fg = zb < 1.0
+            sig_small = np.zeros(zb.shape)
+            if fg.any():
+                pts = cam.ndc_to_world(ndc[fg])
+                b = field.lookup(pts, interpolate=False)
+                bpx = b * np.array([w / 2, h / 2])[None, :, None]
+                sv = np.linalg.svd(bpx, compute_uv=False)
+                spacing = np.maximum(np.sqrt(np.pi * sv[:, 0] * sv[:, 1] / passes),
+                                     2 * sv[:, 0] / passes)
+                sig_small[fg] = RECON_SIGMA * spacing
+            sig = np.repeat(np.repeat(sig_small, 2, 0), 2, 1)[:h, :w]
+            self._lens_cache[ckey] = sig
+        smax = float(sig.max())
+        if smax < 0.25:
+            return img
+        levels = [0.0]
+        while levels[-1] < smax:
+            levels.append(0.35 if levels[-1] == 0 else levels[-1] * 2)
+        src = img.astype(np.float32)
+        filt = [src] + [gaussian_filter(src, (lv, lv, 0)) for lv in levels[1:]]
+        idx = np.clip(np.searchsorted(levels, sig) - 1, 0, len(levels) - 2)
+        lo = np.asarray(levels)[idx]
+        hi = np.asarray(levels)[idx + 1]
+        t = np.clip((sig - lo) / (hi - lo), 0, 1)[..., None]
+        out = np.zeros_like(src)
+        for i in range(len(levels) - 1):
+            sel = (idx == i)[..., None]
+            out += np.where(sel, (1 - t) * filt[i] + t * filt[i + 1], 0.0)
+        return np.clip(out + 0.5, 0, 255).astype(np.uint8)
 
     def _env_width(self, eye_cam, vcam) -> int:
         s = self.settings
@@ -617,6 +689,12 @@ class RasterRenderer:
         report["lens"]["pixels_invalid"] = int(invalid.sum())
         st["mask"] = inside
         return out
+
+
+#: reconstruction Gaussian sigma in units of the spacing of the S samples in a blur disc
+#: (0.7: measured on the 6 m chart, SSIM 0.94 -> 0.97 at S = 32 against the converged
+#: reference, without softening in-focus pixels)
+RECON_SIGMA = 0.7
 
 
 def env_view(vcam: Camera, width: int):
