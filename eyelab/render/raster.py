@@ -415,9 +415,11 @@ class RasterRenderer:
         meshes = []
         for m in scene.meshes:
             if s.refine:
-                key = (id(m), m.n_triangles, f_naked.key, None if f_lens is None else f_lens.key)
+                key = (id(m), m.n_triangles, f_naked.key, None if f_lens is None else f_lens.key,
+                       s.width)
                 if key not in self._refined:
-                    self._refined[key] = refine_for_fields(m, [f_naked, f_lens])
+                    self._refined[key] = refine_for_fields(m, [f_naked, f_lens],
+                                                           px_scale=s.width / 2)
                 rm, info = self._refined[key]
                 meshes.append(rm)
                 report["refinement"].append(info)

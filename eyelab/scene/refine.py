@@ -1,10 +1,12 @@
 """Adaptive tessellation (pymeshlab) driven by the blur field.
 
-A vertex is displaced by the matrix of the voxel it lies in, so a triangle can follow the
-field's changes only if its edges are no longer than a voxel (Kakimoto 2007, §6). A mesh is
-refined (midpoint subdivision of edges longer than the threshold, pymeshlab) only where a
-field has blur at its depths and its edges are longer than one voxel column there; every
-other mesh is left untouched. Colours and uv are interpolated by the subdivision.
+A vertex is displaced by the matrix at the vertex and the displacement is interpolated
+linearly across each triangle, so a mesh follows the field only where the field is nearly
+linear along its edges (Kakimoto 2007, §6: 'tessellated with sufficient granularity'). Faces
+whose edges interpolate the field worse than a tolerance in pixels are subdivided
+(pymeshlab midpoint subdivision of the selected faces), repeatedly; meshes at depths where
+no field blurs, or where the field is already linear enough, are left untouched. Colours
+and uv are interpolated by the subdivision.
 """
 
 from __future__ import annotations
@@ -48,24 +50,49 @@ def voxel_size_at(field, mesh: SceneMesh):
     return size, blurred
 
 
-def refine_for_fields(mesh: SceneMesh, fields, *, max_iterations: int = 6):
-    """Return (mesh, info): the mesh refined so that no edge is longer than one voxel column
-    of any field that blurs it (or unchanged, with the reason in ``info``)."""
-    sizes = [voxel_size_at(f, mesh) for f in fields if f is not None]
-    blurred = [s for s, b in sizes if b]
-    longest = float(_edge_lengths(mesh).max()) if mesh.n_triangles else 0.0
-    info = {"mesh": mesh.name, "triangles_before": mesh.n_triangles, "longest_edge_m": longest}
-    if not blurred:
+def _interpolation_error(vertices, faces, fields, px_scale):
+    """Per-face worst error (px, for a unit seed) of interpolating the field's matrix
+    linearly along each edge instead of sampling it at the edge's midpoint."""
+    err = np.zeros(len(faces))
+    for f in fields:
+        # faces reaching in front of the near plane are clipped there: not measured
+        clipped = (f.camera.depth(vertices) < f.camera.near)[faces].any(axis=1)
+        bv = f.lookup(vertices).reshape(-1, 4)
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            ia, ib = faces[:, a], faces[:, b]
+            mid = 0.5 * (vertices[ia] + vertices[ib])
+            bm = f.lookup(mid).reshape(-1, 4)
+            e = np.abs(bm - 0.5 * (bv[ia] + bv[ib])).max(axis=1) * px_scale
+            err = np.maximum(err, np.where(clipped, 0.0, e))
+    return err
+
+
+def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
+                      tol_px: float = 0.5, max_iterations: int = 6):
+    """Return (mesh, info): the mesh refined (pymeshlab midpoint subdivision of the selected
+    faces) until linear interpolation of every field's matrix along every edge is within
+    ``tol_px`` pixels of the field itself (for a unit seed; ``px_scale`` = pixels per NDC
+    unit, i.e. half the image width) — the displacement then follows the field wherever it
+    changes; meshes where no field blurs, or where the field is already linear enough, are
+    left untouched (and say why)."""
+    fields = [f for f in fields if f is not None]
+    blurred = [f for f in fields if voxel_size_at(f, mesh)[1]]
+    info = {"mesh": mesh.name, "triangles_before": mesh.n_triangles,
+            "longest_edge_m": float(_edge_lengths(mesh).max()) if mesh.n_triangles else 0.0,
+            "tolerance_px": tol_px}
+    if not blurred or not mesh.n_triangles:
         info.update(refined=False, why="no blur over this mesh's depth range")
         return mesh, info
-    thr = min(blurred)
-    info["threshold_m"] = thr
-    if longest <= thr:
-        info.update(refined=False, why="edges already shorter than a voxel")
+    err = _interpolation_error(mesh.vertices, mesh.faces, blurred, px_scale)
+    info["max_error_px_before"] = float(err.max())
+    if err.max() <= tol_px:
+        info.update(refined=False, why=f"the field is linear to {err.max():.2f} px along "
+                                       "every edge already")
         return mesh, info
     import pymeshlab
 
-    kw = {"vertex_matrix": mesh.vertices, "face_matrix": mesh.faces.astype(np.int32)}
+    kw = {"vertex_matrix": mesh.vertices, "face_matrix": mesh.faces.astype(np.int32),
+          "f_scalar_array": err}
     if mesh.colors is not None:
         kw["v_color_matrix"] = np.column_stack([mesh.colors / 255.0, np.ones(len(mesh.colors))])
     if mesh.uv is not None:
@@ -74,19 +101,30 @@ def refine_for_fields(mesh: SceneMesh, fields, *, max_iterations: int = 6):
     ms.add_mesh(pymeshlab.Mesh(**kw))
     its = 0
     capped = False
-    for its in range(1, max_iterations + 1):  # noqa: B007 - reported below
-        if ms.current_mesh().vertex_number() * 4 > MAX_VERTICES:
-            capped = True
-            its -= 1
-            break
-        ms.meshing_surface_subdivision_midpoint(iterations=1,
-                                                threshold=pymeshlab.PureValue(thr))
+    while its < max_iterations:
         m = ms.current_mesh()
-        v = m.vertex_matrix()
-        f = m.face_matrix()
-        e = max(np.linalg.norm(v[f[:, a]] - v[f[:, b]], axis=1).max()
-                for a, b in ((0, 1), (1, 2), (2, 0)))
-        if e <= thr:
+        if m.vertex_number() * 2 > MAX_VERTICES:
+            capped = True
+            break
+        ms.compute_selection_by_condition_per_face(condselect=f"fq > {tol_px}")
+        if ms.current_mesh().selected_face_number() == 0:
+            break
+        # VCG splits an edge only between two selected faces: grow the selection by one ring
+        ms.apply_selection_dilatation()
+        ms.meshing_surface_subdivision_midpoint(iterations=1, threshold=pymeshlab.PureValue(0.0),
+                                                selected=True)
+        its += 1
+        m = ms.current_mesh()
+        v, f = m.vertex_matrix(), m.face_matrix()
+        err = _interpolation_error(v, f, blurred, px_scale)
+        kw = {"vertex_matrix": v, "face_matrix": f, "f_scalar_array": err}
+        if m.has_vertex_color():
+            kw["v_color_matrix"] = m.vertex_color_matrix()
+        if m.has_vertex_tex_coord():
+            kw["v_tex_coords_matrix"] = m.vertex_tex_coord_matrix()
+        ms = pymeshlab.MeshSet()
+        ms.add_mesh(pymeshlab.Mesh(**kw))
+        if err.max() <= tol_px:
             break
     m = ms.current_mesh()
     colors = None
@@ -94,7 +132,9 @@ def refine_for_fields(mesh: SceneMesh, fields, *, max_iterations: int = 6):
         colors = np.clip(np.round(m.vertex_color_matrix()[:, :3] * 255), 0, 255).astype(np.uint8)
     out = SceneMesh(mesh.name, m.vertex_matrix(), m.face_matrix(), colors, mesh.texture,
                     m.vertex_tex_coord_matrix() if mesh.uv is not None else None)
+    final = _interpolation_error(out.vertices, out.faces, blurred, px_scale)
     info.update(refined=True, iterations=its, triangles_after=out.n_triangles,
-                capped_at_max_vertices=capped,
-                why=f"edges up to {longest:.3g} m > voxel {thr:.3g} m where the field blurs")
+                max_error_px_after=float(final.max()), capped_at_max_vertices=capped,
+                why=f"linear interpolation of the field along edges was off by up to "
+                    f"{info['max_error_px_before']:.2f} px (> {tol_px} px)")
     return out, info
