@@ -13,11 +13,10 @@ def quality():
 
 def test_quick_quality_raster_beats_reference_at_equal_time(quality):
     """At the interactive setting S = 8 the raster image is closer to the converged reference
-    than the reference renderer gets in the same wall time — measured on 7 of the 8 quick
-    cases; the exception is the naked room at 160x120, where the reference is cheapest
-    (simple geometry, few pixels) and the raster pays ~13 ms per pass for its refined meshes.
-    Timing-based: both sides are best-of or single runs on an otherwise idle machine."""
-    assert quality["checks"]["raster_wins_fraction_S8"] >= 0.75
+    than the reference renderer gets in the same wall time, on every quick case (measured
+    margins 1.4-2.4x in error; with 1-2 passes the raster's ghosting loses, as expected).
+    Timing-based: best-of-3 raster frames against single reference runs, idle machine."""
+    assert quality["checks"]["raster_wins_at_equal_time_S8"]
 
 
 def test_quick_quality_raster_ssim_at_32_passes(quality):

@@ -74,8 +74,8 @@ def test_rendered_dot_spread_matches_the_blur_ellipse(eye, focus):
     fov = 8.0
     size = 0.001
     scene = dot_scene(1.0, size)
-    # (the reconstruction filter, which adds its own small Gaussian, is off: this measures
-    # the displaced passes themselves)
+    # (the reconstruction filter, which adds its own small Gaussian, is off — the default —
+    # so this measures the displaced passes themselves)
     with RasterRenderer(RenderSettings(width=w, height=h, samples=64, fov_y_deg=fov,
                                        near=0.2, far=5.0, focus=focus, reconstruct=False,
                                        field_shape=(64, 16, 16))) as r:
