@@ -62,15 +62,22 @@ def _rmse(a, b):
     return float(np.sqrt(np.mean((to_linear(a) - to_linear(b)) ** 2)))
 
 
-def run_quality_bench(quick: bool = True, size=None, plot_path=None) -> dict:
+def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_spp=None,
+                      ref_spp=None, only_configs=None, only_scenes=None) -> dict:
+    """Run the ladders; ``truth_spp`` / ``ref_spp`` / ``only_configs`` / ``only_scenes``
+    override the preset (for partial runs of the full preset on small machines)."""
     w, h = size or ((160, 120) if quick else (1024, 768))
     raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
-    ref_spp = (4, 16, 64) if quick else (4, 16, 64, 256, 1024)
-    truth_spp = 256 if quick else 4096
+    ref_spp = ref_spp or ((4, 16, 64) if quick else (4, 16, 64, 256, 1024))
+    truth_spp = truth_spp or (256 if quick else 4096)
     rows = []
     cases = []
     for sname, (scene, fov, near, far) in scenes().items():
+        if only_scenes and sname not in only_scenes:
+            continue
         for cname, (eye, lens) in configs(quick).items():
+            if only_configs and cname not in only_configs:
+                continue
             rs = dict(width=w, height=h, fov_y_deg=fov, near=near, far=far)
             t = time.perf_counter()
             truth, _, trep = ReferenceRenderer(ReferenceSettings(spp=truth_spp, **rs)).render(
@@ -133,6 +140,7 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None) -> dict:
                                                         for c in cases])),
     }
     out = {"benchmark": "quality", "preset": "quick" if quick else "full", "size": [w, h],
+           "truth_spp": truth_spp, "reference_spp": list(ref_spp),
            "cases": cases, "checks": checks, "summary": rows}
     rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
                 f"error below the reference's at equal time: S=8 in "

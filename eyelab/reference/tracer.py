@@ -73,6 +73,9 @@ class ReferenceSettings:
         check_range("reference.height", self.height, 4, 4096)
         check_range("reference.spp", self.spp, 1, 65536)
         check_range("reference.fov_y_deg", self.fov_y_deg, 1, 150)
+        check_range("reference.near", self.near, 1e-3, 10)
+        if not self.far > self.near:
+            raise SpecError("reference.far", f"must be > near ({self.near}), got {self.far}")
         if self.model not in ("kakimoto", "fons"):
             raise SpecError("reference.model", f"must be 'kakimoto' or 'fons', got "
                                                f"{self.model!r}")
