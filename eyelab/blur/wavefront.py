@@ -272,12 +272,7 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
     else:
         v = -1.0 / np.where(ok, s, 1.0)
         t = t_mats[cols][:, None]
-        y00, y01, y10, y11, x00, x01, x10, x11, det = apply_isotropic(t, v)
-        det = np.where(np.abs(det) < 1e-300, 1e-300, det)
-        inv = 1.0 / det
-        kxx = (y00 * x11 - y01 * x10) * inv
-        kxy = 0.5 * ((-y00 * x01 + y01 * x00) + (y10 * x11 - y11 * x10)) * inv
-        kyy = (-y10 * x01 + y11 * x00) * inv
+        kxx, kxy, kyy, _ = apply_isotropic(t, v)
     kbar = 0.5 * (kxx + kyy)
     if focus is None:
         acc = eye.accommodation_for(kbar)                                # Eq. 13

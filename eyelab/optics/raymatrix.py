@@ -20,8 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from eyelab.optics.trace import refract
-from eyelab.optics.wavefront import _cross, _dot, any_tangent
+from eyelab.optics.wavefront import _cross, _dot, any_tangent, refraction_frame
 
 
 def _blocks(a, b, c, d):
@@ -53,19 +52,10 @@ def basis_change(u_old, v_old, u_new, v_new):
 def refraction_matrix(N, hit, mu, basis_u, basis_v):
     """Refraction of a wave travelling along N (n, 3) at ``hit``; the incoming K is expressed
     in (basis_u, basis_v). Returns (T including the basis change, new N, u, v')."""
-    new_dir, ns, cos_i, cos_t, _ = refract(N, hit.normals, mu)
-    sgn = np.where(_dot(ns, hit.normals) < 0, -1.0, 1.0)
-    u = _cross(N, ns)
-    un = np.linalg.norm(u, axis=1)
-    normal_inc = un < 1e-12
-    u = np.where(normal_inc[:, None], basis_u, u / np.where(normal_inc, 1.0, un)[:, None])
-    v = _cross(N, u)
-    vs = _cross(ns, u)
-    rot = basis_change(basis_u, basis_v, u, v)
-    ksu = sgn * hit.curvature(u, u)
-    ksv = sgn * hit.curvature(vs, vs)
-    ksuv = sgn * hit.curvature(u, vs)
-    gamma = cos_t - mu * cos_i
+    fr = refraction_frame(N, hit, mu, basis_u)
+    new_dir, u, cos_i, cos_t, gamma = fr.new_dir, fr.u, fr.cos_i, fr.cos_t, fr.gamma
+    ksu, ksv, ksuv = fr.ks
+    rot = basis_change(basis_u, basis_v, u, _cross(N, u))
     n = N.shape[0]
     s = np.zeros((n, 2, 2))
     s[:, 0, 0] = np.sqrt(mu)
@@ -102,7 +92,8 @@ def lens_path_matrix(chief, lens, wavelength_nm, target_points, x_axis):
 def apply_isotropic(t, v):
     """K_out for incoming K = v I through transport t: (C + v D)(A + v B)^-1.
 
-    t : (..., 4, 4); v : (...) -> (kxx, kxy, kyy, det(A + v B)) each (...).
+    t : (..., 4, 4); v : (...) -> (kxx, kxy, kyy, det(A + v B)) each (...), K in the
+    transport's final basis.
     """
     v = np.asarray(v, float)
     x00 = t[..., 0, 0] + v * t[..., 0, 2]
@@ -114,4 +105,10 @@ def apply_isotropic(t, v):
     y10 = t[..., 3, 0] + v * t[..., 3, 2]
     y11 = t[..., 3, 1] + v * t[..., 3, 3]
     det = x00 * x11 - x01 * x10
-    return y00, y01, y10, y11, x00, x01, x10, x11, det
+    # A + v B singular: the wave is focused on the target itself; clamp (finite, huge K)
+    inv = 1.0 / np.where(np.abs(det) < 1e-300, 1e-300, det)
+    kxx = (y00 * x11 - y01 * x10) * inv
+    kyy = (-y10 * x01 + y11 * x00) * inv
+    # K is symmetric up to round-off: average the two off-diagonal entries
+    kxy = 0.5 * ((-y00 * x01 + y01 * x00) + (y10 * x11 - y11 * x10)) * inv
+    return kxx, kxy, kyy, det

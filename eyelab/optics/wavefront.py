@@ -44,6 +44,37 @@ def any_tangent(n):
 
 
 @dataclass
+class RefractionFrame:
+    """The geometry of refraction shared by the wavefront and ray-matrix forms of Eq. 4.
+
+    new_dir (n, 3): refracted direction N'; u (n, 3): common tangent of wave and surface
+    (perpendicular to the plane of incidence; ``fallback_u`` at normal incidence); cos_i,
+    cos_t, gamma = cos_t - mu cos_i (n,); ks = (ks_u, ks_v, ks_uv): the surface's curvatures
+    along u and v_s = N_s x u, w.r.t. the normal oriented along the light; status (n,).
+    """
+
+    new_dir: np.ndarray
+    u: np.ndarray
+    cos_i: np.ndarray
+    cos_t: np.ndarray
+    gamma: np.ndarray
+    ks: tuple
+    status: np.ndarray
+
+
+def refraction_frame(N, hit: Hit, mu, fallback_u) -> RefractionFrame:
+    new_dir, ns, cos_i, cos_t, st = refract(N, hit.normals, mu)
+    sgn = np.where(_dot(ns, hit.normals) < 0, -1.0, 1.0)
+    u = _cross(N, ns)
+    un = np.linalg.norm(u, axis=1)
+    normal_inc = un < 1e-12
+    u = np.where(normal_inc[:, None], fallback_u, u / np.where(normal_inc, 1.0, un)[:, None])
+    vs = _cross(ns, u)
+    ks = (sgn * hit.curvature(u, u), sgn * hit.curvature(vs, vs), sgn * hit.curvature(u, vs))
+    return RefractionFrame(new_dir, u, cos_i, cos_t, cos_t - mu * cos_i, ks, st)
+
+
+@dataclass
 class Wavefront:
     """Wavefronts along n rays. See the module docstring for conventions."""
 
@@ -126,19 +157,11 @@ class Wavefront:
         ks_v is correct (Kneisly 1964; checked against brute-force ray bundles in the tests).
         Surface curvatures are taken w.r.t. the normal oriented along the light.
         """
-        N = self.N
-        new_dir, ns, cos_i, cos_t, st = refract(N, hit.normals, mu)
-        sgn = np.where(_dot(ns, hit.normals) < 0, -1.0, 1.0)
-        u = _cross(N, ns)
-        un = np.linalg.norm(u, axis=1)
-        normal_inc = un < 1e-12
-        u = np.where(normal_inc[:, None], self.t1, u / np.where(normal_inc, 1.0, un)[:, None])
-        vs = _cross(ns, u)
+        fr = refraction_frame(self.N, hit, mu, self.t1)
+        u, cos_i, cos_t, gamma = fr.u, fr.cos_i, fr.cos_t, fr.gamma
+        new_dir, st = fr.new_dir, fr.status
+        ksu, ksv, ksuv = fr.ks
         ku, kuv, kv = self.in_basis(u)
-        ksu = sgn * hit.curvature(u, u)
-        ksv = sgn * hit.curvature(vs, vs)
-        ksuv = sgn * hit.curvature(u, vs)
-        gamma = cos_t - mu * cos_i
         r = cos_i / cos_t
         inv = 1.0 / cos_t
         self.k11 = mu * ku + gamma * ksu

@@ -190,10 +190,7 @@ class ReferenceRenderer:
             n_in = -d[idx]
             x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))
             t, _ = lens_path_matrix(chief, lens, 587.56, np.zeros((len(idx), 3)), x_e)
-            y00, y01, y10, y11, x00, x01, x10, x11, det = apply_isotropic(t, v[idx])
-            det = np.where(np.abs(det) < 1e-300, 1e-300, det)
-            kxx = (y00 * x11 - y01 * x10) / det
-            kyy = (-y10 * x01 + y11 * x00) / det
+            kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
         acc = eye.accommodation_for(kbar) if s.focus is None else np.full(
             m, min(max(float(s.focus), 0.0), eye.accommodation_max))
