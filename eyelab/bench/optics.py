@@ -27,11 +27,8 @@ TARGET_CHAIN_PER_S = 2.0e6
 
 
 def _subset(ch: ChiefRays, a: int, b: int) -> ChiefRays:
-    from eyelab.optics.trace import Hit
-
     def cut_hit(h):
-        return Hit(h.points[a:b], h.normals[a:b], tuple(f[a:b] for f in h.form), h.rotation,
-                   h.status[a:b])
+        return h.take(slice(a, b))
 
     return ChiefRays(ch.start[a:b], ch.entry[a:b], ch.exit[a:b], ch.dir_in[a:b],
                      ch.dir_glass[a:b], ch.dir_out[a:b],

@@ -80,6 +80,11 @@ class Hit:
     rotation: np.ndarray
     status: np.ndarray
 
+    def take(self, rows) -> Hit:
+        """The hits of the given rows (index array or slice)."""
+        return Hit(self.points[rows], self.normals[rows], tuple(f[rows] for f in self.form),
+                   self.rotation, self.status[rows])
+
     def curvature(self, a, b):
         """Normal curvature form II(a, b) for world tangent vectors a, b (n, 3), +z normal."""
         al = a @ self.rotation

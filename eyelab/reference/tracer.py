@@ -178,14 +178,9 @@ class ReferenceRenderer:
         if lens is not None and through.any():
             idx = np.flatnonzero(through)
             h_back, h_front = res["hit1"], res["hit2"]
-            from eyelab.optics.trace import Hit
-
-            def cut(h):
-                return Hit(h.points[idx], h.normals[idx], tuple(f[idx] for f in h.form),
-                           h.rotation, h.status[idx])
-
             chief = ChiefRays(None, h_front.points[idx], h_back.points[idx], -dq[idx],
-                              -res["inside"][idx], -d[idx], (cut(h_front), cut(h_back)),
+                              -res["inside"][idx], -d[idx],
+                              (h_front.take(idx), h_back.take(idx)),
                               None, None, np.zeros(len(idx), np.uint8), dist[idx])
             n_in = -d[idx]
             x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))

@@ -397,7 +397,10 @@ class RasterRenderer:
         if lens is None:
             report["skipped"].append("lens passes: no lens")
         else:
-            lens_in_view = lens_in_view_of(lens, eye_cam)
+            vkey = ("in_view", lens, eye_cam)
+            if vkey not in self._lens_cache:
+                self._lens_cache[vkey] = lens_in_view_of(lens, eye_cam)
+            lens_in_view = self._lens_cache[vkey]
             if not lens_in_view:
                 report["skipped"].append("lens passes: the lens is outside the view")
         t = time.perf_counter()
