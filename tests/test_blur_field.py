@@ -123,6 +123,33 @@ def test_scene_bounds_skip_voxels_and_report_why():
     np.testing.assert_array_equal(f.matrix[ok], full.matrix[ok])
 
 
+@pytest.mark.parametrize("with_lens", [False, True])
+def test_skipping_never_changes_an_interpolated_lookup_inside_the_scene(with_lens):
+    """A flat target fills one slice; trilinear look-ups inside it also read the next
+    slice and column, which must be computed, not left zero (a zero neighbour shrank a
+    6 m chart's blur by up to a half before the one-cell margin)."""
+    eye = Eye.from_rx(Prescription(-1.0, -2.0, 45))
+    lens = SpectacleLens.from_rx(Prescription(-3.0)) if with_lens else None
+    cam = eye_camera(near=1.0, far=20.0, fov_y_deg=8.0)
+    if lens is not None:
+        from eyelab.optics.camera import fit_virtual_camera
+
+        cam = fit_virtual_camera(lens, cam).camera
+    bounds = ((-0.3, -0.2, -6.0), (0.3, 0.2, -6.0))          # a chart 6 m ahead
+    # (the same aiming depth for the shared chief rays, so only the skipping differs)
+    f = compute_blur_field(eye, lens, cam, shape=(128, 16, 16), scene_bounds=bounds,
+                           reference_depth=6.0)
+    full = compute_blur_field(eye, lens, cam, shape=(128, 16, 16), reference_depth=6.0)
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(-0.3, 0.3, 500), rng.uniform(-0.2, 0.2, 500),
+                           np.full(500, -6.0)])
+    inside = np.all(np.abs(cam.world_to_ndc(pts)[:, :2]) < 1, axis=1)
+    assert inside.sum() > 100
+    np.testing.assert_allclose(f.lookup(pts[inside]), full.lookup(pts[inside]),
+                               rtol=0, atol=1e-12)
+    assert f.report["voxels_computed"] < full.report["voxels_computed"] / 20
+
+
 def test_save_load_round_trip_and_cache_key(tmp_path):
     eye = Eye.from_rx(Prescription(-1.0, -0.5, 10))
     f = compute_blur_field(eye, None, shape=SMALL)

@@ -205,7 +205,7 @@ def _scene_mask(camera, shape, depth_mode, bounds):
     from eyelab.blur.field import slice_bounds
 
     sb = slice_bounds(camera, nz, depth_mode)
-    slice_ok = (sb[1:] >= w_lo) & (sb[:-1] <= w_hi)
+    slice_ok = _dilate1((sb[1:] >= w_lo) & (sb[:-1] <= w_hi))
     col_ok = np.ones((ny, nx), bool)
     if w.min() > 0:  # the whole box in front: its NDC footprint bounds the columns
         ndc = camera.world_to_ndc(corners)
@@ -215,8 +215,19 @@ def _scene_mask(camera, shape, depth_mode, bounds):
         ey = -1.0 + 2 * np.arange(ny + 1) / ny
         cx = (ex[1:] >= x0) & (ex[:-1] <= x1)
         cy = (ey[1:] >= y0) & (ey[:-1] <= y1)
-        col_ok = cy[:, None] & cx[None, :]
+        col_ok = _dilate1(cy)[:, None] & _dilate1(cx)[None, :]
     return col_ok, slice_ok, w_lo, w_hi
+
+
+def _dilate1(ok):
+    """One more cell on each side of every run of True (n,) -> (n,): values live at cell
+    centres and are read by trilinear interpolation, so a point anywhere in a needed cell
+    also reads its neighbours; a neighbour left uncomputed (zero) would shrink the blur by
+    up to half towards the edge of the scene's range (a flat chart sits in one slice)."""
+    out = ok.copy()
+    out[1:] |= ok[:-1]
+    out[:-1] |= ok[1:]
+    return out
 
 
 def _jacobian_rays(lens, pupil, d_rev, x_eye, wavelength_nm):
