@@ -71,6 +71,14 @@ def _build_parser() -> argparse.ArgumentParser:
     be.add_argument("--points", type=int, default=1_000_000,
                     help="optics: points per wavefront-tracing batch (default 1e6)")
     be.add_argument("--repeats", type=int, default=3)
+    be.add_argument("--truth-spp", type=int,
+                    help="quality: samples per pixel of the converged reference")
+    be.add_argument("--reference-spp", help="quality: the reference's ladder, e.g. 4,16,64")
+    be.add_argument("--configs", help="quality: only these eye/lens configurations "
+                    "(comma-separated names)")
+    be.add_argument("--scenes", help="quality: only these scenes (comma-separated names)")
+    be.add_argument("--truth-cache", help="quality: folder where converged references are "
+                    "kept and re-used (keyed by scene, configuration, size and spp)")
     return ap
 
 
@@ -152,7 +160,11 @@ def _bench(args) -> int:
     elif args.what == "quality":
         from eyelab.bench.quality import run_quality_bench
 
-        res = run_quality_bench(quick=not args.full, plot_path=args.plot)
+        res = run_quality_bench(quick=not args.full, plot_path=args.plot,
+                                truth_spp=args.truth_spp,
+                                ref_spp=_int_list("--reference-spp", args.reference_spp),
+                                only_configs=_names(args.configs),
+                                only_scenes=_names(args.scenes), truth_cache=args.truth_cache)
     elif args.what == "stability":
         from eyelab.bench.stability import run_stability_bench
 
@@ -167,6 +179,20 @@ def _bench(args) -> int:
         print(line)
     print(f"wrote {args.output}")
     return 0
+
+
+def _names(text):
+    return None if text is None else [t.strip() for t in text.split(",") if t.strip()]
+
+
+def _int_list(flag, text):
+    if text is None:
+        return None
+    try:
+        vals = [int(t) for t in text.split(",")]
+    except ValueError:
+        raise SpecError(flag, f"must be comma-separated integers, got {text!r}") from None
+    return vals
 
 
 if __name__ == "__main__":

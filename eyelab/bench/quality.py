@@ -18,10 +18,14 @@ SSIM >= 0.95 against the converged reference on every scene.
 
 from __future__ import annotations
 
+import json
+import os
 import time
+from pathlib import Path
 
 import numpy as np
 
+from eyelab.errors import SpecError, check_range
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
@@ -58,18 +62,53 @@ def configs(quick: bool):
     return out
 
 
+def _truth(cache, name, settings, scene, eye, lens):
+    """The converged reference -> (image, seconds, report), from ``cache`` if kept there
+    (the stored time and report are those of the run that made it)."""
+    path = None if cache is None else Path(cache) / f"{name}.npz"
+    if path is not None and path.exists():
+        with np.load(path) as z:
+            return z["image"], float(z["time_s"]), json.loads(str(z["report"]))
+    t = time.perf_counter()
+    img, _, rep = ReferenceRenderer(settings).render(scene, eye, lens)
+    dt = time.perf_counter() - t
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp.npz")
+        np.savez_compressed(tmp, image=img, time_s=dt,
+                            report=json.dumps(rep, default=_plain))
+        os.replace(tmp, path)
+    return img, dt, rep
+
+
+def _plain(o):
+    return o.item() if hasattr(o, "item") else str(o)
+
+
 def _rmse(a, b):
     return float(np.sqrt(np.mean((to_linear(a) - to_linear(b)) ** 2)))
 
 
 def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_spp=None,
-                      ref_spp=None, only_configs=None, only_scenes=None) -> dict:
+                      ref_spp=None, only_configs=None, only_scenes=None,
+                      truth_cache=None) -> dict:
     """Run the ladders; ``truth_spp`` / ``ref_spp`` / ``only_configs`` / ``only_scenes``
-    override the preset (for partial runs of the full preset on small machines)."""
+    override the preset (for partial runs of the full preset on small machines);
+    ``truth_cache`` (a folder) keeps the converged references as ``.npz`` and re-uses them,
+    so a renderer change is re-measured without re-tracing the ground truth."""
     w, h = size or ((160, 120) if quick else (1024, 768))
     raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
-    ref_spp = ref_spp or ((4, 16, 64) if quick else (4, 16, 64, 256, 1024))
+    ref_spp = tuple(ref_spp or ((4, 16, 64) if quick else (4, 16, 64, 256, 1024)))
     truth_spp = truth_spp or (256 if quick else 4096)
+    check_range("truth_spp", truth_spp, 1, 65536)
+    for spp in ref_spp:
+        check_range("reference_spp", spp, 1, 65536)
+    known_s, known_c = set(scenes()), set(configs(quick))
+    for flag, names, known in (("scenes", only_scenes, known_s),
+                               ("configs", only_configs, known_c)):
+        bad = sorted(set(names or ()) - known)
+        if bad:
+            raise SpecError(flag, f"unknown {bad}; allowed: {sorted(known)}")
     rows = []
     cases = []
     for sname, (scene, fov, near, far) in scenes().items():
@@ -79,10 +118,9 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
             if only_configs and cname not in only_configs:
                 continue
             rs = dict(width=w, height=h, fov_y_deg=fov, near=near, far=far)
-            t = time.perf_counter()
-            truth, _, trep = ReferenceRenderer(ReferenceSettings(spp=truth_spp, **rs)).render(
-                scene, eye, lens)
-            t_truth = time.perf_counter() - t
+            truth, t_truth, trep = _truth(truth_cache, f"{sname}__{cname}__{w}x{h}__"
+                                          f"{truth_spp}spp", ReferenceSettings(
+                                              spp=truth_spp, **rs), scene, eye, lens)
             case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
                     "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],
                     "raster": [], "reference": []}
