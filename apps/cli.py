@@ -77,6 +77,9 @@ def _build_parser() -> argparse.ArgumentParser:
     be.add_argument("--configs", help="quality: only these eye/lens configurations "
                     "(comma-separated names)")
     be.add_argument("--scenes", help="quality: only these scenes (comma-separated names)")
+    be.add_argument("--merge", nargs="+", metavar="JSON",
+                    help="quality: combine these partial runs' JSON files into one "
+                    "(checks, summary and plot recomputed) instead of running")
     be.add_argument("--truth-cache", help="quality: folder where converged references are "
                     "kept and re-used (keyed by scene, configuration, size and spp)")
     return ap
@@ -160,11 +163,18 @@ def _bench(args) -> int:
     elif args.what == "quality":
         from eyelab.bench.quality import run_quality_bench
 
-        res = run_quality_bench(quick=not args.full, plot_path=args.plot,
-                                truth_spp=args.truth_spp,
-                                ref_spp=_int_list("--reference-spp", args.reference_spp),
-                                only_configs=_names(args.configs),
-                                only_scenes=_names(args.scenes), truth_cache=args.truth_cache)
+        if args.merge:
+            from eyelab.bench.quality import merge_results
+
+            res = merge_results([_read_json("--merge", p) for p in args.merge],
+                                plot_path=args.plot)
+        else:
+            res = run_quality_bench(quick=not args.full, plot_path=args.plot,
+                                    truth_spp=args.truth_spp,
+                                    ref_spp=_int_list("--reference-spp", args.reference_spp),
+                                    only_configs=_names(args.configs),
+                                    only_scenes=_names(args.scenes),
+                                    truth_cache=args.truth_cache)
     elif args.what == "stability":
         from eyelab.bench.stability import run_stability_bench
 
@@ -179,6 +189,14 @@ def _bench(args) -> int:
         print(line)
     print(f"wrote {args.output}")
     return 0
+
+
+def _read_json(flag, path):
+    try:
+        with open(path) as fh:
+            return json.load(fh)
+    except (OSError, ValueError) as e:
+        raise SpecError(flag, f"cannot read {path}: {e}") from None
 
 
 def _names(text):

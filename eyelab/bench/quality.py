@@ -109,7 +109,6 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
         bad = sorted(set(names or ()) - known)
         if bad:
             raise SpecError(flag, f"unknown {bad}; allowed: {sorted(known)}")
-    rows = []
     cases = []
     for sname, (scene, fov, near, far) in scenes().items():
         if only_scenes and sname not in only_scenes:
@@ -155,29 +154,37 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                     np.log(m["time_s"]), np.log(rt), np.log(re))))
                 m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
             cases.append(case)
-            s32 = [m for m in case["raster"] if m["samples"] == 32]
-            rows.append(f"{sname:>12} {cname:>22}: raster S=32 SSIM "
-                        f"{s32[0]['ssim']:.4f} PSNR {s32[0]['psnr_db']:.1f} dB in "
-                        f"{s32[0]['time_s'] * 1e3:.0f} ms; reference {ref_spp[-1]} spp SSIM "
-                        f"{case['reference'][-1]['ssim']:.4f} in "
-                        f"{case['reference'][-1]['time_s'] * 1e3:.0f} ms; truth "
-                        f"{truth_spp} spp at {trep['rays_per_s'] / 1e6:.2f} M rays/s")
+    return summarise(cases, preset="quick" if quick else "full", size=(w, h),
+                     truth_spp=truth_spp, ref_spp=ref_spp, plot_path=plot_path)
+
+
+def _case_row(case, ref_spp):
+    s32 = [m for m in case["raster"] if m["samples"] == 32][0]
+    ref = case["reference"][-1]
+    return (f"{case['scene']:>12} {case['config']:>22}: raster S=32 SSIM {s32['ssim']:.4f} "
+            f"PSNR {s32['psnr_db']:.1f} dB in {s32['time_s'] * 1e3:.0f} ms; reference "
+            f"{ref_spp[-1]} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
+            f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s")
+
+
+def summarise(cases, *, preset, size, truth_spp, ref_spp, plot_path=None) -> dict:
+    """The benchmark's JSON from its cases: per-case rows, the acceptance checks, the plot."""
+    rows = [_case_row(c, ref_spp) for c in cases]
     wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
+    s8 = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]
+          if m["samples"] == 8]
     checks = {
         "raster_ssim_at_32_min": min(m["ssim"] for c in cases for m in c["raster"]
                                      if m["samples"] == 32),
         # the interactive setting: S = 8 passes against the reference given the same time
-        "raster_wins_at_equal_time_S8": all(m["raster_wins_at_same_time"] for c in cases
-                                            for m in c["raster"] if m["samples"] == 8),
-        "raster_wins_fraction_S8": float(np.mean([m["raster_wins_at_same_time"]
-                                                  for c in cases for m in c["raster"]
-                                                  if m["samples"] == 8])),
+        "raster_wins_at_equal_time_S8": all(s8),
+        "raster_wins_fraction_S8": float(np.mean(s8)),
         "raster_wins_fraction_all_S": float(np.mean(wins)),
         "reference_rays_per_s_max": max(c["truth_rays_per_s"] for c in cases),
         "reference_rays_per_s_median": float(np.median([c["truth_rays_per_s"]
                                                         for c in cases])),
     }
-    out = {"benchmark": "quality", "preset": "quick" if quick else "full", "size": [w, h],
+    out = {"benchmark": "quality", "preset": preset, "size": list(size),
            "truth_spp": truth_spp, "reference_spp": list(ref_spp),
            "cases": cases, "checks": checks, "summary": rows}
     rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
@@ -192,23 +199,55 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     return out
 
 
+def merge_results(results, plot_path=None) -> dict:
+    """One benchmark from several partial runs of the same preset, size and ladders (e.g.
+    one run per configuration); the converged references may differ in spp (each case
+    records its own); raises SpecError naming what else differs."""
+    if not results:
+        raise SpecError("merge", "needs at least one result")
+    first = results[0]
+    for key in ("benchmark", "preset", "size", "reference_spp"):
+        vals = {json.dumps(r.get(key)) for r in results}
+        if len(vals) > 1:
+            raise SpecError("merge", f"results differ in {key}: {sorted(vals)}")
+    cases = [c for r in results for c in r["cases"]]
+    # each case keeps its own converged reference's spp; the top level lists them
+    spp = sorted({c["truth_spp"] for c in cases})
+    return summarise(cases, preset=first["preset"], size=first["size"],
+                     truth_spp=spp[0] if len(spp) == 1 else spp,
+                     ref_spp=first["reference_spp"], plot_path=plot_path)
+
+
 def _plot(cases, path):
+    """Error (RMSE, 1 - SSIM) against wall time: one line per case and method; colour =
+    scene, solid circles = raster (S = 1, 2, 4 ...), dashed squares = reference (spp)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, ax = plt.subplots(figsize=(7, 5), dpi=100)
-    for c in cases:
-        lab = f"{c['scene']} / {c['config']}"
-        ax.loglog([m["time_s"] for m in c["raster"]], [m["rmse"] for m in c["raster"]], "o-",
-                  label=f"raster, {lab}")
-        ax.loglog([m["time_s"] for m in c["reference"]], [m["rmse"] for m in c["reference"]],
-                  "s--", label=f"reference, {lab}")
-    ax.set_xlabel("wall time per image (s)")
-    ax.set_ylabel("RMSE vs converged reference (linear RGB)")
-    ax.set_title("eyelab: error against time")
-    ax.legend(fontsize=5, ncol=2)
+    names = sorted({c["scene"] for c in cases})
+    colour = {n: f"C{i}" for i, n in enumerate(names)}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), dpi=100)
+    for ax, key, label in ((axes[0], "rmse", "RMSE vs converged reference (linear RGB)"),
+                           (axes[1], "ssim", "1 - SSIM vs converged reference")):
+        for c in cases:
+            for meth, style in (("raster", "o-"), ("reference", "s--")):
+                t = [m["time_s"] for m in c[meth]]
+                e = [m[key] if key == "rmse" else max(1.0 - m[key], 1e-5) for m in c[meth]]
+                ax.loglog(t, e, style, color=colour[c["scene"]], alpha=0.55, ms=3, lw=1)
+        ax.set_xlabel("wall time per image (s)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.2)
+    handles = [Line2D([], [], color="k", marker="o", ls="-", ms=3, label="raster (S passes)"),
+               Line2D([], [], color="k", marker="s", ls="--", ms=3,
+                      label="reference (spp)")]
+    handles += [Line2D([], [], color=colour[n], lw=2, label=n) for n in names]
+    axes[1].legend(handles=handles, fontsize=7)
+    configs_ = sorted({c["config"] for c in cases})
+    fig.suptitle(f"eyelab: error against time ({len(cases)} cases; "
+                 f"{', '.join(configs_)})", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
