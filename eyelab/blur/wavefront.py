@@ -77,7 +77,8 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     if scene_bounds is not None:
         col_ok, slice_ok, w_lo, w_hi = _scene_mask(camera, shape, depth_mode, scene_bounds)
         skip_reason = (f"scene depth {w_lo:.3g}-{w_hi:.3g} m: {int((~slice_ok).sum())} of {nz} "
-                       f"slices and {int((~col_ok).sum())} of {ny * nx} columns hold no geometry")
+                       f"slices and {int((~col_ok).sum())} of {ny * nx} columns skipped: no "
+                       "geometry within one cell (the margin trilinear look-ups read)")
     iy, ix = np.nonzero(col_ok)
     ncol = len(iy)
     ndc_x = -1.0 + (2 * ix + 1.0) / nx
