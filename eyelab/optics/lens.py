@@ -123,22 +123,32 @@ class SpectacleLens:
         ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs`` (n, 3)
         and ``status`` (n,) uint8.
         """
+        return self.trace_wavelengths(origins, directions, (wavelength_nm,),
+                                      reverse=reverse)[0]
+
+    def trace_wavelengths(self, origins, directions, wavelengths_nm, *, reverse=False):
+        """:meth:`trace` at several wavelengths: a list of its dicts, one per wavelength.
+        The first surface's intersection does not depend on the wavelength (the rays meet
+        it before any refraction), so it is computed once and shared."""
         origins = np.asarray(origins, float)
         directions = np.asarray(directions, float)
-        nl = self.material.n(wavelength_nm)
         s1, s2 = self.placed_surfaces()
         if reverse:
             s1, s2 = s2, s1
         h1 = intersect(s1, origins, directions)
-        d1, _, _, _, st1 = refract(directions, h1.normals, 1.0 / nl)
-        h2 = intersect(s2, h1.points, d1)
-        d2, _, _, _, st2 = refract(d1, h2.normals, nl)
-        status = h1.status | st1 | h2.status | st2
-        # a ray that must go forward inside the glass but goes backward has missed
-        back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
-        status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
-        return {"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
-                "out_dirs": d2, "status": status}
+        out = []
+        for wl in wavelengths_nm:
+            nl = self.material.n(wl)
+            d1, _, _, _, st1 = refract(directions, h1.normals, 1.0 / nl)
+            h2 = intersect(s2, h1.points, d1)
+            d2, _, _, _, st2 = refract(d1, h2.normals, nl)
+            status = h1.status | st1 | h2.status | st2
+            # a ray that must go forward inside the glass but goes backward has missed
+            back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
+            status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
+            out.append({"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
+                        "out_dirs": d2, "status": status})
+        return out
 
     def back_vertex_powers(self, wavelength_nm: float = 587.56):
         """Principal back vertex powers (D) and the direction (rad, lens frame) of the first,

@@ -220,9 +220,10 @@ class ReferenceRenderer:
         o = origins.reshape(-1, 3)
         dd = dirs.reshape(-1, 3)
         col = np.zeros((m, 3))
-        for ci, wl in enumerate(wls):
-            if lens is not None:
-                r2 = lens.trace(o, dd, wl, reverse=True)
+        traced = lens.trace_wavelengths(o, dd, wls, reverse=True) if lens is not None \
+            else [None] * len(wls)
+        for ci, r2 in enumerate(traced):
+            if r2 is not None:
                 ok = ((r2["status"] & np.uint8(FATAL)) == 0)
                 oo = np.where(ok[:, None], r2["out_points"], o)
                 od = np.where(ok[:, None], r2["out_dirs"], dd)

@@ -40,8 +40,7 @@ def lens_texcoords(lens, points, camera, intersector, *, wavelengths=(587.56,),
     o = np.broadcast_to(pupil, d.shape)
     far = miss_distance or camera.far * 0.999
     uvs, hits, shit, lok = [], [], [], []
-    for wl in wavelengths:
-        res = lens.trace(o, d, wl, reverse=True)
+    for res in lens.trace_wavelengths(o, d, wavelengths, reverse=True):
         ok = (res["status"] & np.uint8(FATAL)) == 0
         q, dd = res["out_points"], res["out_dirs"]
         h = intersector.intersect(q + 1e-6 * dd, dd)
