@@ -139,8 +139,11 @@ def intersect(ps: PlacedSurface, origins, directions) -> Hit:
     q = p + t[:, None] * d
     dv = surf.derivatives(q[:, 0], q[:, 1])
     bad |= ~dv.valid
-    at = ps.aperture_translation if ps.aperture_translation is not None else ps.translation
-    qa = (q @ ps.rotation.T + ps.translation - at) @ ps.rotation
+    pw = q @ ps.rotation.T + ps.translation
+    if ps.aperture_translation is None:
+        qa = q
+    else:
+        qa = (pw - ps.aperture_translation) @ ps.rotation
     bad |= (qa[:, 0] ** 2 + qa[:, 1] ** 2) > ps.aperture_radius**2
     status[bad] |= np.uint8(Status.MISSED)
     nrm = dv.normal()
@@ -148,7 +151,7 @@ def intersect(ps: PlacedSurface, origins, directions) -> Hit:
     clean = lambda v: np.where(bad, 0.0, v)  # noqa: E731 - keep failed rows finite
     nrm = np.where(bad[:, None], np.array([0.0, 0.0, 1.0]), nrm)
     return Hit(
-        points=q @ ps.rotation.T + ps.translation,
+        points=pw,
         normals=nrm @ ps.rotation.T,
         form=tuple(clean(v) for v in form),
         rotation=ps.rotation,
