@@ -19,13 +19,13 @@ SSIM >= 0.95 against the converged reference on every scene.
 from __future__ import annotations
 
 import json
-import os
 import time
 from pathlib import Path
 
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
+from eyelab.fileio import atomic_path, json_default
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
@@ -73,16 +73,10 @@ def _truth(cache, name, settings, scene, eye, lens):
     img, _, rep = ReferenceRenderer(settings).render(scene, eye, lens)
     dt = time.perf_counter() - t
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp.npz")
-        np.savez_compressed(tmp, image=img, time_s=dt,
-                            report=json.dumps(rep, default=_plain))
-        os.replace(tmp, path)
+        with atomic_path(path, suffix=".npz") as tmp:
+            np.savez_compressed(tmp, image=img, time_s=dt,
+                                report=json.dumps(rep, default=json_default))
     return img, dt, rep
-
-
-def _plain(o):
-    return o.item() if hasattr(o, "item") else str(o)
 
 
 def _rmse(a, b):
@@ -155,21 +149,23 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
             cases.append(case)
     return summarise(cases, preset="quick" if quick else "full", size=(w, h),
-                     truth_spp=truth_spp, ref_spp=ref_spp, plot_path=plot_path)
+                     plot_path=plot_path)
 
 
-def _case_row(case, ref_spp):
+def _case_row(case):
     s32 = [m for m in case["raster"] if m["samples"] == 32][0]
     ref = case["reference"][-1]
     return (f"{case['scene']:>12} {case['config']:>22}: raster S=32 SSIM {s32['ssim']:.4f} "
             f"PSNR {s32['psnr_db']:.1f} dB in {s32['time_s'] * 1e3:.0f} ms; reference "
-            f"{ref_spp[-1]} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
+            f"{ref['spp']} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
             f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s")
 
 
-def summarise(cases, *, preset, size, truth_spp, ref_spp, plot_path=None) -> dict:
-    """The benchmark's JSON from its cases: per-case rows, the acceptance checks, the plot."""
-    rows = [_case_row(c, ref_spp) for c in cases]
+def summarise(cases, *, preset, size, plot_path=None) -> dict:
+    """The benchmark's JSON from its cases: per-case rows, the acceptance checks, the plot.
+    ``truth_spp`` is each converged reference's spp (a list where cases differ)."""
+    rows = [_case_row(c) for c in cases]
+    truth_spp = sorted({c["truth_spp"] for c in cases})
     wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
     s8 = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]
           if m["samples"] == 8]
@@ -185,7 +181,8 @@ def summarise(cases, *, preset, size, truth_spp, ref_spp, plot_path=None) -> dic
                                                         for c in cases])),
     }
     out = {"benchmark": "quality", "preset": preset, "size": list(size),
-           "truth_spp": truth_spp, "reference_spp": list(ref_spp),
+           "truth_spp": truth_spp[0] if len(truth_spp) == 1 else truth_spp,
+           "reference_spp": [m["spp"] for m in cases[0]["reference"]],
            "cases": cases, "checks": checks, "summary": rows}
     rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
                 f"error below the reference's at equal time: S=8 in "
@@ -210,12 +207,8 @@ def merge_results(results, plot_path=None) -> dict:
         vals = {json.dumps(r.get(key)) for r in results}
         if len(vals) > 1:
             raise SpecError("merge", f"results differ in {key}: {sorted(vals)}")
-    cases = [c for r in results for c in r["cases"]]
-    # each case keeps its own converged reference's spp; the top level lists them
-    spp = sorted({c["truth_spp"] for c in cases})
-    return summarise(cases, preset=first["preset"], size=first["size"],
-                     truth_spp=spp[0] if len(spp) == 1 else spp,
-                     ref_spp=first["reference_spp"], plot_path=plot_path)
+    return summarise([c for r in results for c in r["cases"]], preset=first["preset"],
+                     size=first["size"], plot_path=plot_path)
 
 
 def _plot(cases, path):

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eyelab.errors import SpecError
+from eyelab.fileio import atomic_path, json_default
 from eyelab.optics.camera import Camera
 
 DEPTH_MODES = ("ndc", "linear")
@@ -161,14 +162,11 @@ class BlurField:
     def save(self, path):
         """Save to ``.npz`` (compressed numpy) or ``.vti`` (VTK image data on the NDC grid, for
         ParaView); both load back exactly with :meth:`load`. Written atomically."""
-        import os
-
         path = str(path)
         if not path.endswith((".npz", ".vti")):
             raise SpecError("path", f"blur fields save to .npz or .vti, got {path!r}")
-        tmp = path + ".tmp" + path[-4:]
-        meta = json.dumps(self._meta(), default=_json_default)
-        try:
+        meta = json.dumps(self._meta(), default=json_default)
+        with atomic_path(path, suffix=path[-4:]) as tmp:
             if path.endswith(".vti"):
                 grid = self.to_pyvista()
                 grid.cell_data["sources"] = self.sources.reshape(-1, 3)
@@ -183,10 +181,6 @@ class BlurField:
                                         omega=self.omega, major_arcmin=self.major_arcmin,
                                         accommodation=self.accommodation, status=self.status,
                                         sources=self.sources, meta=np.array(meta))
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
 
     @classmethod
     def load(cls, path) -> BlurField:
@@ -225,14 +219,6 @@ class BlurField:
         from eyelab.render.fields import blur_field_to_pyvista
 
         return blur_field_to_pyvista(self, world=world)
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
 
 
 def slice_bounds(camera: Camera, nz: int, mode: str):

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from eyelab.errors import SpecError
+from eyelab.fileio import atomic_path, json_default
 from eyelab.render.raster import RasterRenderer, RenderSettings
 from eyelab.scene.scene import Scene
 
@@ -34,45 +33,17 @@ def settings_from(spec, **overrides) -> RenderSettings:
         raise SpecError(e.field, e.message) from None
 
 
-def _publish(tmp, path) -> None:
-    """Move a finished temporary file into place with the usual permissions (umask)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    os.replace(tmp, path)
-
-
 def write_png(path, image: np.ndarray) -> None:
     """Atomic PNG write (no partial file on failure)."""
     import matplotlib.image as mpimg
 
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".png")
-    os.close(fd)
-    try:
+    with atomic_path(path, suffix=".png") as tmp:
         mpimg.imsave(tmp, image)
-        _publish(tmp, p)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def write_json(path, obj) -> None:
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        json.dump(obj, f, indent=2, default=_default)
-    _publish(tmp, p)
-
-
-def _default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
+    with atomic_path(path) as tmp, open(tmp, "w") as f:
+        json.dump(obj, f, indent=2, default=json_default)
 
 
 def render_spec(spec, *, no_lens=False, renderer=None, **overrides):
