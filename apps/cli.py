@@ -1,4 +1,4 @@
-"""The ``eyelab`` command: ``eyelab analyze [SPEC]``, ``eyelab bench optics``.
+"""The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``bench``.
 
 Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
 print one line naming the field and exit with status 2; no partial output file is left.
@@ -36,22 +36,21 @@ def _build_parser() -> argparse.ArgumentParser:
     rn.add_argument("-o", "--output", default="eyelab-render.png", help="PNG file")
     rn.add_argument("--report", help="also write the render report (JSON) here")
     rn.add_argument("--no-lens", action="store_true", help="the naked eye")
-    rn.add_argument("--samples", type=int, help="override render.samples")
-    rn.add_argument("--width", type=int, help="override render.width")
-    rn.add_argument("--height", type=int, help="override render.height")
+    _render_overrides(rn)
     dm = sub.add_parser("demo", help="side-by-side image: uncorrected, corrected, emmetrope")
     dm.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
-    dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file")
-    dm.add_argument("--samples", type=int, help="override render.samples")
-    dm.add_argument("--width", type=int, help="override render.width (per panel)")
-    dm.add_argument("--height", type=int, help="override render.height")
+    dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
+                    "report is written beside it, .json)")
+    _render_overrides(dm)
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
-    be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability"))
+    be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
+                                     "memory"))
     pre = be.add_mutually_exclusive_group()
     pre.add_argument("--quick", action="store_true",
-                     help="quality/stability: the small preset that CI runs (default)")
+                     help="quality: 160x120, two configurations (the default; CI runs it); "
+                     "stability: 10^4 engine cases (CI runs it; the default is 10^5)")
     pre.add_argument("--full", action="store_true",
-                     help="quality: 1024x768 and every configuration; stability: 1e6 cases")
+                     help="quality: 1024x768 and every configuration; stability: 10^6 cases")
     be.add_argument("--plot", help="quality: also write the error-vs-time plot (PNG) here")
     be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
     be.add_argument("--points", type=int, default=1_000_000,
@@ -69,6 +68,15 @@ def _build_parser() -> argparse.ArgumentParser:
     be.add_argument("--truth-cache", help="quality: folder where converged references are "
                     "kept and re-used (keyed by scene, configuration, size and spp)")
     return ap
+
+
+def _render_overrides(parser) -> None:
+    parser.add_argument("--renderer", choices=("raster", "reference"),
+                        help="override render.renderer")
+    parser.add_argument("--samples", type=int, help="override render.samples (passes S of "
+                        "the raster renderer, rays per pixel of the reference)")
+    parser.add_argument("--width", type=int, help="override render.width (pixels)")
+    parser.add_argument("--height", type=int, help="override render.height (pixels)")
 
 
 def main(argv=None) -> int:
@@ -105,27 +113,36 @@ def _analyze(args) -> int:
 
 
 def _render(args) -> int:
+    from dataclasses import replace
+
     from eyelab.spec import load_spec
 
     spec = load_spec(args.spec)
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
-    from eyelab.render.jobs import demo, render_spec, write_json, write_png
+    try:
+        rs = spec.render.with_changes(renderer=args.renderer, samples=args.samples,
+                                      width=args.width, height=args.height)
+    except SpecError as e:
+        flag = e.field.removeprefix("render.").split("[")[0]
+        raise SpecError(f"--{flag} ({e.field})", e.message) from None
+    spec = replace(spec, render=rs)
+    from eyelab.jobs import demo, render_spec, write_json, write_png
 
-    over = {"samples": args.samples, "width": args.width, "height": args.height}
     if args.command == "render":
-        res = render_spec(spec, no_lens=args.no_lens, **over)
-        write_png(args.output, res.image)
+        res = render_spec(spec, no_lens=args.no_lens)
+        write_png(args.output, res.srgb)
         if args.report:
             write_json(args.report, res.report)
-        t = res.report["timings"]
-        print(f"wrote {args.output} ({res.image.shape[1]}x{res.image.shape[0]}, "
-              f"{res.report['passes']['naked']} naked + {res.report['passes']['environment']} "
-              f"through-lens passes, {t['total_s']:.2f} s)")
-        for why in res.report["skipped"]:
+        rep = res.report
+        done = ", ".join(f"{k} {v}" for k, v in rep["samples"]["done"].items())
+        print(f"wrote {args.output} ({res.srgb.shape[1]}x{res.srgb.shape[0]}, "
+              f"{rep['renderer']}: {done} of {rep['samples']['target']} samples, "
+              f"{rep['timings_s']['total']:.2f} s)")
+        for why in rep["skipped"]:
             print(f"  skipped {why}")
     else:
-        image, rep = demo(spec, **over)
+        image, rep = demo(spec)
         write_png(args.output, image)
         write_json(args.output[:-4] + ".json", rep)
         print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
@@ -161,10 +178,17 @@ def _bench(args) -> int:
                                     only_configs=_names(args.configs),
                                     only_scenes=_names(args.scenes),
                                     truth_cache=args.truth_cache)
+    elif args.what == "memory":
+        from eyelab.bench.memory import run_memory_bench
+
+        res = run_memory_bench(*((40, 100) if args.quick else (200, 500)))
     elif args.what == "stability":
         from eyelab.bench.stability import run_stability_bench
 
-        res = run_stability_bench(cases=1_000_000 if args.full else 100_000)
+        if args.quick:     # what CI runs (tests/test_bench_quality.py)
+            res = run_stability_bench(cases=10_000, field_configs=40, reference_configs=8)
+        else:
+            res = run_stability_bench(cases=1_000_000 if args.full else 100_000)
     else:
         from eyelab.bench.blurfield import run_blurfield_bench
 

@@ -1,4 +1,4 @@
-"""Offscreen gallery of blur-field views for the README (``python -m apps.gallery OUT``).
+"""Offscreen gallery of blur-field views for the README (``python -m eyelab.apps.gallery OUT``).
 
 Writes: ``blurfield_volume.png`` (the naked field of a myopic presbyope as a volume over
 the view frustum), ``blurfield_glyphs.png`` (Sturm-conoid ellipses of an astigmatic
@@ -14,7 +14,7 @@ import sys
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m apps.gallery")
+    ap = argparse.ArgumentParser(prog="python -m eyelab.apps.gallery")
     ap.add_argument("out", help="output folder")
     ap.add_argument("--size", type=int, nargs=2, default=(800, 600), metavar=("W", "H"))
     args = ap.parse_args(argv)

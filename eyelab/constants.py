@@ -3,7 +3,11 @@
 Lengths are metres, powers dioptres (1/m), angles radians unless a name says otherwise.
 """
 
+import math
 from dataclasses import dataclass
+
+#: Radians to minutes of arc.
+RAD_TO_ARCMIN = 180.0 * 60.0 / math.pi
 
 
 @dataclass(frozen=True)

@@ -9,19 +9,22 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
+from eyelab.imaging import View
 from eyelab.optics.eye import Eye, hofstetter_amplitude, watson_yellott_pupil
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Asphere, Surface, Toric
+from eyelab.options import QUALITIES, RENDERERS, RasterQuality, quality_keys
+from eyelab.scene.library import SCENE_NAMES
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
@@ -33,9 +36,40 @@ SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curv
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m"}
-RENDER_KEYS = {"scene", "width", "height", "samples", "fov_y_deg", "near_m", "far_m",
-               "chromatic", "refine", "field_shape", "focus_d", "cvd", "cvd_severity"}
-SCENE_NAMES = ("room", "chart", "page", "tilted_page", "depth_ramp")
+
+
+@dataclass(frozen=True)
+class RenderSpec:
+    """The ``[render]`` table, validated: the scene (a built-in name or a mesh file path),
+    the renderer's name, the :class:`~eyelab.imaging.View` and the renderer's quality
+    options (:mod:`eyelab.options`). ``table`` keeps the keys as written, so that
+    :meth:`with_changes` can re-validate them for another renderer or with overrides."""
+
+    scene: str = "room"
+    renderer: str = "raster"
+    view: View = View()
+    quality: object = field(default_factory=RasterQuality)
+    table: dict = field(default_factory=dict)
+
+    def with_changes(self, **changes) -> RenderSpec:
+        """The same table with some keys replaced (None values are ignored), validated
+        again; ``renderer`` may name another renderer (keys only the old one has are then
+        dropped, as if never written)."""
+        t = dict(self.table)
+        t.update({k: v for k, v in changes.items() if v is not None})
+        if "renderer" in changes and changes["renderer"] is not None:
+            other = set(renderer_keys(self.renderer)) - set(renderer_keys(t["renderer"]))
+            for k in other:
+                t.pop(k, None)
+        return parse_render(t, None)
+
+
+#: Keys of ``[render]`` that every renderer takes (the rest are renderers' quality options).
+RENDER_VIEW_KEYS = {"width": "width", "height": "height", "fov_y_deg": "fov_y_deg",
+                    "near_m": "near", "far_m": "far", "focus_d": "focus_d", "cvd": "cvd",
+                    "cvd_severity": "cvd_severity"}
+#: Quality options that are display choices rather than spec keys.
+_NOT_SPEC_KEYS = {"progress"}
 
 
 @dataclass(frozen=True)
@@ -47,7 +81,7 @@ class Spec:
     fixation: str = "fixed"
     accommodation: float | None = None
     source: str = "<built-in>"
-    render: dict | None = None
+    render: RenderSpec = field(default_factory=RenderSpec)
 
 
 def _check_keys(table, allowed, where):
@@ -227,11 +261,30 @@ def parse_points(items) -> ObjectPoints:
     return ObjectPoints(np.array(dirs), np.array(dists, float))
 
 
-def parse_render(t: dict, base: Path | None = None) -> dict:
-    """The [render] table -> keyword arguments: scene (a built-in name or a mesh file),
-    RenderSettings fields."""
-    _check_keys(t, RENDER_KEYS, "render")
-    out = {}
+def renderer_keys(renderer: str) -> tuple:
+    """The ``[render]`` keys a renderer takes: scene, renderer, the view's and its quality
+    options'."""
+    return ("scene", "renderer", *RENDER_VIEW_KEYS,
+            *(k for k in quality_keys(renderer) if k not in _NOT_SPEC_KEYS))
+
+
+def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
+    """The [render] table -> :class:`RenderSpec` (every key checked; a key another renderer
+    takes is refused with the renderer it belongs to)."""
+    if not isinstance(t, dict):
+        raise SpecError("render", f"must be a table, got {t!r}")
+    renderer = t.get("renderer", "raster")
+    if renderer not in RENDERERS:
+        raise SpecError("render.renderer", f"must be one of {', '.join(map(repr, RENDERERS))}, "
+                                           f"got {renderer!r}")
+    allowed = set(renderer_keys(renderer))
+    every = {k for r in RENDERERS for k in renderer_keys(r)}
+    for key in t:
+        if key not in allowed and key in every:
+            owners = [r for r in RENDERERS if key in renderer_keys(r)]
+            raise SpecError(f"render.{key}", f"only for renderer = {' or '.join(map(repr, owners))}"
+                                             f" (this spec uses {renderer!r})")
+    _check_keys(t, allowed, "render")
     scene = t.get("scene", "room")
     if not isinstance(scene, str):
         raise SpecError("render.scene", f"must be one of {SCENE_NAMES} or a mesh file path")
@@ -241,43 +294,14 @@ def parse_render(t: dict, base: Path | None = None) -> dict:
             raise SpecError("render.scene", f"{scene!r} is neither a built-in scene "
                             f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
         scene = str(p)
-    out["scene"] = scene
-    settings = {}
-    for key, lo, hi in (("width", 16, 4096), ("height", 16, 4096), ("samples", 1, 256)):
-        if key in t:
-            v = check_range(f"render.{key}", t[key], lo, hi)
-            if v != int(v):
-                raise SpecError(f"render.{key}", f"must be an integer, got {t[key]!r}")
-            settings[key] = int(v)
-    if "fov_y_deg" in t:
-        settings["fov_y_deg"] = check_range("render.fov_y_deg", t["fov_y_deg"], 1, 150)
-    if "near_m" in t:
-        settings["near"] = check_range("render.near_m", t["near_m"], 1e-3, 10)
-    if "far_m" in t:
-        settings["far"] = check_range("render.far_m", t["far_m"], 0.1, 1e5)
-    for key in ("chromatic", "refine"):
-        if key in t:
-            if not isinstance(t[key], bool):
-                raise SpecError(f"render.{key}", f"must be true or false, got {t[key]!r}")
-            settings[key] = t[key]
-    if "field_shape" in t:
-        fs = t["field_shape"]
-        if not (isinstance(fs, list) and len(fs) == 3):
-            raise SpecError("render.field_shape", f"must be [nz, ny, nx], got {fs!r}")
-        settings["field_shape"] = tuple(int(check_range(f"render.field_shape[{i}]", v, 1, 512))
-                                        for i, v in enumerate(fs))
-    if "focus_d" in t:
-        settings["focus"] = check_range("render.focus_d", t["focus_d"], 0, 16)
-    if "cvd" in t:
-        from eyelab.color import CVD_KINDS
-
-        if t["cvd"] not in CVD_KINDS:
-            raise SpecError("render.cvd", f"must be one of {CVD_KINDS}, got {t['cvd']!r}")
-        settings["cvd"] = t["cvd"]
-    if "cvd_severity" in t:
-        settings["cvd_severity"] = check_range("render.cvd_severity", t["cvd_severity"], 0, 1)
-    out["settings"] = settings
-    return out
+    view = View(**{attr: t[key] for key, attr in RENDER_VIEW_KEYS.items() if key in t})
+    qkw = {k: t[k] for k in quality_keys(renderer) if k in t}
+    for key in ("field_shape", "rim_color", "invalid_color"):
+        if key in qkw and isinstance(qkw[key], list):
+            qkw[key] = tuple(qkw[key])
+    quality = QUALITIES[renderer](**qkw)
+    table = dict(t, scene=scene, renderer=renderer)
+    return RenderSpec(scene, renderer, view, quality, table)
 
 
 def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:

@@ -6,7 +6,7 @@ never the wavefront code, so they check the wavefront tracer independently.
 
 import numpy as np
 
-from eyelab.optics.wavefront import any_tangent
+from eyelab.vecmath import any_tangent
 
 
 def bundle_vergence(lens, start, dir_in, finite, pupil, n_chief, x_axis, *,

@@ -6,8 +6,8 @@ import sys
 import numpy as np
 import pytest
 
-from apps.cli import main
 from eyelab.analyze import analyze_spec
+from eyelab.apps.cli import main
 from eyelab.spec import load_spec
 
 
@@ -31,7 +31,7 @@ def test_analyze_text_and_no_lens(capsys):
 
 
 def test_analyze_as_subprocess():
-    r = subprocess.run([sys.executable, "-m", "apps.cli", "analyze", "--json"],
+    r = subprocess.run([sys.executable, "-m", "eyelab.apps.cli", "analyze", "--json"],
                        capture_output=True, text=True, check=False,
                        cwd=os.path.dirname(os.path.dirname(__file__)))
     assert r.returncode == 0, r.stderr
@@ -111,7 +111,7 @@ def test_render_and_demo_commands(tmp_path, capsys):
     import matplotlib.image as mpimg
 
     assert mpimg.imread(out).shape[:2] == (72, 96)
-    assert json.loads(rep.read_text())["passes"]["naked"] == 2
+    assert json.loads(rep.read_text())["samples"]["done"]["naked"] == 2
     demo = tmp_path / "d.png"
     assert main(["demo", "-o", str(demo), "--samples", "2", "--width", "96",
                  "--height", "72"]) == 0
@@ -122,8 +122,12 @@ def test_render_and_demo_commands(tmp_path, capsys):
 def test_render_bad_input_leaves_no_file(tmp_path, capsys):
     out = tmp_path / "r.png"
     assert main(["render", "-o", str(out), "--samples", "999"]) == 2
-    assert "render.samples" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--samples (render.samples)" in err and "[1, 256]" in err
     assert not out.exists()
+    assert main(["render", "-o", str(out), "--renderer", "reference", "--samples",
+                 "70000"]) == 2
+    assert "[1, 65536]" in capsys.readouterr().err
     spec = tmp_path / "s.toml"
     spec.write_text('[render]\nscene = "nowhere.obj"\n')
     assert main(["render", str(spec), "-o", str(out)]) == 2

@@ -5,13 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from data_generators.scenes import chart_scene, dot_scene, grid_quad, room_scene
+from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.materials import CATALOGUE, Material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Plane
-from eyelab.render.raster import RasterRenderer, RenderSettings, seeds_for
+from eyelab.options import RasterQuality
+from eyelab.render.raster import RasterRenderer
+from eyelab.sampling import seeds_for
+from eyelab.scene.library import chart_scene, dot_scene, grid_quad, room_scene
 from eyelab.scene.scene import Scene
 
 
@@ -22,13 +25,13 @@ def chart():
 
 def test_in_focus_emmetrope_equals_one_undisplaced_pass(chart):
     eye = Eye(accommodation_max=5.0)
-    with RasterRenderer(RenderSettings(width=160, height=120, samples=16,
-                                       fov_y_deg=30)) as r:
-        many = r.render(chart, eye)
-    with RasterRenderer(RenderSettings(width=160, height=120, samples=1, fov_y_deg=30)) as r:
-        one = r.render(chart, eye)
+    view = View(width=160, height=120, fov_y_deg=30)
+    with RasterRenderer(RasterQuality(samples=16)) as r:
+        many = r.render(chart, eye, None, view)
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        one = r.render(chart, eye, None, view)
     np.testing.assert_array_equal(many.image, one.image)
-    assert many.report["passes"]["naked"] == 1
+    assert many.report["samples"]["done"]["naked"] == 1
     assert any("all zero" in s for s in many.report["skipped"])
     assert many.image.min() < 50 and many.image.max() > 200   # the chart is there
 
@@ -36,11 +39,11 @@ def test_in_focus_emmetrope_equals_one_undisplaced_pass(chart):
 def test_index_one_plane_lens_is_invisible(chart):
     eye = Eye(accommodation_max=5.0)
     nothing = SpectacleLens(Plane(), Plane(), 0.002, Material("vacuum", 1.0))
-    settings = RenderSettings(width=240, height=180, samples=1, fov_y_deg=30)
-    with RasterRenderer(settings) as r:
-        bare = r.render(chart, eye)
-        seen = r.render(chart, eye, nothing)
-    inside = seen.lens_mask.copy()
+    view = View(width=240, height=180, fov_y_deg=30)
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        bare = r.render(chart, eye, None, view)
+        seen = r.render(chart, eye, nothing, view)
+    inside = seen.layers["lens_mask"].copy()
     for _ in range(3):   # leave the drawn rim out
         inside[1:-1, 1:-1] &= inside[:-2, 1:-1] & inside[2:, 1:-1] & inside[1:-1, :-2] \
             & inside[1:-1, 2:]
@@ -76,15 +79,14 @@ def test_rendered_dot_spread_matches_the_blur_ellipse(eye, focus):
     scene = dot_scene(1.0, size)
     # (the reconstruction filter, which adds its own small Gaussian, is off — the default —
     # so this measures the displaced passes themselves)
-    with RasterRenderer(RenderSettings(width=w, height=h, samples=64, fov_y_deg=fov,
-                                       near=0.2, far=5.0, focus=focus, reconstruct=False,
-                                       field_shape=(64, 16, 16))) as r:
-        res = r.render(scene, eye)
-        field = next(iter(r._fields.values()))
-    with RasterRenderer(RenderSettings(width=w, height=h, samples=1, fov_y_deg=fov,
-                                       near=0.2, far=5.0, focus=focus,
-                                       field_shape=(64, 16, 16))) as r:
-        sharp = r.render(scene, eye)
+    view = View(width=w, height=h, fov_y_deg=fov, near=0.2, far=5.0, focus_d=focus)
+    with RasterRenderer(RasterQuality(samples=64, reconstruct=False,
+                                      field_shape=(64, 16, 16))) as r:
+        res = r.render(scene, eye, None, view)
+        (key,) = r.caches["fields"].keys()
+        field = r.caches["fields"].get(key)
+    with RasterRenderer(RasterQuality(samples=1, field_shape=(64, 16, 16))) as r:
+        sharp = r.render(scene, eye, None, view)
     b = field.lookup(np.array([[0.0, 0.0, -1.0]]))[0]
     seeds = seeds_for(64)
     c = seeds.T @ seeds / len(seeds)
@@ -116,10 +118,9 @@ def test_chromatic_fringe_matches_prentice_over_abbe():
     quad = grid_quad("edge", (0.0, 0.0, -2.0), (1, 0, 0), (0, 1, 0), 1.0, 1.0, nu=8, nv=8,
                      texture=edge_img)
     w, fov = 400, 8.0
-    with RasterRenderer(RenderSettings(width=w, height=100, samples=1, fov_y_deg=fov * 100 / w,
-                                       near=0.5, far=5.0, lens_rings=48,
-                                       lens_segments=192)) as r:
-        res = r.render(Scene([quad], background=(0, 0, 0)), eye, lens)
+    view = View(width=w, height=100, fov_y_deg=fov * 100 / w, near=0.5, far=5.0)
+    with RasterRenderer(RasterQuality(samples=1, lens_rings=48, lens_segments=192)) as r:
+        res = r.render(Scene([quad], background=(0, 0, 0)), eye, lens, view)
     row = res.image[50].astype(float)
 
     def crossing(ch):
@@ -139,18 +140,19 @@ def test_lens_texture_coordinates_reproject_exactly():
     texture coordinate points (< 0.05 px)."""
     import vtk
 
-    from eyelab.optics.camera import fit_virtual_camera
-    from eyelab.render.raster import _lens_back_mesh, _Window, env_view
+    from eyelab.optics.camera import fit_virtual_camera, fit_window
+    from eyelab.render.window import OffscreenWindow
+    from eyelab.scene.lensview import lens_back_mesh
     from eyelab.scene.pervertex import lens_texcoords
     from eyelab.scene.raycast import EmbreeIntersector, NumpyIntersector
 
     scene = room_scene()
     lens = SpectacleLens.from_rx(Prescription(-4.0, -1.0, 20), material="1.67")
-    s = RenderSettings(width=320, height=240)
-    vcam, (w_env, h_env) = env_view(fit_virtual_camera(lens, s.eye_camera()).camera, 320)
-    lv, _ = _lens_back_mesh(lens, 48, 96)
+    view = View(width=320, height=240)
+    vcam, (w_env, h_env) = fit_window(fit_virtual_camera(lens, view.camera()).camera, 320)
+    lv, _ = lens_back_mesh(lens, 48, 96)
     tc = lens_texcoords(lens, lv, vcam, EmbreeIntersector(scene))
-    win = _Window()
+    win = OffscreenWindow()
     win.set_view(vcam, (w_env, h_env), (0, 0, 0))
     win.win.Render()
     # vertices whose scene point lies in the environment image (the rest of the lens is
@@ -178,30 +180,32 @@ def test_lens_texture_coordinates_reproject_exactly():
 def test_lens_outside_the_view_skips_the_lens_passes(chart):
     lens = SpectacleLens.from_rx(Prescription(-2.0), diameter=0.012,
                                  pose=LensPose(decentration=(0.02, 0.0)))
-    with RasterRenderer(RenderSettings(width=64, height=48, samples=2, fov_y_deg=20)) as r:
-        res = r.render(chart, Eye(), lens)
-    assert res.report["passes"]["environment"] == 0
+    with RasterRenderer(RasterQuality(samples=2)) as r:
+        res = r.render(chart, Eye(), lens, View(width=64, height=48, fov_y_deg=20))
+    assert res.report["samples"]["done"]["environment"] == 0
     assert "lens passes: the lens is outside the view" in res.report["skipped"]
-    assert res.lens_mask is None
+    assert "lens_mask" not in res.layers
 
 
 def test_no_dispersion_uses_one_texture_coordinate_set(chart):
     lens = SpectacleLens.from_rx(Prescription(-2.0), material={"n_d": 1.5})
-    with RasterRenderer(RenderSettings(width=64, height=48, samples=2)) as r:
-        res = r.render(chart, Eye(), lens)
-    assert res.report["lens"]["texcoord_sets"] == 1
+    view = View(width=64, height=48)
+    with RasterRenderer(RasterQuality(samples=2)) as r:
+        res = r.render(chart, Eye(), lens, view)
+    assert res.report["details"]["lens"]["texcoord_sets"] == 1
     assert any("does not disperse" in s for s in res.report["skipped"])
-    with RasterRenderer(RenderSettings(width=64, height=48, samples=2)) as r:
+    with RasterRenderer(RasterQuality(samples=2)) as r:
         res = r.render(chart, Eye(), SpectacleLens.from_rx(Prescription(-2.0),
-                                                          material=CATALOGUE["cr39"]))
-    assert res.report["lens"]["texcoord_sets"] == 3
+                                                          material=CATALOGUE["cr39"]), view)
+    assert res.report["details"]["lens"]["texcoord_sets"] == 3
 
 
 def test_progressive_mode_returns_1_2_4_and_s_passes(chart):
     eye = Eye.from_rx(Prescription(-3.0), accommodation_max=0.0)
-    with RasterRenderer(RenderSettings(width=64, height=48, samples=10)) as r:
-        res = r.render(chart, eye, progressive=True)
-        full = r.render(chart, eye)
+    view = View(width=64, height=48)
+    with RasterRenderer(RasterQuality(samples=10)) as r:
+        res = r.render(chart, eye, None, view, progressive=True)
+        full = r.render(chart, eye, None, view)
     assert [k for k, _ in res.progressive] == [1, 2, 4, 8, 10]
     np.testing.assert_array_equal(res.progressive[-1][1], full.image)
 
@@ -217,12 +221,13 @@ def test_no_vtk_leak_over_200_renders():
     scene = chart_scene(2.0)
     eye = Eye.from_rx(Prescription(-1.0), accommodation_max=0.5)
     lens = SpectacleLens.from_rx(Prescription(-1.0))
-    with RasterRenderer(RenderSettings(width=64, height=48, samples=2)) as r:
+    view = View(width=64, height=48)
+    with RasterRenderer(RasterQuality(samples=2)) as r:
         for i in range(20):
-            r.render(scene, eye, lens if i % 2 else None)
+            r.render(scene, eye, lens if i % 2 else None, view)
         before = rss_mb()
         for i in range(200):
-            r.render(scene, eye, lens if i % 2 else None)
+            r.render(scene, eye, lens if i % 2 else None, view)
         after = rss_mb()
     assert after - before < 50.0
 
@@ -232,13 +237,12 @@ def test_cvd_post_process_is_the_colour_module_applied_to_the_render(chart):
 
     scene = room_scene()
     eye = Eye(accommodation_max=5.0)
-    with RasterRenderer(RenderSettings(width=96, height=72, samples=1)) as r:
-        plain = r.render(scene, eye)
-    with RasterRenderer(RenderSettings(width=96, height=72, samples=1, cvd="deutan",
-                                       cvd_severity=0.6)) as r:
-        cvd = r.render(scene, eye)
+    view = View(width=96, height=72)
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        plain = r.render(scene, eye, None, view)
+        cvd = r.render(scene, eye, None, view.replace(cvd="deutan", cvd_severity=0.6))
     np.testing.assert_array_equal(cvd.image, simulate_cvd(plain.image, "deutan", 0.6))
-    assert cvd.report["cvd"]["kind"] == "deutan"
+    assert cvd.report["details"]["cvd"]["kind"] == "deutan"
 
 
 def test_texture_and_attribute_routes_agree():
@@ -249,12 +253,13 @@ def test_texture_and_attribute_routes_agree():
     eye = Eye.from_rx(rx, accommodation_max=1.0)
     lens = SpectacleLens.from_rx(rx)
     out = {}
+    view = View(width=160, height=120)
     for route in ("attribute", "texture"):
-        with RasterRenderer(RenderSettings(width=160, height=120, samples=8,
-                                           field_route=route)) as r:
-            out[route] = (r.render(scene, eye).image, r.render(scene, eye, lens).image)
-    with RasterRenderer(RenderSettings(width=160, height=120, samples=1)) as r:
-        sharp = r.render(scene, eye).image
+        with RasterRenderer(RasterQuality(samples=8, field_route=route)) as r:
+            out[route] = (r.render(scene, eye, None, view).image,
+                          r.render(scene, eye, lens, view).image)
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        sharp = r.render(scene, eye, None, view).image
     for k in range(2):
         d = np.abs(out["texture"][k].astype(float) - out["attribute"][k].astype(float))
         assert d.mean() < 1.0
@@ -265,16 +270,17 @@ def test_reconstruction_filter_smooths_only_blurred_pixels():
     """The 6 m chart seen by an uncorrected myope is blurred by ~4 px: the reconstruction
     filter brings S = 32 closer to the converged reference; a sharp (corrected) view is left
     as it was wherever the field is zero."""
-    from eyelab.reference import ReferenceRenderer, ReferenceSettings, compare_images
+    from eyelab.options import ReferenceQuality
+    from eyelab.reference import ReferenceRenderer, compare_images
 
     scene = chart_scene(6.0)
     eye = Eye.from_rx(Prescription(-3.0), accommodation_max=1.0)
-    rs = dict(width=160, height=120, fov_y_deg=10.0, near=1.0, far=20.0)
-    truth, _, _ = ReferenceRenderer(ReferenceSettings(spp=256, **rs)).render(scene, eye)
+    view = View(width=160, height=120, fov_y_deg=10.0, near=1.0, far=20.0)
+    truth = ReferenceRenderer(ReferenceQuality(samples=256)).render(scene, eye, None, view).srgb
     out = {}
     for rec in (False, True):
-        with RasterRenderer(RenderSettings(samples=32, reconstruct=rec, **rs)) as r:
-            out[rec] = r.render(scene, eye).image
+        with RasterRenderer(RasterQuality(samples=32, reconstruct=rec)) as r:
+            out[rec] = r.render(scene, eye, None, view).image
     before = compare_images(out[False], truth)["ssim"]
     after = compare_images(out[True], truth)["ssim"]
     assert after > before + 0.01
@@ -282,7 +288,7 @@ def test_reconstruction_filter_smooths_only_blurred_pixels():
     imgs = []
     for rec in (False, True):
         # all 8 passes run (no skipping) so that the filter sees a zero field everywhere
-        with RasterRenderer(RenderSettings(samples=8, reconstruct=rec, skip_unneeded=False,
-                                           **rs)) as r:
-            imgs.append(r.render(scene, sharp_eye).image)
+        with RasterRenderer(RasterQuality(samples=8, reconstruct=rec,
+                                          skip_unneeded=False)) as r:
+            imgs.append(r.render(scene, sharp_eye, None, view).image)
     np.testing.assert_array_equal(imgs[0], imgs[1])

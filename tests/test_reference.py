@@ -3,30 +3,37 @@ import math
 import numpy as np
 import pytest
 
-from data_generators.scenes import chart_scene, room_scene
+from eyelab.color import linear_to_srgb
+from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.materials import Material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Plane
-from eyelab.reference import ReferenceRenderer, ReferenceSettings, compare_images
+from eyelab.options import ReferenceQuality
+from eyelab.reference import ReferenceRenderer, compare_images
 from eyelab.reference.metrics import to_linear
+from eyelab.scene.library import chart_scene, room_scene
 
 
 def _ref(scene, eye, lens=None, **kw):
-    s = dict(width=48, height=36, spp=16, fov_y_deg=20.0, near=0.1, far=20.0)
-    s.update(kw)
-    return ReferenceRenderer(ReferenceSettings(**s)).render(scene, eye, lens)
+    """(uint8 image, the same in float sRGB values 0-255, the report's details)."""
+    v = dict(width=48, height=36, fov_y_deg=20.0, near=0.1, far=20.0)
+    q = dict(samples=16)
+    for k, val in kw.items():
+        (v if k in View.__dataclass_fields__ else q)[k] = val
+    res = ReferenceRenderer(ReferenceQuality(**q)).render(scene, eye, lens, View(**v))
+    return res.srgb, linear_to_srgb(res.linear.astype(float)) * 255.0, res.report["details"]
 
 
 def test_converges_at_least_like_one_over_sqrt_spp():
     scene = chart_scene(1.0)
     eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.0)
-    _, truth, _ = _ref(scene, eye, spp=4096)
+    _, truth, _ = _ref(scene, eye, samples=4096)
     errs = []
     spps = (16, 64, 256)
     for spp in spps:
-        e = [np.sqrt(np.mean((_ref(scene, eye, spp=spp, seed=k)[1] - truth) ** 2))
+        e = [np.sqrt(np.mean((_ref(scene, eye, samples=spp, seed=k)[1] - truth) ** 2))
              for k in range(2)]
         errs.append(np.mean(e))
     slope = np.polyfit(np.log(spps), np.log(errs), 1)[0]
@@ -46,10 +53,10 @@ def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
     # that the comparison integrates the texture as the blurred rays do
     f = 3
     sharp = _ref(scene, Eye(accommodation_max=10.0), width=f * w, height=f * h,
-                 fov_y_deg=fov, spp=3)[1]
+                 fov_y_deg=fov, samples=3)[1]
     eye = Eye.from_rx(Prescription(-4.0), vertex_distance=0.0, accommodation_max=0.0,
                       pupil_diameter=6e-3)
-    blurred = _ref(scene, eye, width=w, height=h, fov_y_deg=fov, spp=1024)[1]
+    blurred = _ref(scene, eye, width=w, height=h, fov_y_deg=fov, samples=1024)[1]
     dv = 4.0 - 2.0                                         # far point 0.25 m, object 0.5 m
     r_px = 3e-3 * dv * (h / 2) / math.tan(math.radians(fov / 2))
     r_hi = f * r_px
@@ -76,8 +83,8 @@ def test_index_one_lens_changes_nothing_and_rays_are_counted():
     scene = room_scene()
     eye = Eye.from_rx(Prescription(-1.0), accommodation_max=0.5)
     nothing = SpectacleLens(Plane(), Plane(), 0.002, Material("vacuum", 1.0))
-    a, fa, rep = _ref(scene, eye, None, spp=32, fov_y_deg=60.0)
-    b, fb, rep2 = _ref(scene, eye, nothing, spp=32, fov_y_deg=60.0)
+    a, fa, rep = _ref(scene, eye, None, samples=32, fov_y_deg=60.0)
+    b, fb, rep2 = _ref(scene, eye, nothing, samples=32, fov_y_deg=60.0)
     # identical up to embree's float32 arithmetic: a ray that grazes an edge may pick the
     # other side when its origin moves to the lens (one pixel of 1728 here)
     d = np.abs(fa - fb)
@@ -90,7 +97,7 @@ def test_index_one_lens_changes_nothing_and_rays_are_counted():
 def test_fons_model_matches_the_thin_eye_for_spherical_errors():
     scene = chart_scene(1.0)
     eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.0)
-    a = _ref(scene, eye, spp=256)[0]
+    a = _ref(scene, eye, samples=256)[0]
     b = _ref(scene, eye, model="fons", fons_n=8, fons_m=16)[0]
     assert compare_images(b, a)["ssim"] > 0.97
 

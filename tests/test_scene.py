@@ -2,12 +2,12 @@ import numpy as np
 import pytest
 import trimesh
 
-from data_generators.scenes import SCENES, chart_texture, room_scene
 from eyelab.blur import compute_blur_field
 from eyelab.errors import SpecError
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye
 from eyelab.optics.prescription import Prescription
+from eyelab.scene.library import SCENES, chart_texture, room_scene
 from eyelab.scene.raycast import EmbreeIntersector, NumpyIntersector
 from eyelab.scene.refine import refine_for_fields
 from eyelab.scene.scene import Scene, SceneMesh, load_mesh, sample_texture

@@ -7,7 +7,7 @@ from eyelab.optics.trace import PlacedSurface, Status, intersect, refract
 I3 = np.eye(3)
 
 
-def _unit(v):
+def unit(v):
     v = np.asarray(v, float)
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -17,11 +17,11 @@ def test_sphere_intersection_matches_closed_form():
     ps = PlacedSurface(Sphere(c), I3, np.zeros(3))
     rng = np.random.default_rng(2)
     o = np.column_stack([rng.uniform(-0.01, 0.01, (100, 2)), np.full(100, -0.02)])
-    d = _unit(np.column_stack([rng.uniform(-0.2, 0.2, (100, 2)), np.ones(100)]))
+    d = unit(np.column_stack([rng.uniform(-0.2, 0.2, (100, 2)), np.ones(100)]))
     hit = intersect(ps, o, d)
     centre = np.array([0, 0, 1 / c])
     np.testing.assert_allclose(np.linalg.norm(hit.points - centre, axis=1), 1 / c, atol=1e-15)
-    np.testing.assert_allclose(hit.normals, _unit(centre - hit.points), atol=1e-12)
+    np.testing.assert_allclose(hit.normals, unit(centre - hit.points), atol=1e-12)
     assert (hit.status == 0).all()
 
 
@@ -30,7 +30,7 @@ def test_toric_newton_intersection_lies_on_surface():
     ps = PlacedSurface(s, I3, np.array([0.001, 0.0, 0.0]))
     rng = np.random.default_rng(3)
     o = np.column_stack([rng.uniform(-0.02, 0.02, (200, 2)), np.full(200, -0.03)])
-    d = _unit(np.column_stack([rng.uniform(-0.3, 0.3, (200, 2)), np.ones(200)]))
+    d = unit(np.column_stack([rng.uniform(-0.3, 0.3, (200, 2)), np.ones(200)]))
     hit = intersect(ps, o, d)
     local = hit.points - ps.translation
     np.testing.assert_allclose(local[:, 2], s.sag(local[:, 0], local[:, 1]), atol=1e-13)
@@ -42,7 +42,7 @@ def test_toric_newton_intersection_lies_on_surface():
 def test_aperture_and_miss_status():
     ps = PlacedSurface(Sphere(30.0), I3, np.zeros(3), aperture_radius=0.01)
     o = np.array([[0.0, 0.0, -0.01], [0.015, 0.0, -0.01], [0.0, 0.0, -0.01]])
-    d = _unit([[0, 0, 1], [0, 0, 1], [1, 0, 0.01]])  # third ray nearly parallel: misses
+    d = unit([[0, 0, 1], [0, 0, 1], [1, 0, 0.01]])  # third ray nearly parallel: misses
     st = intersect(ps, o, d).status
     assert st.tolist() == [0, Status.MISSED, Status.MISSED]
 

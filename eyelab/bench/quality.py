@@ -8,7 +8,7 @@ ground truth (PSNR, SSIM, blur-size error, RMSE; linear RGB). The Pareto picture
 against time. Raster times are steady-state frames (caches and shaders warm), as an
 interactive viewer sees them; the first (cold) frame time is recorded beside them.
 
-The raster renderer runs with its reconstruction filter on (``RenderSettings.reconstruct``),
+The raster renderer runs with its reconstruction filter on (``RasterQuality.reconstruct``),
 which is what brings S = 32 to SSIM >= 0.95 where the blur spans many pixels.
 
 ``quick``: small images, a subset of configurations; asserts that at equal wall time the
@@ -26,16 +26,18 @@ import numpy as np
 
 from eyelab.errors import SpecError, check_range
 from eyelab.fileio import atomic_path, json_default
+from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
+from eyelab.options import RasterQuality, ReferenceQuality
 from eyelab.reference.metrics import compare_images, to_linear
-from eyelab.reference.tracer import ReferenceRenderer, ReferenceSettings
-from eyelab.render.raster import RasterRenderer, RenderSettings
+from eyelab.reference.tracer import ReferenceRenderer
+from eyelab.render.raster import RasterRenderer
 
 
 def scenes():
-    from data_generators.scenes import chart_scene, room_scene, tilted_page_scene
+    from eyelab.scene.library import chart_scene, room_scene, tilted_page_scene
 
     return {"chart_0.4m": (chart_scene(0.4), 12.0, 0.1, 2.0),
             "chart_6m": (chart_scene(6.0), 10.0, 1.0, 20.0),
@@ -62,7 +64,7 @@ def configs(quick: bool):
     return out
 
 
-def _truth(cache, name, settings, scene, eye, lens):
+def _truth(cache, name, quality, view, scene, eye, lens):
     """The converged reference -> (image, seconds, report), from ``cache`` if kept there
     (the stored time and report are those of the run that made it)."""
     path = None if cache is None else Path(cache) / f"{name}.npz"
@@ -70,7 +72,8 @@ def _truth(cache, name, settings, scene, eye, lens):
         with np.load(path) as z:
             return z["image"], float(z["time_s"]), json.loads(str(z["report"]))
     t = time.perf_counter()
-    img, _, rep = ReferenceRenderer(settings).render(scene, eye, lens)
+    res = ReferenceRenderer(quality).render(scene, eye, lens, view)
+    img, rep = res.srgb, res.report["details"]
     dt = time.perf_counter() - t
     if path is not None:
         with atomic_path(path, suffix=".npz") as tmp:
@@ -110,22 +113,22 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
         for cname, (eye, lens) in configs(quick).items():
             if only_configs and cname not in only_configs:
                 continue
-            rs = dict(width=w, height=h, fov_y_deg=fov, near=near, far=far)
+            view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
             truth, t_truth, trep = _truth(truth_cache, f"{sname}__{cname}__{w}x{h}__"
-                                          f"{truth_spp}spp", ReferenceSettings(
-                                              spp=truth_spp, **rs), scene, eye, lens)
+                                          f"{truth_spp}spp", ReferenceQuality(
+                                              samples=truth_spp), view, scene, eye, lens)
             case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
                     "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],
                     "raster": [], "reference": []}
             for s in raster_s:
-                with RasterRenderer(RenderSettings(samples=s, reconstruct=True, **rs)) as r:
+                with RasterRenderer(RasterQuality(samples=s, reconstruct=True)) as r:
                     t = time.perf_counter()
-                    r.render(scene, eye, lens)
+                    r.render(scene, eye, lens, view)
                     cold = time.perf_counter() - t
                     warm = np.inf
                     for _ in range(3):      # best of 3 steady-state frames
                         t = time.perf_counter()
-                        res = r.render(scene, eye, lens)
+                        res = r.render(scene, eye, lens, view)
                         warm = min(warm, time.perf_counter() - t)
                 m = compare_images(res.image, truth)
                 m.update(rmse=_rmse(res.image, truth), time_s=warm, cold_time_s=cold,
@@ -133,8 +136,9 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 case["raster"].append(m)
             for spp in ref_spp:
                 t = time.perf_counter()
-                img, _, rep = ReferenceRenderer(ReferenceSettings(spp=spp, seed=1, **rs)).render(
-                    scene, eye, lens)
+                ref = ReferenceRenderer(ReferenceQuality(samples=spp, seed=1)).render(
+                    scene, eye, lens, view)
+                img, rep = ref.srgb, ref.report["details"]
                 dt = time.perf_counter() - t
                 m = compare_images(img, truth)
                 m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,

@@ -14,10 +14,12 @@ import time
 
 import numpy as np
 
+from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.render.raster import RasterRenderer, RenderSettings
+from eyelab.options import RasterQuality
+from eyelab.render.raster import RasterRenderer
 from eyelab.scene.scene import Scene, SceneMesh
 
 
@@ -40,12 +42,12 @@ def boxes_scene(n_triangles: int, seed: int = 0) -> Scene:
                  background=(250, 250, 250), name=f"boxes_{n_triangles}")
 
 
-def _frame(r, scene, eye, lens, repeats):
-    r.render(scene, eye, lens)                      # warm caches and shaders
+def _frame(r, scene, eye, lens, view, repeats):
+    r.render(scene, eye, lens, view)                # warm caches and shaders
     best = None
     for _ in range(repeats):
         t = time.perf_counter()
-        res = r.render(scene, eye, lens)
+        res = r.render(scene, eye, lens, view)
         dt = time.perf_counter() - t
         if best is None or dt < best[0]:
             best = (dt, res.report)
@@ -61,35 +63,34 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     for n in triangles:
         scene = boxes_scene(n)
         for s in samples:
-            settings = RenderSettings(width=width, height=height, samples=s, refine=False,
-                                      near=0.1, far=20.0)
-            with RasterRenderer(settings) as r:
+            view = View(width=width, height=height, near=0.1, far=20.0)
+            with RasterRenderer(RasterQuality(samples=s, refine=False)) as r:
                 for label, ln in (("naked", None), ("through_lens", lens)):
-                    dt, rep = _frame(r, scene, eye, ln, repeats)
-                    t = rep["timings"]
-                    gl = t["gl_render_s"]
+                    dt, rep = _frame(r, scene, eye, ln, view, repeats)
+                    t = rep["timings_s"]
+                    gl = t["gl_render"]
                     rows.append({"triangles": scene.n_triangles, "samples": s, "view": label,
                                  "frame_s": dt, "fps": 1.0 / dt, "gl_render_s": gl,
                                  "overhead_s": dt - gl, "overhead_fraction": (dt - gl) / gl,
-                                 "passes": rep["passes"], "stages_s": t})
+                                 "passes": rep["samples"]["done"], "stages_s": t})
     # what the skips save (10k triangles, S = 10)
     scene = boxes_scene(triangles[0])
     skips = {}
     sharp = Eye(accommodation_max=10.0)
+    sharp_view = View(width=width, height=height, near=0.25, far=20.0)
     for skip in (True, False):
-        settings = RenderSettings(width=width, height=height, samples=10, refine=False,
-                                  near=0.25, far=20.0, skip_unneeded=skip)
-        with RasterRenderer(settings) as r:
-            skips[f"all_zero_field_skip_{skip}"] = _frame(r, scene, sharp, None, repeats)[0]
-    with RasterRenderer(RenderSettings(width=width, height=height, samples=10, refine=False,
-                                       near=0.1, far=20.0)) as r:
-        skips["lens_in_view"] = _frame(r, scene, eye, lens, repeats)[0]
-        skips["no_lens"] = _frame(r, scene, eye, None, repeats)[0]
+        with RasterRenderer(RasterQuality(samples=10, refine=False, skip_unneeded=skip)) as r:
+            skips[f"all_zero_field_skip_{skip}"] = _frame(r, scene, sharp, None, sharp_view,
+                                                          repeats)[0]
+    view = View(width=width, height=height, near=0.1, far=20.0)
+    with RasterRenderer(RasterQuality(samples=10, refine=False)) as r:
+        skips["lens_in_view"] = _frame(r, scene, eye, lens, view, repeats)[0]
+        skips["no_lens"] = _frame(r, scene, eye, None, view, repeats)[0]
         flat = SpectacleLens.from_rx(rx, material={"n_d": 1.498})
         skips["lens_dispersive"] = skips["lens_in_view"]
-        skips["lens_no_dispersion"] = _frame(r, scene, eye, flat, repeats)[0]
+        skips["lens_no_dispersion"] = _frame(r, scene, eye, flat, view, repeats)[0]
         t = time.perf_counter()
-        r.render(scene, Eye.from_rx(rx, accommodation_max=0.9), lens)   # new eye: no cache
+        r.render(scene, Eye.from_rx(rx, accommodation_max=0.9), lens, view)   # new eye
         skips["cold_frame_new_eye"] = time.perf_counter() - t
         skips["warm_frame"] = skips["lens_in_view"]
     speedups = {

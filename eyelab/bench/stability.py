@@ -163,8 +163,10 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         voxels += f.matrix.shape[0] * f.matrix.shape[1] * f.matrix.shape[2]
         field_nan += int((~np.isfinite(f.matrix)).any(axis=(-1, -2)).sum())
     # reference renderer
-    from data_generators.scenes import room_scene
-    from eyelab.reference.tracer import ReferenceRenderer, ReferenceSettings
+    from eyelab.imaging import View
+    from eyelab.options import ReferenceQuality
+    from eyelab.reference.tracer import ReferenceRenderer
+    from eyelab.scene.library import room_scene
 
     scene = room_scene()
     ref_nan = ref_crash = pixels = 0
@@ -172,8 +174,8 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         eye = _random_eye(rng)
         try:
             lens = _random_lens(rng) if rng.uniform() < 0.7 else None
-            _, img, _ = ReferenceRenderer(ReferenceSettings(width=8, height=6, spp=4)).render(
-                scene, eye, lens, workers=1)
+            img = ReferenceRenderer(ReferenceQuality(samples=4, workers=1)).render(
+                scene, eye, lens, View(width=16, height=12)).linear
         except SpecError:
             refused += 1
             continue

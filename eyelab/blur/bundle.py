@@ -29,28 +29,15 @@ import time
 
 import numpy as np
 
-from eyelab.blur.field import BlurField, VoxelStatus, cache_key
+from eyelab.blur.field import BlurField, VoxelStatus
+from eyelab.cache import content_key
+from eyelab.constants import RAD_TO_ARCMIN
 from eyelab.errors import SpecError
-from eyelab.optics.analysis import RAD_TO_ARCMIN, UP
 from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 from eyelab.optics.trace import FATAL
-from eyelab.optics.wavefront import _cross
-
-GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
-
-
-def disc_seeds(n: int) -> np.ndarray:
-    """(n, 2) deterministic, evenly spread points in the unit disc (Vogel's spiral: r =
-    sqrt((i + 1/2)/n), theta = i * golden angle); each covers an equal area."""
-    i = np.arange(n)
-    r = np.sqrt((i + 0.5) / n)
-    t = i * GOLDEN_ANGLE
-    return np.column_stack([r * np.cos(t), r * np.sin(t)])
-
-
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+from eyelab.sampling import disc_seeds
+from eyelab.vecmath import UP, cross, unit
 
 
 def traverse(g0, g1, shape):
@@ -144,8 +131,8 @@ def _bundle(eye, lens, pupil, d_rev, seeds, accommodation, wavelength_nm):
     Returns q, d (r, s+1, 3) (index 0 the reference ray), the eye x axes (r, 3) and status."""
     r = len(d_rev)
     n_in = -d_rev
-    x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))
-    y_e = _cross(n_in, x_e)
+    x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
+    y_e = cross(n_in, x_e)
     rp = eye.pupil_diameter / 2
     pxx, pxy, pyy = (float(v) for v in eye.power_matrix(accommodation))
     e = eye.emmetropic_power
@@ -153,7 +140,7 @@ def _bundle(eye, lens, pupil, d_rev, seeds, accommodation, wavelength_nm):
     rho = np.vstack([[0.0, 0.0], seeds]) * rp                      # (s+1, 2) eye frame
     slope = rho @ g.T                                              # incoming slope = G rho
     origins = pupil + rho[None, :, :1] * x_e[:, None] + rho[None, :, 1:] * y_e[:, None]
-    dirs = _unit(d_rev[:, None] - slope[None, :, :1] * x_e[:, None]
+    dirs = unit(d_rev[:, None] - slope[None, :, :1] * x_e[:, None]
                  - slope[None, :, 1:] * y_e[:, None])
     flat_o = origins.reshape(-1, 3)
     flat_d = dirs.reshape(-1, 3)
@@ -219,7 +206,7 @@ def compute_blur_field_bundles(eye, lens=None, camera: Camera | None = None, *,
     fwd = camera.basis[2]
     if lens is None:
         aim = cop + dirs_cam * (1.0 / (dirs_cam @ fwd))[:, None]
-        d_rev = _unit(aim - pupil)
+        d_rev = unit(aim - pupil)
         ref_status = np.zeros(len(d_rev), np.uint8)
     else:
         ref_depth = 2.0 / (1.0 / camera.near + 1.0 / camera.far)
@@ -293,9 +280,9 @@ def compute_blur_field_bundles(eye, lens=None, camera: Camera | None = None, *,
     dist = np.linalg.norm(msum - pupil, axis=1)
     sv = np.linalg.svd(wm, compute_uv=False) / np.where(visited, dist, 1.0)[:, None]
     major = (sv[:, 0] * RAD_TO_ARCMIN).reshape(nz, ny, nx)
-    n_in = _unit(pupil - np.where(visited[:, None], msum, pupil + [0, 0, -1.0]))
-    x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))
-    y_e = _cross(n_in, x_e)
+    n_in = unit(pupil - np.where(visited[:, None], msum, pupil + [0, 0, -1.0]))
+    x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
+    y_e = cross(n_in, x_e)
     wxy = np.stack([np.einsum("ni,nik->nk", x_e, wm), np.einsum("ni,nik->nk", y_e, wm)], 1)
     u, _, _ = np.linalg.svd(wxy)
     omega = np.mod(np.arctan2(u[:, 1, 0], u[:, 0, 0]), math.pi).reshape(nz, ny, nx)
@@ -309,7 +296,7 @@ def compute_blur_field_bundles(eye, lens=None, camera: Camera | None = None, *,
               "voxels_unvisited": int((~visited).sum()),
               "voxel_status": {s.name.lower(): int((status == s).sum()) for s in VoxelStatus},
               "timings": {"total_s": time.perf_counter() - t0}}
-    key = cache_key(method="bundle", eye=eye, lens=lens, camera=camera, shape=shape,
+    key = content_key(method="bundle", eye=eye, lens=lens, camera=camera, shape=shape,
                     samples=samples, oversample=oversample, wavelength=wavelength_nm,
                     pupil=pupil)
     return BlurField(camera, shape, "ndc", matrix,

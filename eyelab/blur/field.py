@@ -20,7 +20,6 @@ Depth axis (``depth_mode``):
 from __future__ import annotations
 
 import enum
-import hashlib
 import json
 from dataclasses import dataclass, field
 
@@ -160,65 +159,44 @@ class BlurField:
                 "method": self.method, "key": self.key, "report": self.report}
 
     def save(self, path):
-        """Save to ``.npz`` (compressed numpy) or ``.vti`` (VTK image data on the NDC grid, for
-        ParaView); both load back exactly with :meth:`load`. Written atomically."""
+        """Save to ``.npz`` (compressed numpy), written atomically; :meth:`load` reads it back
+        exactly. (ParaView's ``.vti``: :func:`eyelab.render.fields.save_vti`.)"""
         path = str(path)
-        if not path.endswith((".npz", ".vti")):
-            raise SpecError("path", f"blur fields save to .npz or .vti, got {path!r}")
-        meta = json.dumps(self._meta(), default=json_default)
-        with atomic_path(path, suffix=path[-4:]) as tmp:
-            if path.endswith(".vti"):
-                grid = self.to_pyvista()
-                grid.cell_data["sources"] = self.sources.reshape(-1, 3)
-                grid.cell_data["a_m"] = self.a.ravel()
-                grid.cell_data["b_m"] = self.b.ravel()
-                grid.cell_data["omega_rad"] = self.omega.ravel()
-                grid.field_data["eyelab_meta"] = [meta]
-                grid.save(tmp)
-            else:
-                with open(tmp, "wb") as fh:
-                    np.savez_compressed(fh, matrix=self.matrix, a=self.a, b=self.b,
-                                        omega=self.omega, major_arcmin=self.major_arcmin,
-                                        accommodation=self.accommodation, status=self.status,
-                                        sources=self.sources, meta=np.array(meta))
+        if not path.endswith(".npz"):
+            raise SpecError("path", f"blur fields save to .npz here (.vti: "
+                                    f"eyelab.render.fields.save_vti), got {path!r}")
+        with atomic_path(path, suffix=".npz") as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, meta=np.array(self.meta_json()), **self.arrays())
+
+    def arrays(self) -> dict:
+        """The per-voxel arrays by name (what :meth:`save` writes)."""
+        return {k: getattr(self, k) for k in ARRAY_NAMES}
+
+    def meta_json(self) -> str:
+        """Camera, shape, depth mode, method, key and report as JSON text."""
+        return json.dumps(self._meta(), default=json_default)
 
     @classmethod
-    def load(cls, path) -> BlurField:
-        """Load a field saved by :meth:`save` (``.npz`` or ``.vti``)."""
-        path = str(path)
-        if path.endswith(".vti"):
-            import pyvista as pv
-
-            g = pv.read(path)
-            meta = json.loads(str(g.field_data["eyelab_meta"][0]))
-            nz, ny, nx = meta["shape"]
-            cd = g.cell_data
-            arr = {"matrix": np.asarray(cd["matrix"]).reshape(nz, ny, nx, 2, 2),
-                   "a": np.asarray(cd["a_m"]).reshape(nz, ny, nx),
-                   "b": np.asarray(cd["b_m"]).reshape(nz, ny, nx),
-                   "omega": np.asarray(cd["omega_rad"]).reshape(nz, ny, nx),
-                   "major_arcmin": np.asarray(cd["blur_arcmin"]).reshape(nz, ny, nx),
-                   "accommodation": np.asarray(cd["accommodation_d"]).reshape(nz, ny, nx),
-                   "status": np.asarray(cd["status"]).reshape(nz, ny, nx),
-                   "sources": np.asarray(cd["sources"]).reshape(nz, ny, nx, 3)}
-        else:
-            with np.load(path) as z:
-                meta = json.loads(str(z["meta"]))
-                arr = {k: z[k] for k in ("matrix", "a", "b", "omega", "major_arcmin",
-                                         "accommodation", "status", "sources")}
+    def from_parts(cls, meta: dict, arrays: dict) -> BlurField:
+        """Rebuild a field from :meth:`meta_json` (parsed) and :meth:`arrays`."""
         c = meta["camera"]
         cam = Camera(tuple(c["position"]), tuple(c["forward"]), tuple(c["up"]),
                      c["fov_y_deg"], c["aspect"], c["near"], c["far"])
-        return cls(cam, tuple(meta["shape"]), meta["depth_mode"], arr["matrix"], arr["a"],
-                   arr["b"], arr["omega"], arr["major_arcmin"], arr["accommodation"],
-                   arr["status"], arr["sources"], meta["method"], meta["key"], meta["report"])
+        return cls(cam, tuple(meta["shape"]), meta["depth_mode"],
+                   *(arrays[k] for k in ARRAY_NAMES), meta["method"], meta["key"],
+                   meta["report"])
 
-    def to_pyvista(self, *, world=False):
-        """``pv.ImageData`` (NDC grid, ``world=False``) or ``pv.StructuredGrid`` (voxel centres in
-        world space) with named point arrays; see :mod:`eyelab.render.fields`."""
-        from eyelab.render.fields import blur_field_to_pyvista
+    @classmethod
+    def load(cls, path) -> BlurField:
+        """Load a field saved by :meth:`save` (``.npz``)."""
+        with np.load(str(path)) as z:
+            meta = json.loads(str(z["meta"]))
+            return cls.from_parts(meta, {k: z[k] for k in ARRAY_NAMES})
 
-        return blur_field_to_pyvista(self, world=world)
+
+#: The per-voxel arrays of a :class:`BlurField`, in constructor order.
+ARRAY_NAMES = ("matrix", "a", "b", "omega", "major_arcmin", "accommodation", "status",
+               "sources")
 
 
 def slice_bounds(camera: Camera, nz: int, mode: str):
@@ -235,24 +213,3 @@ def slice_centres(camera: Camera, nz: int, mode: str):
     if mode == "linear":
         return camera.near + (np.arange(nz) + 0.5) * (camera.far - camera.near) / nz
     raise SpecError("depth_mode", f"must be one of {DEPTH_MODES}, got {mode!r}")
-
-
-def cache_key(**parts) -> str:
-    """Stable hex key of every input that matters (dataclasses, numbers, strings, arrays)."""
-    def enc(o):
-        if hasattr(o, "__dataclass_fields__"):
-            return {"_type": type(o).__name__, **{k: enc(getattr(o, k))
-                                                  for k in o.__dataclass_fields__}}
-        if isinstance(o, np.ndarray):
-            return {"_array": hashlib.sha256(np.ascontiguousarray(o).tobytes()).hexdigest(),
-                    "shape": o.shape}
-        if isinstance(o, (list, tuple)):
-            return [enc(x) for x in o]
-        if isinstance(o, dict):
-            return {str(k): enc(v) for k, v in sorted(o.items())}
-        if isinstance(o, (float, np.floating)):
-            return repr(float(o))
-        return o if isinstance(o, (int, str, bool, type(None))) else repr(o)
-
-    blob = json.dumps(enc(parts), sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:24]

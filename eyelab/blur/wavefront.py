@@ -18,16 +18,17 @@ import time
 
 import numpy as np
 
-from eyelab.blur.field import DEPTH_MODES, BlurField, VoxelStatus, cache_key, slice_centres
+from eyelab.blur.field import DEPTH_MODES, BlurField, VoxelStatus, slice_centres
+from eyelab.cache import content_key
+from eyelab.constants import RAD_TO_ARCMIN
 from eyelab.errors import SpecError
-from eyelab.optics.analysis import RAD_TO_ARCMIN, UP
 from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL
-from eyelab.optics.wavefront import _cross
 from eyelab.parallel import map_row_chunks
+from eyelab.vecmath import UP, cross, unit
 
 #: Angular step (rad) for the retina -> NDC Jacobian: central differences, error ~h^2.
 JACOBIAN_STEP = 1e-5
@@ -111,7 +112,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     t_mats = None
     if lens is not None:
         n_arr = chief.dir_out
-        x_eye_cols = _unit(_cross(np.broadcast_to(UP, n_arr.shape), n_arr))
+        x_eye_cols = unit(cross(np.broadcast_to(UP, n_arr.shape), n_arr))
         t_mats, _ = lens_path_matrix(chief, lens, wavelength_nm,
                                      np.broadcast_to(pupil, (ncol, 3)), x_eye_cols)
         jac_rays = _jacobian_rays(lens, pupil, d_rev, x_eye_cols, wavelength_nm)
@@ -148,7 +149,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         "path_iterations_mean": 0.0 if chief is None else float(chief.iterations.mean()),
         "timings": timings,
     }
-    key = cache_key(method="wavefront", eye=eye, lens=lens, camera=camera, shape=shape,
+    key = content_key(method="wavefront", eye=eye, lens=lens, camera=camera, shape=shape,
                     depth_mode=depth_mode, focus=focus, scene_bounds=None if scene_bounds is None
                     else np.asarray(scene_bounds, float), wavelength=wavelength_nm,
                     reference_depth=reference_depth, pupil=pupil)
@@ -167,7 +168,7 @@ def cached_blur_field(cache_dir, eye, lens=None, camera=None, *, method="wavefro
 
     if method not in ("wavefront", "bundle"):
         raise SpecError("method", f"must be 'wavefront' or 'bundle', got {method!r}")
-    key = cache_key(method=method, eye=eye, lens=lens, camera=camera, **kwargs)
+    key = content_key(method=method, eye=eye, lens=lens, camera=camera, **kwargs)
     path = Path(cache_dir) / f"blurfield-{key}.npz"
     if path.is_file():
         field = BlurField.load(path)
@@ -188,9 +189,6 @@ def cached_blur_field(cache_dir, eye, lens=None, camera=None, *, method="wavefro
 def _shifted(points, pupil):
     return ObjectPoints.from_positions(points - pupil)
 
-
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _scene_mask(camera, shape, depth_mode, bounds):
@@ -234,12 +232,12 @@ def _dilate1(ok):
 def _jacobian_rays(lens, pupil, d_rev, x_eye, wavelength_nm):
     """Rays leaving the lens for eye-side directions perturbed by +-h along x_eye, y_eye."""
     h = JACOBIAN_STEP
-    y_eye = _cross(-d_rev, x_eye)
+    y_eye = cross(-d_rev, x_eye)
     rays = []
     for e in (x_eye, y_eye):
         pair = []
         for sgn in (1.0, -1.0):
-            d = _unit(d_rev + sgn * h * e)
+            d = unit(d_rev + sgn * h * e)
             res = lens.trace(np.broadcast_to(pupil, d.shape), d, wavelength_nm, reverse=True)
             pair.append((res["out_points"], res["out_dirs"]))
         rays.append(pair)
@@ -277,10 +275,10 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
         kxx = v.copy()
         kyy = v.copy()
         kxy = np.zeros_like(v)
-        n_dir = _unit(pupil - src)                                      # toward the eye
-        x_eye = _unit(_cross(np.broadcast_to(UP, n_dir.shape).reshape(-1, 3),
+        n_dir = unit(pupil - src)                                      # toward the eye
+        x_eye = unit(cross(np.broadcast_to(UP, n_dir.shape).reshape(-1, 3),
                              n_dir.reshape(-1, 3))).reshape(n_dir.shape)
-        y_eye = _cross(n_dir.reshape(-1, 3), x_eye.reshape(-1, 3)).reshape(n_dir.shape)
+        y_eye = cross(n_dir.reshape(-1, 3), x_eye.reshape(-1, 3)).reshape(n_dir.shape)
     else:
         v = -1.0 / np.where(ok, s, 1.0)
         t = t_mats[cols][:, None]
@@ -307,7 +305,7 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
         for pm in range(2):
             if lens is None:
                 e = x_eye if col_k == 0 else y_eye
-                dd = _unit(-n_dir + (1.0 if pm == 0 else -1.0) * h * e)
+                dd = unit(-n_dir + (1.0 if pm == 0 else -1.0) * h * e)
                 p = pupil + dd * (np.linalg.norm(src - pupil, axis=-1)
                                   / np.einsum("cmi,cmi->cm", dd, -n_dir))[..., None]
             else:

@@ -8,19 +8,17 @@ For each object point: chief ray (path finding) -> wavefront creation at the len
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from eyelab.constants import RAD_TO_ARCMIN
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL, Status
-from eyelab.optics.wavefront import Wavefront, _cross, _dot
-
-UP = np.array([0.0, 1.0, 0.0])
-RAD_TO_ARCMIN = 180.0 * 60.0 / math.pi
+from eyelab.optics.wavefront import Wavefront
+from eyelab.vecmath import UP, cross, dot
 
 
 @dataclass
@@ -125,13 +123,13 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         # vertex sphere: centre of rotation, radius = vertex distance + rotation centre
         r_vs = lens.pose.vertex_distance + eye.rotation_centre
         rel = h_back.points - cor
-        bq = _dot(rel, wave.N)
-        disc = bq * bq - (_dot(rel, rel) - r_vs * r_vs)
+        bq = dot(rel, wave.N)
+        disc = bq * bq - (dot(rel, rel) - r_vs * r_vs)
         s_vs = -bq - np.sqrt(np.maximum(disc, 0.0))
         s_vs = np.where(disc >= 0, s_vs, 0.0)
         vs_wave = Wavefront(wave.N.copy(), wave.t1.copy(), wave.k11.copy(), wave.k12.copy(),
                             wave.k22.copy(), wave.status.copy()).transfer(s_vs)
-        wave.transfer(_dot(pupil - h_back.points, wave.N))
+        wave.transfer(dot(pupil - h_back.points, wave.N))
     status |= wave.status
     kbar = 0.5 * (wave.k11 + wave.k22)
     if accommodation is None:
@@ -165,8 +163,8 @@ def principal_angles(wave: Wavefront, x_axis):
     from ``x_axis`` (n, 3), measured toward N x x_axis (counter-clockwise seen from behind
     the wearer for x_axis = eye x)."""
     k1, k2, e1, _ = wave.principal()
-    y_axis = _cross(wave.N, x_axis)
-    ang = np.arctan2(_dot(e1, y_axis), _dot(e1, x_axis))
+    y_axis = cross(wave.N, x_axis)
+    ang = np.arctan2(dot(e1, y_axis), dot(e1, x_axis))
     return k1, k2, np.mod(ang, np.pi)
 
 

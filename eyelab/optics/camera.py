@@ -168,3 +168,12 @@ def fit_virtual_camera(lens, eye_cam: Camera, *, wavelength_nm=587.56, samples=3
     fov = math.degrees(2 * math.atan(ty))
     cam = Camera(tuple(c), tuple(fwd), eye_cam.up, fov, tx / ty, eye_cam.near, eye_cam.far)
     return VirtualCamera(cam, rms, res["hit1"].points[ok], q, d)
+
+
+def fit_window(cam: Camera, width: int) -> tuple:
+    """(camera, (w, h)): an integer window ``width`` pixels wide for ``cam``, with the
+    camera's aspect set to exactly w / h so that VTK and eyelab project alike."""
+    import dataclasses
+
+    h = max(16, int(round(width / cam.aspect)))
+    return dataclasses.replace(cam, aspect=width / h), (width, h)

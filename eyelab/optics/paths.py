@@ -15,7 +15,7 @@ import numpy as np
 
 from eyelab.constants import TOL
 from eyelab.optics.trace import Status
-from eyelab.optics.wavefront import _cross, _dot, any_tangent
+from eyelab.vecmath import any_tangent, cross, dot
 
 
 @dataclass
@@ -91,7 +91,7 @@ def _residual(lens, target, dirs, objects, wavelength_nm, ea, eb):
     w = np.where(objects.finite[:, None], objects.positions() - q, objects.direction)
     w /= np.linalg.norm(w, axis=1, keepdims=True)
     diff = w - dout
-    return np.stack([_dot(ea, diff), _dot(eb, diff)], -1), res
+    return np.stack([dot(ea, diff), dot(eb, diff)], -1), res
 
 
 def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 587.56):
@@ -118,7 +118,7 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
         return ChiefRays(start, target.copy(), target.copy(), -e0, -e0, -e0, None,
                          np.zeros(n), np.zeros(n, int), status, dist)
     ea = any_tangent(e0)
-    eb = _cross(e0, ea)
+    eb = cross(e0, ea)
     ab = np.zeros((n, 2))
     h = TOL.path_fd_step
 
@@ -177,7 +177,7 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
     q = res["out_points"]
     dist = np.where(objects.finite, np.linalg.norm(pos - q, axis=1), np.inf)
     # the object must lie in front of the lens along the outgoing ray
-    in_front = np.where(objects.finite, _dot(pos - q, res["out_dirs"]) > 0, True)
+    in_front = np.where(objects.finite, dot(pos - q, res["out_dirs"]) > 0, True)
     status[~in_front & ~behind] |= np.uint8(Status.BEHIND)
     rev_dir = dirs_of(ab)
     start = np.where(objects.finite[:, None], pos, q + res["out_dirs"])

@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from eyelab.optics.wavefront import _cross, _dot, any_tangent, refraction_frame
+from eyelab.optics.wavefront import refraction_frame
+from eyelab.vecmath import any_tangent, cross, dot
 
 
 def _blocks(a, b, c, d):
@@ -43,8 +44,8 @@ def transfer_matrix(d):
 
 
 def basis_change(u_old, v_old, u_new, v_new):
-    r = np.stack([np.stack([_dot(u_new, u_old), _dot(u_new, v_old)], -1),
-                  np.stack([_dot(v_new, u_old), _dot(v_new, v_old)], -1)], -2)
+    r = np.stack([np.stack([dot(u_new, u_old), dot(u_new, v_old)], -1),
+                  np.stack([dot(v_new, u_old), dot(v_new, v_old)], -1)], -2)
     z = np.zeros_like(r)
     return _blocks(r, z, z, r)
 
@@ -55,7 +56,7 @@ def refraction_matrix(N, hit, mu, basis_u, basis_v):
     fr = refraction_frame(N, hit, mu, basis_u)
     new_dir, u, cos_i, cos_t, gamma = fr.new_dir, fr.u, fr.cos_i, fr.cos_t, fr.gamma
     ksu, ksv, ksuv = fr.ks
-    rot = basis_change(basis_u, basis_v, u, _cross(N, u))
+    rot = basis_change(basis_u, basis_v, u, cross(N, u))
     n = N.shape[0]
     s = np.zeros((n, 2, 2))
     s[:, 0, 0] = np.sqrt(mu)
@@ -68,7 +69,7 @@ def refraction_matrix(N, hit, mu, basis_u, basis_v):
     g[:, 0, 1] = g[:, 1, 0] = gamma * ksuv / cos_t
     g[:, 1, 1] = gamma * ksv / cos_t**2
     t = _blocks(sinv, np.zeros((n, 2, 2)), g @ sinv, s) @ rot
-    return t, new_dir, u, _cross(new_dir, u)
+    return t, new_dir, u, cross(new_dir, u)
 
 
 def lens_path_matrix(chief, lens, wavelength_nm, target_points, x_axis):
@@ -79,12 +80,12 @@ def lens_path_matrix(chief, lens, wavelength_nm, target_points, x_axis):
     h_front, h_back = chief.hits
     N0 = chief.dir_in
     u0 = any_tangent(N0)
-    v0 = _cross(N0, u0)
+    v0 = cross(N0, u0)
     t1, N1, u1, v1 = refraction_matrix(N0, h_front, 1.0 / nl, u0, v0)
     t2 = transfer_matrix(np.linalg.norm(h_back.points - h_front.points, axis=1))
     t3, N2, u2, v2 = refraction_matrix(N1, h_back, nl, u1, v1)
-    t4 = transfer_matrix(_dot(target_points - h_back.points, N2))
-    y_axis = _cross(N2, x_axis)
+    t4 = transfer_matrix(dot(target_points - h_back.points, N2))
+    y_axis = cross(N2, x_axis)
     t5 = basis_change(u2, v2, x_axis, y_axis)
     return t5 @ t4 @ t3 @ t2 @ t1, N2
 

@@ -107,17 +107,6 @@ def sym2_eig(a, b, c):
     return m + r, m - r, np.cos(theta), np.sin(theta)
 
 
-# ---------------------------------------------------------------------------- helpers
-def _circle_sag(r2, c):
-    """Sag, first derivative / r and second derivative of a circle/conic profile.
-
-    Uses the cancellation-free form z = c r^2 / (1 + sqrt(1 - c^2 r^2)).
-    """
-    with np.errstate(invalid="ignore"):
-        q = np.sqrt(1.0 - c * c * r2)
-    return c * r2 / (1.0 + q), q
-
-
 @dataclass(frozen=True)
 class Asphere(Surface):
     """Even asphere: z = c r^2 / (1 + sqrt(1 - (1+k) c^2 r^2)) + sum_i A_{2i} r^{2i}.

@@ -24,23 +24,7 @@ import numpy as np
 from eyelab.constants import TOL
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import Hit, Status, refract
-
-
-def _dot(a, b):
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-def _cross(a, b):
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
-
-
-def any_tangent(n):
-    """(n, 3) unit vectors perpendicular to the unit vectors ``n`` (stable for any n)."""
-    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    t = _cross(helper, n)
-    return t / np.linalg.norm(t, axis=1, keepdims=True)
+from eyelab.vecmath import any_tangent, cross, dot
 
 
 @dataclass
@@ -64,12 +48,12 @@ class RefractionFrame:
 
 def refraction_frame(N, hit: Hit, mu, fallback_u) -> RefractionFrame:
     new_dir, ns, cos_i, cos_t, st = refract(N, hit.normals, mu)
-    sgn = np.where(_dot(ns, hit.normals) < 0, -1.0, 1.0)
-    u = _cross(N, ns)
+    sgn = np.where(dot(ns, hit.normals) < 0, -1.0, 1.0)
+    u = cross(N, ns)
     un = np.linalg.norm(u, axis=1)
     normal_inc = un < 1e-12
     u = np.where(normal_inc[:, None], fallback_u, u / np.where(normal_inc, 1.0, un)[:, None])
-    vs = _cross(ns, u)
+    vs = cross(ns, u)
     ks = (sgn * hit.curvature(u, u), sgn * hit.curvature(vs, vs), sgn * hit.curvature(u, vs))
     return RefractionFrame(new_dir, u, cos_i, cos_t, cos_t - mu * cos_i, ks, st)
 
@@ -103,16 +87,16 @@ class Wavefront:
         Returns k1 >= k2 (n,), e1, e2 (n, 3) unit with e2 = N x e1.
         """
         k1, k2, c, s = sym2_eig(self.k11, self.k12, self.k22)
-        t2 = _cross(self.N, self.t1)
+        t2 = cross(self.N, self.t1)
         e1 = c[:, None] * self.t1 + s[:, None] * t2
-        return k1, k2, e1, _cross(self.N, e1)
+        return k1, k2, e1, cross(self.N, e1)
 
     def in_basis(self, u):
         """Curvature components (k_uu, k_uv, k_vv) in the basis (u, v = N x u) — Euler's
         formulas, Eq. 3, for an arbitrary tangent unit vector u (n, 3)."""
-        t2 = _cross(self.N, self.t1)
-        c = _dot(u, self.t1)
-        s = _dot(u, t2)
+        t2 = cross(self.N, self.t1)
+        c = dot(u, self.t1)
+        s = dot(u, t2)
         kuu = c * c * self.k11 + 2 * c * s * self.k12 + s * s * self.k22
         kvv = s * s * self.k11 - 2 * c * s * self.k12 + c * c * self.k22
         kuv = c * s * (self.k22 - self.k11) + (c * c - s * s) * self.k12
@@ -187,7 +171,7 @@ class Wavefront:
         Returns the new wavefront (curvatures in the (x, y) basis) — Eq. 7:
         K' = mu K + P / n_after.
         """
-        x = _cross(np.broadcast_to(up, self.N.shape), self.N)
+        x = cross(np.broadcast_to(up, self.N.shape), self.N)
         xn = np.linalg.norm(x, axis=1)
         deg = xn < 1e-9
         x = np.where(deg[:, None], any_tangent(self.N), x / np.where(deg, 1.0, xn)[:, None])

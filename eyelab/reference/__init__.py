@@ -1,6 +1,7 @@
 """The reference renderer (distribution ray tracing on embree) and image metrics. No VTK."""
 
+from eyelab.options import ReferenceQuality
 from eyelab.reference.metrics import compare_images
-from eyelab.reference.tracer import ReferenceRenderer, ReferenceSettings
+from eyelab.reference.tracer import ReferenceRenderer
 
-__all__ = ["ReferenceRenderer", "ReferenceSettings", "compare_images"]
+__all__ = ["ReferenceQuality", "ReferenceRenderer", "compare_images"]

@@ -18,7 +18,7 @@ is traced at its own wavelength (C, e, F lines). Pupil samples: Vogel's equal-ar
 rotated per pixel by a seeded random angle (deterministic for a seed, decorrelated between
 pixels). Rows of pixels run on a thread pool.
 
-``model="fons"`` replaces the eye by Fons et al. 2023's reduced-eye sampling: n x m + 1
+``model = "fons"`` replaces the eye by Fons et al. 2023's reduced-eye sampling: n x m + 1
 polar pupil points (n radii, m diameters) aimed at the focus plane P at the accommodated
 distance, and for astigmatism their two-axis construction (samples projected on the axis
 of larger error are aimed at the focus plane P' of that meridian; the ray keeps its pupil
@@ -28,134 +28,99 @@ origin and goes to where that line meets P).
 from __future__ import annotations
 
 import math
+import threading
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.blur.bundle import disc_seeds
-from eyelab.errors import SpecError, check_range
-from eyelab.optics.analysis import UP
-from eyelab.optics.camera import Camera, eye_camera
+from eyelab.color import srgb_to_linear
+from eyelab.imaging import Renderer, View, finish, new_report
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.optics.paths import ChiefRays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.trace import FATAL
-from eyelab.optics.wavefront import _cross
+from eyelab.options import ReferenceQuality
 from eyelab.parallel import map_row_chunks
-from eyelab.render_support import pixel_jitter
+from eyelab.sampling import disc_seeds, pixel_jitter
 from eyelab.scene.raycast import EmbreeIntersector
-from eyelab.scene.scene import Scene
+from eyelab.vecmath import UP, cross, unit
 
 
-@dataclass(frozen=True)
-class ReferenceSettings:
-    """width, height (px), fov_y_deg, near/far (m, as the raster camera), spp (rays per pixel
-    and channel, 1-65536), seed, chromatic, focus (None = Eq. 13 per pixel, else D),
-    model ("kakimoto" thin toric eye, or "fons"), fons_n / fons_m (radii, diameters)."""
+class ReferenceRenderer(Renderer):
+    """Per-pixel distribution ray tracing through the exact lens and the eye (no VTK)."""
 
-    width: int = 160
-    height: int = 120
-    fov_y_deg: float = 60.0
-    near: float = 0.05
-    far: float = 100.0
-    spp: int = 64
-    seed: int = 0
-    chromatic: bool = True
-    focus: float | None = None
-    model: str = "kakimoto"
-    fons_n: int = 4
-    fons_m: int = 8
-    progress: bool = False
+    name = "reference"
+    Quality = ReferenceQuality
 
-    def __post_init__(self):
-        check_range("reference.width", self.width, 4, 4096)
-        check_range("reference.height", self.height, 4, 4096)
-        check_range("reference.spp", self.spp, 1, 65536)
-        check_range("reference.fov_y_deg", self.fov_y_deg, 1, 150)
-        check_range("reference.near", self.near, 1e-3, 10)
-        if not self.far > self.near:
-            raise SpecError("reference.far", f"must be > near ({self.near}), got {self.far}")
-        if self.model not in ("kakimoto", "fons"):
-            raise SpecError("reference.model", f"must be 'kakimoto' or 'fons', got "
-                                               f"{self.model!r}")
-
-    def eye_camera(self) -> Camera:
-        return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
-
-
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-class ReferenceRenderer:
-    def __init__(self, settings: ReferenceSettings | None = None):
-        self.settings = settings or ReferenceSettings()
-
-    def pixel_ndc(self):
+    @staticmethod
+    def pixel_ndc(view: View):
         """(n, 2) NDC of the pixel centres, row 0 at the top."""
-        s = self.settings
-        x = -1.0 + (2 * np.arange(s.width) + 1.0) / s.width
-        y = 1.0 - (2 * np.arange(s.height) + 1.0) / s.height
+        x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
+        y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
         gx, gy = np.meshgrid(x, y)
         return np.column_stack([gx.ravel(), gy.ravel()])
 
-    def pixel_directions(self):
-        ndc = self.pixel_ndc()
-        return self.settings.eye_camera().ray_directions(ndc[:, 0], ndc[:, 1])
-
-    def pupil_samples(self):
-        s = self.settings
-        if s.model == "fons":
-            r = np.arange(1, s.fons_n + 1) / s.fons_n
-            t = np.arange(2 * s.fons_m) * math.pi / s.fons_m
+    @staticmethod
+    def pupil_samples(q: ReferenceQuality):
+        """(k, 2) pupil points in the unit disc: Vogel's spiral of ``samples`` points, or
+        the Fons pattern (the centre plus fons_n radii x 2 fons_m angles)."""
+        if q.model == "fons":
+            r = np.arange(1, q.fons_n + 1) / q.fons_n
+            t = np.arange(2 * q.fons_m) * math.pi / q.fons_m
             rr, tt = np.meshgrid(r, t, indexing="ij")
             pts = np.column_stack([(rr * np.cos(tt)).ravel(), (rr * np.sin(tt)).ravel()])
             return np.vstack([[0.0, 0.0], pts])
-        return disc_seeds(s.spp)
+        return disc_seeds(q.samples)
 
-    def render(self, scene: Scene, eye, lens=None, *, workers=None):
-        """Returns (image uint8 (h, w, 3), float image (h, w, 3) in [0, 255], report)."""
-        s = self.settings
+    def _render(self, scene, eye, lens, view, q, progressive):
         t0 = time.perf_counter()
-        ndc = self.pixel_ndc()
-        dirs = self.pixel_directions()
+        report = new_report(self.name, view, q)
+        ndc = self.pixel_ndc(view)
+        cam = view.camera()
+        dirs = cam.ray_directions(ndc[:, 0], ndc[:, 1])
         n = len(dirs)
         inter = EmbreeIntersector(scene)
-        samples = self.pupil_samples()
-        disperses = s.chromatic and lens is not None and lens.material.dispersive
+        samples = self.pupil_samples(q)
+        disperses = q.chromatic and lens is not None and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
+        if lens is not None and not disperses:
+            report["skipped"].append("chromatic: " + ("disabled" if not q.chromatic else
+                                                      "the lens material does not disperse")
+                                     + ": one wavelength traced")
         out = np.zeros((n, 3))
         counts = {"rays": 0}
-        rng_root = np.random.SeedSequence(s.seed)
+        lock = threading.Lock()
+        rng_root = np.random.SeedSequence(q.seed)
         block = max(1, 16384 // len(samples))   # ~16k rays per task: numpy-friendly
         seeds = rng_root.spawn(int(math.ceil(n / block)))
 
         def run(a, b):
             rng = np.random.default_rng(seeds[a // block])
             col, nrays = self._pixels(dirs[a:b], ndc[a:b], scene, inter, eye, lens, samples,
-                                      wls, rng)
+                                      wls, rng, view, q)
             out[a:b] = col
-            counts["rays"] += nrays
+            with lock:
+                counts["rays"] += nrays
 
-        it = None
-        if s.progress:
+        bar = None
+        if q.progress:
             from tqdm import tqdm
 
-            it = tqdm(total=n, desc="reference", unit="px")
-        map_row_chunks(run if it is None else _progress(run, it), n, workers=workers,
+            bar = tqdm(total=n, desc="reference", unit="px")
+        map_row_chunks(run if bar is None else _progress(run, bar), n, workers=q.workers,
                        block=block)
-        if it is not None:
-            it.close()
-        img = out.reshape(s.height, s.width, 3)
+        if bar is not None:
+            bar.close()
+        img = out.reshape(view.height, view.width, 3)
         dt = time.perf_counter() - t0
-        report = {"spp": len(samples), "channels_traced": len(wls), "rays": counts["rays"],
-                  "time_s": dt, "rays_per_s": counts["rays"] / dt, "model": s.model,
-                  "size": [s.width, s.height]}
-        return np.clip(np.round(img), 0, 255).astype(np.uint8), img, report
+        report["samples"].update(target=len(samples), done={"pixel": len(samples)})
+        report["timings_s"]["trace"] = dt
+        report["details"].update(channels_traced=len(wls), rays=counts["rays"],
+                                 rays_per_s=counts["rays"] / dt, model=q.model)
+        srgb = np.clip(np.round(img), 0, 255).astype(np.uint8)
+        return finish(srgb_to_linear(img / 255.0), report, view, srgb=srgb, t_start=t0)
 
-    def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng):
-        s = self.settings
+    def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
         m = len(d)
         pupil = np.zeros(3)
         rp = eye.pupil_diameter / 2
@@ -183,16 +148,16 @@ class ReferenceRenderer:
                               (h_front.take(idx), h_back.take(idx)),
                               None, None, np.zeros(len(idx), np.uint8), dist[idx])
             n_in = -d[idx]
-            x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))
+            x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
             t, _ = lens_path_matrix(chief, lens, 587.56, np.zeros((len(idx), 3)), x_e)
             kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
-        acc = eye.accommodation_for(kbar) if s.focus is None else np.full(
-            m, min(max(float(s.focus), 0.0), eye.accommodation_max))
+        acc = eye.accommodation_for(kbar) if view.focus_d is None else np.full(
+            m, min(max(float(view.focus_d), 0.0), eye.accommodation_max))
         # 3. ray bundles from the retina point through the pupil samples
         n_in = -d
-        x_e = _unit(_cross(np.broadcast_to(UP, n_in.shape), n_in))
-        y_e = _cross(n_in, x_e)
+        x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
+        y_e = cross(n_in, x_e)
         ang = rng.uniform(0, 2 * math.pi, m)
         ca, sa = np.cos(ang), np.sin(ang)
         sx = samples[None, :, 0] * ca[:, None] - samples[None, :, 1] * sa[:, None]
@@ -200,7 +165,7 @@ class ReferenceRenderer:
         rho_x, rho_y = rp * sx, rp * sy                                  # (m, k)
         pxx, pxy, pyy = eye.power_matrix(acc)
         e = eye.emmetropic_power
-        if s.model == "fons":
+        if quality.model == "fons":
             gx, gy = self._fons_slopes(eye, acc, rho_x, rho_y, kbar)
         else:
             gx = (pxx - e)[:, None] * rho_x + pxy[:, None] * rho_y       # incoming slope G rho
@@ -210,13 +175,13 @@ class ReferenceRenderer:
         # passes): R2 offsets, shifted per pixel (Cranley-Patterson rotation)
         k = samples.shape[0]
         jit = np.mod(pixel_jitter(k)[None] + 0.5 + rng.uniform(0, 1, (m, 1, 2)), 1.0) - 0.5
-        cam = s.eye_camera()
+        cam = view.camera()
         tx, ty = cam.tan_half
         b = cam.basis
-        jx = ndc[:, None, 0] + 2 * jit[..., 0] / s.width
-        jy = ndc[:, None, 1] + 2 * jit[..., 1] / s.height
-        d_s = _unit((jx * tx)[..., None] * b[0] + (jy * ty)[..., None] * b[1] + b[2])
-        dirs = _unit(d_s - gx[..., None] * x_e[:, None] - gy[..., None] * y_e[:, None])
+        jx = ndc[:, None, 0] + 2 * jit[..., 0] / view.width
+        jy = ndc[:, None, 1] + 2 * jit[..., 1] / view.height
+        d_s = unit((jx * tx)[..., None] * b[0] + (jy * ty)[..., None] * b[1] + b[2])
+        dirs = unit(d_s - gx[..., None] * x_e[:, None] - gy[..., None] * y_e[:, None])
         o = origins.reshape(-1, 3)
         dd = dirs.reshape(-1, 3)
         col = np.zeros((m, 3))

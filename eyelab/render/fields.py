@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 
-from eyelab.blur.field import BlurField, slice_bounds
+from eyelab.blur.field import ARRAY_NAMES, BlurField, slice_bounds
+from eyelab.fileio import atomic_path
 
 
 def _cell_arrays(field: BlurField):
@@ -57,6 +58,31 @@ def blur_field_to_pyvista(field: BlurField, *, world: bool = False):
     grid.field_data["method"] = [field.method]
     grid.field_data["key"] = [field.key]
     return grid
+
+
+def save_vti(field: BlurField, path) -> None:
+    """Write the field as VTK image data on the NDC grid (``.vti``, for ParaView), every
+    array exactly, written atomically; :func:`load_vti` reads it back."""
+    path = str(path)
+    with atomic_path(path, suffix=".vti") as tmp:
+        grid = blur_field_to_pyvista(field)
+        for name, arr in field.arrays().items():
+            grid.cell_data[f"eyelab_{name}"] = arr.reshape(int(np.prod(field.shape)), -1)
+        grid.field_data["eyelab_meta"] = [field.meta_json()]
+        grid.save(tmp)
+
+
+def load_vti(path) -> BlurField:
+    """A field written by :func:`save_vti`."""
+    import json
+
+    g = pv.read(str(path))
+    meta = json.loads(str(g.field_data["eyelab_meta"][0]))
+    nz, ny, nx = meta["shape"]
+    tail = {"matrix": (2, 2), "sources": (3,)}
+    arrays = {k: np.asarray(g.cell_data[f"eyelab_{k}"]).reshape((nz, ny, nx) + tail.get(k, ()))
+              for k in ARRAY_NAMES}
+    return BlurField.from_parts(meta, arrays)
 
 
 def ellipse_glyphs(field: BlurField, *, slices=None, stride: int = 1, segments: int = 32,

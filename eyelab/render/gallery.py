@@ -13,7 +13,7 @@ from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
-from eyelab.render.fields import ellipse_glyphs, sturm_conoid
+from eyelab.render.fields import blur_field_to_pyvista, ellipse_glyphs, save_vti, sturm_conoid
 
 
 def _plotter(window_size):
@@ -31,9 +31,9 @@ def write_gallery(out, window_size=(800, 600)) -> list[Path]:
     eye = Eye.from_rx(Prescription(-2.0), accommodation_max=1.0)
     field = compute_blur_field(eye, None, eye_camera(fov_y_deg=40.0, near=0.1, far=10.0),
                                shape=(64, 24, 24))
-    grid = field.to_pyvista()
-    field.to_pyvista(world=True).save(out / "blurfield_world.vts")
-    field.save(out / "blurfield.vti")
+    grid = blur_field_to_pyvista(field)
+    blur_field_to_pyvista(field, world=True).save(out / "blurfield_world.vts")
+    save_vti(field, out / "blurfield.vti")
     vol = grid.cell_data_to_point_data()
     p = _plotter(window_size)
     p.add_volume(vol, scalars="blur_arcmin", cmap="magma", opacity="linear",

@@ -17,13 +17,6 @@ from eyelab.scene.scene import SceneMesh
 
 #: Refinement stops before a mesh would exceed this many vertices (reported).
 MAX_VERTICES = 100_000
-#: The threshold is one voxel column at this depth percentile of the mesh's vertices in
-#: front of the camera. Voxel columns are uniform in angle, so one length threshold can
-#: only be right at one depth: the 10th percentile refines the near part of a mesh that
-#: recedes (a floor) without exploding the part right under the eye.
-DEPTH_PERCENTILE = 10.0
-
-
 def _edge_lengths(mesh: SceneMesh):
     f = mesh.faces
     v = mesh.vertices
@@ -31,23 +24,18 @@ def _edge_lengths(mesh: SceneMesh):
                            for a, b in ((0, 1), (1, 2), (2, 0))])
 
 
-def voxel_size_at(field, mesh: SceneMesh):
-    """World size (m) of one voxel column at the mesh's nearest depth in ``field``'s camera,
-    and whether the field has any blur over the mesh's depth range."""
+def blurs_over(field, mesh: SceneMesh) -> bool:
+    """Whether ``field`` has any non-zero matrix over the depth range of ``mesh``'s vertices
+    in front of its camera."""
     cam = field.camera
     w = cam.depth(mesh.vertices)
     w_min = max(float(w.min()), cam.near)
     w_max = min(float(w.max()), cam.far)
     if w_max < cam.near or w_min > cam.far:
-        return np.inf, False
-    tx, ty = cam.tan_half
-    nz, ny, nx = field.shape
-    w_ref = max(float(np.percentile(w[w > cam.near], DEPTH_PERCENTILE)), cam.near)
-    size = 2 * w_ref * min(tx / nx, ty / ny)
+        return False
     bounds = field.slice_bounds_depth()
     ks = np.flatnonzero((bounds[1:] >= w_min) & (bounds[:-1] <= w_max))
-    blurred = bool(np.any(field.matrix[ks] != 0)) if len(ks) else False
-    return size, blurred
+    return bool(np.any(field.matrix[ks] != 0)) if len(ks) else False
 
 
 def _interpolation_error(vertices, faces, fields, px_scale):
@@ -76,7 +64,7 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
     changes; meshes where no field blurs, or where the field is already linear enough, are
     left untouched (and say why)."""
     fields = [f for f in fields if f is not None]
-    blurred = [f for f in fields if voxel_size_at(f, mesh)[1]]
+    blurred = [f for f in fields if blurs_over(f, mesh)]
     info = {"mesh": mesh.name, "triangles_before": mesh.n_triangles,
             "longest_edge_m": float(_edge_lengths(mesh).max()) if mesh.n_triangles else 0.0,
             "tolerance_px": tol_px}

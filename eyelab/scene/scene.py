@@ -17,7 +17,12 @@ from eyelab.errors import SpecError
 class SceneMesh:
     """vertices (n, 3) float m; faces (m, 3) int; colors (n, 3) uint8 or None;
     texture (h, w, 3) uint8 or None with uv (n, 2) in [0, 1] (v = 0 at the image's bottom
-    row, the OpenGL convention: texture row 0 is the top of the image)."""
+    row, the OpenGL convention: texture row 0 is the top of the image).
+
+    The arrays are private read-only copies, so a mesh cannot change behind a renderer's
+    back: edit one by assigning new arrays (or :meth:`transformed`), which renews
+    :attr:`content_key`, the digest that every cache depending on the mesh is keyed by.
+    """
 
     name: str
     vertices: np.ndarray
@@ -45,6 +50,35 @@ class SceneMesh:
         if self.colors is not None:
             self.colors = np.ascontiguousarray(
                 np.broadcast_to(self.colors, (len(self.vertices), 3)), dtype=np.uint8)
+
+    _ARRAYS = ("vertices", "faces", "colors", "texture", "uv")
+
+    def __setattr__(self, name, value):
+        if name in self._ARRAYS and value is not None:
+            value = np.array(value, copy=True)
+            value.flags.writeable = False
+        if name in self._ARRAYS or name == "name":
+            self.__dict__.pop("_key", None)
+        super().__setattr__(name, value)
+
+    @property
+    def content_key(self) -> str:
+        """Digest (hex) of the name and every array: equal keys, equal meshes."""
+        key = self.__dict__.get("_key")
+        if key is None:
+            from eyelab.cache import array_digest
+
+            parts = [self.name] + [("-" if getattr(self, a) is None
+                                    else array_digest(getattr(self, a))) for a in self._ARRAYS]
+            key = array_digest(np.frombuffer("|".join(parts).encode(), np.uint8))
+            self.__dict__["_key"] = key
+        return key
+
+    def transformed(self, matrix) -> SceneMesh:
+        """A copy moved by the (4, 4) homogeneous ``matrix`` (metres)."""
+        m = np.asarray(matrix, float)
+        v = self.vertices @ m[:3, :3].T + m[:3, 3]
+        return SceneMesh(self.name, v, self.faces, self.colors, self.texture, self.uv)
 
     @property
     def n_triangles(self):
@@ -95,6 +129,14 @@ class Scene:
     @property
     def n_triangles(self):
         return sum(m.n_triangles for m in self.meshes)
+
+    @property
+    def content_key(self) -> str:
+        """Digest of the meshes' keys (in order), the background and the name."""
+        from eyelab.cache import content_key
+
+        return content_key(meshes=[m.content_key for m in self.meshes],
+                           background=list(self.background), name=self.name)
 
     @property
     def n_vertices(self):

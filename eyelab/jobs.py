@@ -1,4 +1,5 @@
-"""High-level jobs for the apps: render a spec, and the comparison demo."""
+"""High-level jobs for the apps: pick a renderer, render a spec, the comparison demo, write
+images and reports. The one place that knows every renderer by name."""
 
 from __future__ import annotations
 
@@ -8,14 +9,31 @@ from pathlib import Path
 
 import numpy as np
 
-from eyelab.errors import SpecError
 from eyelab.fileio import atomic_path, json_default
-from eyelab.render.raster import RasterRenderer, RenderSettings
+from eyelab.imaging import Renderer
 from eyelab.scene.scene import Scene
 
 
+def make_renderer(name: str, quality=None) -> Renderer:
+    """A renderer by name ("raster" or "reference", :data:`eyelab.options.RENDERERS`)."""
+    if name == "raster":
+        from eyelab.render.raster import RasterRenderer
+
+        return RasterRenderer(quality)
+    if name == "reference":
+        from eyelab.reference.tracer import ReferenceRenderer
+
+        return ReferenceRenderer(quality)
+    from eyelab.errors import SpecError
+    from eyelab.options import RENDERERS
+
+    raise SpecError("render.renderer", f"must be one of {', '.join(map(repr, RENDERERS))}, "
+                                       f"got {name!r}")
+
+
 def build_scene(name_or_path: str) -> Scene:
-    from data_generators.scenes import SCENES
+    """A built-in scene by name (:data:`eyelab.scene.library.SCENES`) or a mesh file."""
+    from eyelab.scene.library import SCENES
 
     if name_or_path in SCENES:
         return SCENES[name_or_path]()
@@ -24,17 +42,8 @@ def build_scene(name_or_path: str) -> Scene:
     return Scene([load_mesh(name_or_path)], name=Path(name_or_path).stem)
 
 
-def settings_from(spec, **overrides) -> RenderSettings:
-    kw = dict((spec.render or {}).get("settings", {}))
-    kw.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return RenderSettings(**kw)
-    except SpecError as e:
-        raise SpecError(e.field, e.message) from None
-
-
 def write_png(path, image: np.ndarray) -> None:
-    """Atomic PNG write (no partial file on failure)."""
+    """Atomic PNG write of an (h, w, 3) uint8 image (no partial file on failure)."""
     import matplotlib.image as mpimg
 
     with atomic_path(path, suffix=".png") as tmp:
@@ -42,24 +51,25 @@ def write_png(path, image: np.ndarray) -> None:
 
 
 def write_json(path, obj) -> None:
+    """Atomic JSON write (numpy values converted)."""
     with atomic_path(path) as tmp, open(tmp, "w") as f:
         json.dump(obj, f, indent=2, default=json_default)
 
 
-def render_spec(spec, *, no_lens=False, renderer=None, **overrides):
-    """Render what the spec's eye sees (through its lens unless ``no_lens``)."""
-    scene = build_scene(spec.render["scene"] if spec.render else "room")
-    settings = settings_from(spec, **overrides)
-    own = renderer is None
-    r = renderer or RasterRenderer(settings)
-    try:
-        return r.render(scene, spec.eye, None if no_lens else spec.lens)
-    finally:
-        if own:
-            r.close()
+def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
+    """Render what the spec's eye sees (through its lens unless ``no_lens``) with the spec's
+    renderer, view and quality (:class:`eyelab.spec.RenderSpec`); ``renderer`` reuses an
+    open renderer of the same kind."""
+    rs = spec.render
+    scene = build_scene(rs.scene)
+    if renderer is not None:
+        return renderer.render(scene, spec.eye, None if no_lens else spec.lens, rs.view,
+                               rs.quality)
+    with make_renderer(rs.renderer, rs.quality) as r:
+        return r.render(scene, spec.eye, None if no_lens else spec.lens, rs.view)
 
 
-def demo(spec, **overrides):
+def demo(spec):
     """Three views of the spec's scene: the uncorrected eye, the eye with its lens, and an
     emmetrope of the same accommodation and pupil. Returns (image, report)."""
     import matplotlib
@@ -67,20 +77,20 @@ def demo(spec, **overrides):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scene = build_scene(spec.render["scene"] if spec.render else "room")
-    settings = settings_from(spec, **overrides)
+    rs = spec.render
+    scene = build_scene(rs.scene)
     emmetrope = dataclasses.replace(spec.eye, power_min=spec.eye.emmetropic_power,
                                     astigmatism=0.0)
     panels = []
     reports = {}
-    with RasterRenderer(settings) as r:
+    with make_renderer(rs.renderer, rs.quality) as r:
         for label, eye, lens in (("uncorrected", spec.eye, None),
                                  ("with the lens", spec.eye, spec.lens),
                                  ("emmetrope", emmetrope, None)):
             if label == "with the lens" and lens is None:
                 continue
-            res = r.render(scene, eye, lens)
-            panels.append((label, res.image))
+            res = r.render(scene, eye, lens, rs.view)
+            panels.append((label, res.srgb))
             reports[label] = res.report
     h, w = panels[0][1].shape[:2]
     fig = plt.figure(figsize=(len(panels) * w / 100, h / 100 + 0.5), dpi=100)
@@ -94,5 +104,6 @@ def demo(spec, **overrides):
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)
     rx = None if spec.lens is None or spec.lens.rx is None else spec.lens.rx.format()
-    return image, {"scene": scene.name, "lens_rx": rx, "eye": dataclasses.asdict(spec.eye),
+    return image, {"scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
+                   "eye": dataclasses.asdict(spec.eye),
                    "emmetrope": dataclasses.asdict(emmetrope), "panels": reports}

@@ -1,0 +1,231 @@
+"""What every renderer takes and returns: the :class:`View`, the :class:`RenderResult`, the
+report schema and the :class:`Renderer` base class.
+
+One call shape for every renderer (the raster renderer of Kakimoto et al. 2007, the
+reference distribution ray tracer, and those to come)::
+
+    result = renderer.render(scene, eye, lens, view, quality)
+
+``scene`` an :class:`eyelab.scene.Scene`; ``eye`` an :class:`eyelab.optics.eye.Eye`;
+``lens`` a :class:`eyelab.optics.lens.SpectacleLens` or None (the naked eye); ``view`` a
+:class:`View` (what is looked at and how the eye focuses); ``quality`` the renderer's own
+options (a small frozen dataclass, validated with the spec field's name in every error),
+or None for the options the renderer was made with.
+
+Pure numpy: no VTK here.
+"""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eyelab.color import CVD_KINDS, linear_to_srgb, machado_matrix, srgb_to_linear
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.camera import Camera, eye_camera
+
+#: Top-level keys of every renderer's report, in this order.
+REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "timings_s", "cache",
+               "details")
+
+
+def check_int(field_name: str, value, lo: int, hi: int) -> int:
+    """``value`` as an int in [lo, hi], or a :class:`SpecError` naming the field (booleans
+    and non-integral numbers are refused)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise SpecError(field_name, f"must be an integer in [{lo}, {hi}], got {value!r}")
+    return int(check_range(field_name, value, lo, hi))
+
+
+def check_bool(field_name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise SpecError(field_name, f"must be true or false, got {value!r}")
+    return bool(value)
+
+
+def check_choice(field_name: str, value, choices):
+    if value not in choices:
+        raise SpecError(field_name, f"must be one of {', '.join(map(repr, choices))}, "
+                                    f"got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class View:
+    """What the eye looks at and how it focuses; the same for every renderer.
+
+    width, height : image size, pixels (16-4096); fov_y_deg : vertical field of view, deg
+    (1-150); near, far : clipping depths from the pupil, m (0.001-10, > near; scene content
+    outside is not drawn); focus_d : None (each point gets the eye's best accommodation for
+    it, Kakimoto Eq. 13) or a fixed accommodation in D (clamped to the eye's amplitude);
+    cvd, cvd_severity : colour-vision deficiency of the observer (Machado 2009; None,
+    "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB.
+
+    The eye's pupil centre is the origin and it looks along -z (eyelab's world frame).
+    """
+
+    width: int = 640
+    height: int = 480
+    fov_y_deg: float = 60.0
+    near: float = 0.05
+    far: float = 100.0
+    focus_d: float | None = None
+    cvd: str | None = None
+    cvd_severity: float = 1.0
+
+    def __post_init__(self):
+        check_int("render.width", self.width, 16, 4096)
+        check_int("render.height", self.height, 16, 4096)
+        check_range("render.fov_y_deg", self.fov_y_deg, 1, 150)
+        check_range("render.near_m", self.near, 1e-3, 10)
+        check_range("render.far_m", self.far, 1e-3, 1e5)
+        if not self.far > self.near:
+            raise SpecError("render.far_m", f"must be > near_m ({self.near}), got {self.far}")
+        if self.focus_d is not None:
+            check_range("render.focus_d", self.focus_d, 0, 16)
+        if self.cvd is not None:
+            check_choice("render.cvd", self.cvd, CVD_KINDS)
+        check_range("render.cvd_severity", self.cvd_severity, 0, 1)
+        aspect = self.width / self.height
+        if not 0.05 <= aspect <= 20:
+            raise SpecError("render.width", f"width / height must be in [0.05, 20], got "
+                                            f"{self.width} / {self.height}")
+
+    @property
+    def shape(self) -> tuple:
+        """(height, width) of the image."""
+        return self.height, self.width
+
+    def camera(self) -> Camera:
+        """The eye camera: centre of projection at the pupil centre, looking along -z."""
+        return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
+
+    def replace(self, **changes) -> View:
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class RenderResult:
+    """A rendered image and how it was made.
+
+    linear : (h, w, 3) float32 linear radiance (relative; 1 = white), row 0 at the top;
+    srgb : (h, w, 3) uint8, the sRGB encoding of ``linear`` (what a PNG holds);
+    report : dict with the keys :data:`REPORT_KEYS` (same schema for every renderer);
+    layers : optional (h, w[, 3]) arrays by name: "depth" (eye-space depth, m; inf where
+    nothing is hit), "lens_mask" (bool: seen through the lens), "naked" / "environment"
+    (uint8 intermediate images of the raster renderer);
+    progressive : [(samples done, srgb image)] when asked for.
+    """
+
+    linear: np.ndarray
+    srgb: np.ndarray
+    report: dict
+    layers: dict = field(default_factory=dict)
+    progressive: list = field(default_factory=list)
+
+    @property
+    def image(self) -> np.ndarray:
+        """The sRGB image (alias of :attr:`srgb`)."""
+        return self.srgb
+
+
+def new_report(renderer: str, view: View, quality) -> dict:
+    """An empty report of the common schema (see :data:`REPORT_KEYS`)."""
+    return {"renderer": renderer, "view": view.to_dict(),
+            "quality": dataclasses.asdict(quality), "samples": {"target": 0, "done": {}},
+            "skipped": [], "timings_s": {}, "cache": {"hits": [], "misses": []},
+            "details": {}}
+
+
+def encode_srgb(linear: np.ndarray) -> np.ndarray:
+    """(h, w, 3) linear values -> uint8 sRGB (clipped to [0, 1], rounded)."""
+    return np.round(linear_to_srgb(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
+
+
+def decode_srgb(image_u8: np.ndarray) -> np.ndarray:
+    """(h, w, 3) uint8 sRGB -> float32 linear values in [0, 1] (exact inverse of
+    :func:`encode_srgb` on every code value)."""
+    return _DECODE[np.asarray(image_u8, np.uint8)]
+
+
+_DECODE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+
+
+def observe(linear: np.ndarray, view: View, srgb: np.ndarray | None = None):
+    """(linear float32, srgb uint8) as the view's observer sees them: the colour-vision
+    deficiency applied in linear RGB (Machado 2009), encoded once. ``srgb`` may pass the
+    exact encoding of ``linear`` when the caller has it (kept unless a CVD changes it)."""
+    linear = np.asarray(linear, np.float32)
+    if view.cvd is not None:
+        m = machado_matrix(view.cvd, view.cvd_severity).astype(np.float32)
+        linear = np.clip(linear @ m.T, 0.0, 1.0)
+        srgb = None
+    if srgb is None:
+        srgb = encode_srgb(linear)
+    return linear, srgb
+
+
+def finish(linear: np.ndarray, report: dict, view: View, *, srgb: np.ndarray | None = None,
+           layers=None, progressive=None, t_start: float | None = None) -> RenderResult:
+    """The :class:`RenderResult`: :func:`observe` applied, the report's CVD entry and total
+    time filled in."""
+    linear, srgb = observe(linear, view, srgb)
+    if view.cvd is not None:
+        report["details"]["cvd"] = {"kind": view.cvd, "severity": view.cvd_severity,
+                                    "model": "Machado 2009, linear RGB"}
+    if t_start is not None:
+        report["timings_s"]["total"] = time.perf_counter() - t_start
+    return RenderResult(linear, srgb, report, dict(layers or {}), list(progressive or []))
+
+
+class Renderer(abc.ABC):
+    """Base class of eyelab's renderers: ``render(scene, eye, lens, view, quality)``.
+
+    Subclasses set :attr:`name` and :attr:`Quality` (their options dataclass) and implement
+    :meth:`_render`. A renderer may keep caches and GL contexts between calls (reuse one
+    for many frames); :meth:`close` releases them, and so does leaving a ``with`` block.
+    """
+
+    name: str = "renderer"
+    Quality: type = type(None)
+
+    def __init__(self, quality=None):
+        self.quality = self.Quality() if quality is None else quality
+        if not isinstance(self.quality, self.Quality):
+            raise TypeError(f"{type(self).__name__} takes a {self.Quality.__name__}, got "
+                            f"{type(self.quality).__name__}")
+
+    def render(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
+               progressive: bool = False) -> RenderResult:
+        """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye).
+        ``progressive``: also return the images after 1, 2, 4, ... samples (renderers that
+        refine in passes; others return the final image only)."""
+        view = View() if view is None else view
+        quality = self.quality if quality is None else quality
+        if not isinstance(view, View):
+            raise TypeError(f"view must be a View, got {type(view).__name__}")
+        if not isinstance(quality, self.Quality):
+            raise TypeError(f"{type(self).__name__} takes a {self.Quality.__name__}, got "
+                            f"{type(quality).__name__}")
+        return self._render(scene, eye, lens, view, quality, progressive)
+
+    @abc.abstractmethod
+    def _render(self, scene, eye, lens, view: View, quality, progressive: bool
+                ) -> RenderResult:
+        """The renderer's work; see :meth:`render`."""
+
+    def close(self) -> None:  # noqa: B027 (nothing to release by default)
+        """Release caches and contexts (the renderer can still be used: they are rebuilt)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,125 @@
+"""What each renderer can be asked for: its quality options, one small frozen dataclass per
+renderer, validated with the spec field's name (``render.<key>``) in every error.
+
+Pure data (no VTK), so that specs can be validated, documented and round-tripped without
+loading any renderer. :data:`QUALITIES` maps each renderer name to its options class.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from eyelab.errors import SpecError, check_range
+from eyelab.imaging import check_bool, check_choice, check_int
+
+#: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
+MAX_PASSES = 256
+#: Blur-field routes of the raster renderer: "texture" (3D texture sampled in the vertex
+#: shader, VTK_NOTES Q2 route A) or "attribute" (per-vertex look-up on the CPU, route D).
+FIELD_ROUTES = ("texture", "attribute")
+#: Eye models of the reference renderer: Kakimoto's thin toric eye, or Fons et al.'s
+#: reduced-eye sampling.
+MODELS = ("thin", "fons")
+
+
+@dataclass(frozen=True)
+class RasterQuality:
+    """Options of the raster renderer (spec table ``[render]``, renderer = "raster").
+
+    samples : S passes (1-256); field_shape : blur-field grid (nz, ny, nx), each 1-512;
+    depth_mode : "ndc" (slices uniform in NDC z = in dioptres, the paper's) or "linear"
+    (uniform in metres); refine : adaptive tessellation where the field is not linear
+    along edges; reconstruct : per-pixel Gaussian reconstruction filter against the
+    ghosting of large blurs (~0.1-0.25 s per 1024x768 frame); antialias : a sub-pixel
+    jitter per pass; skip_unneeded : skip passes a frame does not need (False only to
+    measure what skipping saves); chromatic : R/G/B refraction through a dispersive lens;
+    field_route : "texture" (3D texture sampled in the vertex shader) or "attribute"
+    (per-vertex look-up on the CPU); lens_rings / lens_segments : the lens outline mesh;
+    lens_grid_px : pixel spacing of the lens mesh that carries the texture coordinates;
+    env_oversample : environment-image pixels per radian relative to the eye view's (the
+    lens view is resampled from it); rim_color / invalid_color : sRGB of the lens rim and
+    of pixels whose rays fail in the lens.
+    """
+
+    samples: int = 10
+    field_shape: tuple = (128, 32, 32)
+    depth_mode: str = "ndc"
+    refine: bool = True
+    reconstruct: bool = False
+    antialias: bool = True
+    skip_unneeded: bool = True
+    chromatic: bool = True
+    field_route: str = "texture"
+    lens_rings: int = 24
+    lens_segments: int = 96
+    lens_grid_px: int = 8
+    env_oversample: float = 1.5
+    rim_color: tuple = (30, 30, 30)
+    invalid_color: tuple = (128, 128, 128)
+
+    def __post_init__(self):
+        check_int("render.samples", self.samples, 1, MAX_PASSES)
+        fs = self.field_shape
+        if not (isinstance(fs, (tuple, list)) and len(fs) == 3):
+            raise SpecError("render.field_shape", f"must be [nz, ny, nx], got {fs!r}")
+        for i, n in enumerate(fs):
+            check_int(f"render.field_shape[{i}]", n, 1, 512)
+        object.__setattr__(self, "field_shape", tuple(int(n) for n in fs))
+        check_choice("render.depth_mode", self.depth_mode, ("ndc", "linear"))
+        for name in ("refine", "reconstruct", "antialias", "skip_unneeded", "chromatic"):
+            check_bool(f"render.{name}", getattr(self, name))
+        check_choice("render.field_route", self.field_route, FIELD_ROUTES)
+        check_int("render.lens_rings", self.lens_rings, 2, 256)
+        check_int("render.lens_segments", self.lens_segments, 8, 1024)
+        check_int("render.lens_grid_px", self.lens_grid_px, 1, 64)
+        check_range("render.env_oversample", self.env_oversample, 0.5, 4)
+        for name in ("rim_color", "invalid_color"):
+            c = getattr(self, name)
+            if not (isinstance(c, (tuple, list)) and len(c) == 3):
+                raise SpecError(f"render.{name}", f"must be [r, g, b] in 0-255, got {c!r}")
+            for i, v in enumerate(c):
+                check_int(f"render.{name}[{i}]", v, 0, 255)
+            object.__setattr__(self, name, tuple(int(v) for v in c))
+
+
+@dataclass(frozen=True)
+class ReferenceQuality:
+    """Options of the reference renderer (spec table ``[render]``, renderer = "reference").
+
+    samples : rays per pixel and colour channel (1-65536; the "fons" model traces its own
+    n x m + 1 pupil points instead); model : "thin" (Kakimoto's thin toric eye) or "fons"
+    (Fons et al. 2023's reduced-eye sampling); fons_n / fons_m : radii and diameters of
+    the Fons pupil pattern; seed : random seed of the per-pixel rotations and jitter
+    (deterministic for a seed); chromatic : R/G/B traced at their own wavelengths through a
+    dispersive lens; workers : threads (None: every core); progress : a progress bar on
+    stderr.
+    """
+
+    samples: int = 64
+    model: str = "thin"
+    fons_n: int = 4
+    fons_m: int = 8
+    seed: int = 0
+    chromatic: bool = True
+    workers: int | None = None
+    progress: bool = False
+
+    def __post_init__(self):
+        check_int("render.samples", self.samples, 1, 65536)
+        check_choice("render.model", self.model, MODELS)
+        check_int("render.fons_n", self.fons_n, 1, 64)
+        check_int("render.fons_m", self.fons_m, 1, 64)
+        check_int("render.seed", self.seed, 0, 2**63 - 1)
+        check_bool("render.chromatic", self.chromatic)
+        if self.workers is not None:
+            check_int("render.workers", self.workers, 1, 256)
+        check_bool("render.progress", self.progress)
+
+
+def quality_keys(renderer: str) -> tuple:
+    """The option names (spec keys) of a renderer's quality class."""
+    return tuple(f.name for f in fields(QUALITIES[renderer]))
+
+
+QUALITIES = {"raster": RasterQuality, "reference": ReferenceQuality}
+RENDERERS = tuple(QUALITIES)

@@ -1,0 +1,149 @@
+"""Compositing the view through the lens into the naked-eye view (Kakimoto 2007, §3.2).
+
+The lens is drawn from the eye as a grid mesh on its back surface, textured with the
+blurred environment image at the per-vertex texture coordinates of the exactly refracted
+rays (one draw per colour channel when the lens disperses). Its outline, the pixels whose
+rays fail in the lens (drawn in a defined 'invalid' colour) and the rim come from the
+polar outline mesh. Actors are built once per compositor and their data updated.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import numpy as np
+
+from eyelab.cache import LRUCache
+from eyelab.render import _vtk
+from eyelab.render.actors import (
+    image_data,
+    polydata,
+    set_geometry,
+    set_image,
+    set_tcoords,
+    unlit_actor,
+)
+from eyelab.render.window import OffscreenWindow
+
+
+class LensCompositor:
+    """Draws the textured lens and its masks in an :class:`OffscreenWindow` (the eye's);
+    the window's own actors are hidden meanwhile. ``masks``: where masks are cached."""
+
+    def __init__(self, window: OffscreenWindow, masks: LRUCache):
+        self.window = window
+        self.masks_cache = masks
+        self._image = image_data(np.zeros((2, 2, 3), np.uint8))
+        tex = _vtk.vtkTexture()
+        tex.SetInputData(self._image)
+        tex.InterpolateOn()
+        tex.RepeatOff()
+        tex.EdgeClampOn()
+        tex.SetColorModeToDirectScalars()
+        self._pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
+        self._actor = unlit_actor(self._pd, tex)
+        self._grid_key = None
+        self._mask_pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
+        self._mask_actor = unlit_actor(self._mask_pd)
+        m = self._mask_actor.GetMapper()
+        m.SetScalarModeToUsePointFieldData()
+        m.SelectColorArray("colors")
+        m.SetColorModeToDirectScalars()
+        m.ScalarVisibilityOn()
+
+    @contextmanager
+    def _lens_stage(self):
+        """Hide the window's actors, black background, near clipping range for the lens
+        (~12 mm from the eye); restore all of it afterwards."""
+        ren = self.window.ren
+        saved = list(self.window.actors.values())
+        for a in saved:
+            a.VisibilityOff()
+        bg = ren.GetBackground()
+        ren.SetBackground(0, 0, 0)
+        cam = ren.GetActiveCamera()
+        clip = cam.GetClippingRange()
+        cam.SetClippingRange(1e-3, 1.0)
+        try:
+            yield ren
+        finally:
+            ren.SetBackground(*bg)
+            cam.SetClippingRange(*clip)
+            for a in saved:
+                a.VisibilityOn()
+
+    def lens_view(self, env: np.ndarray, grid_v, grid_f, uv_sets, grid_key) -> np.ndarray:
+        """(h, w, 3) uint8, row 0 at the top: the lens grid (vertices (n, 3), faces) textured
+        with ``env`` (h_e, w_e, 3) uint8 at ``uv_sets`` (channels, n, 2): channel c of the
+        result from set c (one set: all channels)."""
+        if grid_key != self._grid_key:
+            set_geometry(self._pd, grid_v, grid_f)
+            self._grid_key = grid_key
+        set_image(self._image, env)
+        out = None
+        with self._lens_stage() as ren:
+            ren.AddActor(self._actor)
+            try:
+                for ch, uv in enumerate(uv_sets):
+                    set_tcoords(self._pd, uv)
+                    img = self.window.grab()
+                    if len(uv_sets) == 1:
+                        return img
+                    if out is None:
+                        out = np.zeros_like(img)
+                    out[..., ch] = img[..., ch]
+            finally:
+                ren.RemoveActor(self._actor)
+        return out
+
+    def masks(self, lens_v, lens_f, valid, key):
+        """(invalid, inside, rim) (h, w) bool masks of the lens outline mesh: inside the
+        outline; inside and drawn from vertices whose rays fail (``valid`` (n,) False); the
+        outline's one-pixel rim. Cached under ``key``."""
+        hit = self.masks_cache.get(key)
+        if hit is not None:
+            return hit
+        set_geometry(self._mask_pd, lens_v, lens_f)
+        with self._lens_stage() as ren:
+            ren.AddActor(self._mask_actor)
+            try:
+                vimg = self._draw_mask(np.where(valid, 255, 0).astype(np.uint8))
+                mimg = self._draw_mask(np.full(len(lens_v), 255, np.uint8))
+            finally:
+                ren.RemoveActor(self._mask_actor)
+        inside = mimg > 127
+        out = (inside & (vimg < 128), inside, inside & ~erode(inside))
+        self.masks_cache.put(key, out)
+        return out
+
+    def _draw_mask(self, grey):
+        col = _vtk.numpy_to_vtk(np.repeat(grey[:, None], 3, 1), deep=True)
+        col.SetName("colors")
+        self._mask_pd.GetPointData().AddArray(col)
+        self._mask_pd.Modified()
+        return self.window.grab()[..., 0]
+
+    def close(self) -> None:
+        for actor in (self._actor, self._mask_actor):
+            actor.GetMapper().SetInputData(None)
+            actor.SetTexture(None)
+
+
+def compose(naked, lens_img, masks, rim_color, invalid_color) -> np.ndarray:
+    """The lens view inside the outline, the naked view around it, the invalid pixels and
+    the rim in their colours. All (h, w, 3) uint8 / (h, w) bool."""
+    invalid, inside, rim = masks
+    out = np.where(inside[..., None], lens_img, naked)
+    out[invalid] = invalid_color
+    out[rim] = rim_color
+    return out
+
+
+def erode(mask: np.ndarray) -> np.ndarray:
+    """4-neighbour binary erosion of an (h, w) bool mask (edges kept as outside-neutral)."""
+    m = mask.copy()
+    m[1:] &= mask[:-1]
+    m[:-1] &= mask[1:]
+    m[:, 1:] &= mask[:, :-1]
+    m[:, :-1] &= mask[:, 1:]
+    return m

@@ -1,0 +1,213 @@
+"""The VTK layer of the raster renderer: one offscreen render window with its renderer,
+the displacement shaders (GLSL in ``shaders/*.glsl``, injected through one tag-checking
+helper), the blur field as a 3D texture, per-pass uniforms, colour and depth read-back.
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+from importlib import resources
+
+import numpy as np
+
+from eyelab.render import _vtk
+
+#: Vertex shader tags measured to exist in VTK 9.7 (shared/docs/VTK_NOTES.md, Q5).
+VERTEX_TAGS = ("//VTK::PositionVC::Dec", "//VTK::PositionVC::Impl",
+               "//VTK::CustomBegin::Impl", "//VTK::CustomEnd::Impl")
+
+#: The shader files of each blur-field route (see :class:`OffscreenWindow.use_field`).
+ROUTE_SHADERS = {"attribute": ("displace.dec", "displace.impl"),
+                 "texture": ("field3d.dec", "field3d.impl")}
+
+
+def glsl(name: str) -> str:
+    """Text of ``eyelab/render/shaders/<name>.glsl``."""
+    return resources.files("eyelab.render").joinpath(f"shaders/{name}.glsl").read_text()
+
+
+def inject_vertex(shader_property, name: str) -> None:
+    """Apply ``shaders/<name>.glsl`` as a vertex-shader replacement. The file's first line
+    must be the VTK tag it replaces (kept in the replacement, so VTK's own code stays)."""
+    text = glsl(name)
+    tag = text.splitlines()[0].strip()
+    if tag not in VERTEX_TAGS:
+        raise ValueError(f"shader {name!r} starts with unknown tag {tag!r}; known: {VERTEX_TAGS}")
+    shader_property.AddVertexShaderReplacement(tag, True, text, False)
+
+
+class OffscreenWindow:
+    """One offscreen render window and renderer, MSAA off.
+
+    Every displaced actor shares one shader property per route, so there is one GL program
+    per shading variant (textured / coloured), compiled once per window, and a pass only
+    changes the ``seed`` / ``jitter`` uniforms (VTK_NOTES Q1). ``render_s`` / ``readback_s``
+    accumulate the time spent inside ``Render()`` and in read-back.
+    """
+
+    def __init__(self):
+        self.win = _vtk.vtkRenderWindow()
+        self.win.SetOffScreenRendering(1)
+        self.win.SetMultiSamples(0)
+        self.ren = _vtk.vtkRenderer()
+        self.win.AddRenderer(self.ren)
+        self.size = (0, 0)
+        self.shaders = {}
+        for route, names in ROUTE_SHADERS.items():
+            sp = _vtk.vtkOpenGLShaderProperty()
+            for name in names:
+                inject_vertex(sp, name)
+            sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+            sp.GetVertexCustomUniforms().SetUniform2f("jitter", [0.0, 0.0])
+            self.shaders[route] = sp
+        self.route = "attribute"
+        self.actors = {}
+        self.field_texture = None
+        self.field_texture_key = None
+        self._field_data = None
+        self.render_s = 0.0
+        self.readback_s = 0.0
+        self._buf = _vtk.vtkUnsignedCharArray()
+
+    @property
+    def shader(self):
+        return self.shaders[self.route]
+
+    def set_seed(self, seed, jitter_px=(0.0, 0.0)) -> None:
+        """Per-pass uniforms: the unit-disc seed and a sub-pixel offset (pixels)."""
+        u = self.shader.GetVertexCustomUniforms()
+        u.SetUniform2f("seed", [float(seed[0]), float(seed[1])])
+        w, h = self.size
+        u.SetUniform2f("jitter", [2.0 * float(jitter_px[0]) / max(w, 1),
+                                  2.0 * float(jitter_px[1]) / max(h, 1)])
+
+    def use_field(self, field, route: str) -> None:
+        """Select the route. "texture": the field as a 3D RGBA32F texture (linear filtering,
+        clamp-to-edge) sampled in the vertex shader, uploaded once per field (VTK_NOTES Q2
+        route A); "attribute": matrices looked up per vertex on the CPU (route D)."""
+        self.route = route
+        if route != "texture":
+            return
+        u = self.shader.GetVertexCustomUniforms()
+        cam = field.camera
+        u.SetUniformf("depthMode", 0.0 if field.depth_mode == "ndc" else 1.0)
+        u.SetUniformf("nearPlane", float(cam.near))
+        u.SetUniformf("farPlane", float(cam.far))
+        if self.field_texture_key == field.key:
+            return
+        self.win.Initialize()
+        self._release_field_texture()
+        tex = _vtk.vtkTextureObject()
+        tex.SetContext(self.win)
+        nz, ny, nx = field.shape
+        self._field_data = field.texture_rgba()          # kept alive while uploaded
+        tex.Create3DFromRaw(nx, ny, nz, 4, _vtk.VTK_FLOAT, self._field_data)
+        for f in (tex.SetWrapS, tex.SetWrapT, tex.SetWrapR):
+            f(_vtk.vtkTextureObject.ClampToEdge)
+        tex.SetMinificationFilter(_vtk.vtkTextureObject.Linear)
+        tex.SetMagnificationFilter(_vtk.vtkTextureObject.Linear)
+        self.field_texture = tex
+        self.field_texture_key = field.key
+
+    def show(self, items) -> list:
+        """Show exactly the actors of ``items`` [(key, factory)], reusing the ones already
+        built under the same key; returns them. Actors not shown are released."""
+        keep = {}
+        self.ren.RemoveAllViewProps()
+        for key, factory in items:
+            actor = self.actors.get(key)
+            if actor is None:
+                actor = factory()
+                actor.SetShaderProperty(self.shader)
+                if self.route == "texture":
+                    bind_field_texture(actor.GetMapper(), self)
+            keep[key] = actor
+            self.ren.AddActor(actor)
+        for key, actor in self.actors.items():
+            if key not in keep:
+                release_actor(actor)
+        self.actors = keep
+        return list(keep.values())
+
+    def set_view(self, cam, size, background) -> None:
+        """Camera (eyelab :class:`~eyelab.optics.camera.Camera`), window size (w, h) and
+        background (sRGB uint8 triple)."""
+        if tuple(size) != self.size:
+            self.win.SetSize(int(size[0]), int(size[1]))
+            self.size = tuple(size)
+        c = self.ren.GetActiveCamera()
+        pos = np.asarray(cam.position, float)
+        c.SetPosition(*pos)
+        c.SetFocalPoint(*(pos + cam.basis[2]))
+        c.SetViewUp(*cam.basis[1])
+        c.SetViewAngle(cam.fov_y_deg)
+        c.SetClippingRange(cam.near, cam.far)
+        self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
+
+    def depth(self) -> np.ndarray:
+        """(h, w) z-buffer of the last render in [0, 1], row 0 at the bottom."""
+        w, h = self.size
+        arr = _vtk.vtkFloatArray()
+        self.win.GetZbufferData(0, 0, w - 1, h - 1, arr)
+        return _vtk.vtk_to_numpy(arr).reshape(h, w).copy()
+
+    def grab_rgba(self) -> np.ndarray:
+        """Render and read RGBA (h, w, 4) uint8 (a view of a reused buffer: copy or consume
+        before the next grab), row 0 at the bottom (GL order)."""
+        t0 = time.perf_counter()
+        self.win.Render()
+        t1 = time.perf_counter()
+        w, h = self.size
+        self.win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, self._buf)
+        out = _vtk.vtk_to_numpy(self._buf).reshape(h, w, 4)
+        self.render_s += t1 - t0
+        self.readback_s += time.perf_counter() - t1
+        return out
+
+    def grab(self) -> np.ndarray:
+        """Render and read RGB (h, w, 3) uint8 (a copy), row 0 at the top."""
+        return self.grab_rgba()[::-1, :, :3].copy()
+
+    def _release_field_texture(self):
+        if self.field_texture is not None:
+            self.field_texture.ReleaseGraphicsResources(self.win)
+            self.field_texture = None
+            self.field_texture_key = None
+            self._field_data = None
+
+    def close(self) -> None:
+        """Release every actor, the field texture and the GL context."""
+        self.ren.RemoveAllViewProps()
+        for actor in self.actors.values():
+            release_actor(actor)
+        self.actors.clear()
+        self._release_field_texture()
+        self.win.Finalize()
+
+
+def bind_field_texture(mapper, window: OffscreenWindow) -> None:
+    """Bind the window's field texture to the mapper's shader program before each draw
+    (UpdateShaderEvent fires on vtkOpenGLPolyDataMapper; VTK_NOTES Q2 route A). The
+    callback holds the window weakly, so the window and its actors never keep each other
+    alive."""
+    ref = weakref.ref(window)
+
+    @_vtk.calldata_type(_vtk.VTK_OBJECT)
+    def bind(caller, event, program):
+        w = ref()
+        tex = None if w is None else w.field_texture
+        if tex is not None and program is not None:
+            tex.Activate()
+            program.SetUniformi("blurField", tex.GetTextureUnit())
+
+    mapper._eyelab_observer = mapper.AddObserver(_vtk.vtkCommand.UpdateShaderEvent, bind)
+
+
+def release_actor(actor) -> None:
+    """Drop an actor's observers and inputs so its polydata and textures can be freed."""
+    mapper = actor.GetMapper()
+    if mapper is not None:
+        mapper.RemoveAllObservers()
+        mapper.SetInputData(None)
+    actor.SetTexture(None)

@@ -1,0 +1,79 @@
+"""The spectacle lens as the eye sees it: is it in view, and the meshes on its back surface
+that carry the per-vertex refraction (Kakimoto 2007, §3). Pure numpy."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from eyelab.optics.camera import Camera
+from eyelab.optics.trace import FATAL, intersect
+
+
+def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
+    """True if any ray of a ``samples`` x ``samples`` grid over the camera's view (edges
+    included) passes through the lens."""
+    g = np.linspace(-1.0, 1.0, samples)
+    gx, gy = np.meshgrid(g, g)
+    d = cam.ray_directions(gx.ravel(), gy.ravel())
+    o = np.broadcast_to(np.asarray(cam.position, float), d.shape)
+    res = lens.trace(o, d, reverse=True)
+    return bool(np.any((res["status"] & np.uint8(FATAL)) == 0))
+
+
+def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
+    """The same lens with a ``factor`` larger aperture where its surfaces allow (else the
+    lens itself): used only for texture coordinates of grid vertices just outside the rim,
+    so that rim cells are filled (the outline mask clips them)."""
+    d = min(lens.diameter * factor, max_diameter)
+    r = d / 2
+    for surf in (lens.front, lens.back):
+        if not bool(np.all(surf.derivatives(np.array([r, 0.0, -r, 0.0]),
+                                            np.array([0.0, r, 0.0, -r])).valid)):
+            return lens
+    return dataclasses.replace(lens, diameter=d)
+
+
+def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
+    """Grid mesh on the (widened) lens's back surface: where eye rays through every
+    ``step_px``-th pixel (one cell of margin around the view) meet it; cells whose corners
+    all meet it. Returns (vertices (n, 3) m, faces (m, 3))."""
+    nx = max(2, int(math.ceil(width / step_px)) + 3)
+    ny = max(2, int(math.ceil(height / step_px)) + 3)
+    gx = np.linspace(-1 - 2 * step_px / width, 1 + 2 * step_px / width, nx)
+    gy = np.linspace(-1 - 2 * step_px / height, 1 + 2 * step_px / height, ny)
+    mx, my = np.meshgrid(gx, gy)
+    d = cam.ray_directions(mx.ravel(), my.ravel())
+    _, back = widened_lens(lens).placed_surfaces()
+    hit = intersect(back, np.zeros_like(d), d)
+    ok = hit.status == 0
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    faces = np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, c], 1)])
+    faces = faces[ok[faces].all(1)]
+    pts = np.where(ok[:, None], hit.points, 0.0)
+    return pts, faces
+
+
+def lens_back_mesh(lens, rings: int, segments: int):
+    """The lens's back surface as a polar grid (world), out to 99.5 % of the radius: the
+    outline of the lens as the eye sees it. Returns (vertices (n, 3) m, faces (m, 3))."""
+    r = np.linspace(0.0, 0.995 * lens.diameter / 2, rings + 1)[1:]
+    th = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+    rr, tt = np.meshgrid(r, th, indexing="ij")
+    x = np.concatenate([[0.0], (rr * np.cos(tt)).ravel()])
+    y = np.concatenate([[0.0], (rr * np.sin(tt)).ravel()])
+    _, back = lens.placed_surfaces()
+    z = back.surface.sag(x, y)
+    v = np.stack([x, y, z], 1) @ back.rotation.T + back.translation
+    i = np.arange(segments)
+    j = (i + 1) % segments
+    fan = np.stack([np.zeros(segments, int), 1 + i, 1 + j], 1)
+    ring = np.arange(rings - 1)[:, None] * segments
+    a, b = 1 + ring + i, 1 + ring + j
+    quads = np.stack([np.stack([a, a + segments, b + segments], -1),
+                      np.stack([a, b + segments, b], -1)], axis=2).reshape(-1, 3)
+    return v, np.concatenate([fan, quads])
