@@ -30,11 +30,19 @@ def test_analyze_text_and_no_lens(capsys):
     assert "retinal blur ellipse" in text
 
 
-def test_analyze_as_subprocess():
-    r = subprocess.run([sys.executable, "-m", "eyelab.apps.cli", "analyze", "--json"],
-                       capture_output=True, text=True, check=False,
-                       cwd=os.path.dirname(os.path.dirname(__file__)))
+@pytest.mark.parametrize("command", ["module", "script"])
+def test_analyze_as_subprocess_equals_the_library(command, tmp_path, capsys):
+    """The installed ``eyelab`` script and ``python -m eyelab.apps.cli``, run from an
+    unrelated folder as a user would, print what the in-process call prints."""
+    exe = ([sys.executable, "-m", "eyelab.apps.cli"] if command == "module" else
+           [os.path.join(os.path.dirname(sys.executable), "eyelab")])
+    if command == "script" and not os.path.exists(exe[0]):
+        pytest.skip("no eyelab script beside this interpreter")
+    r = subprocess.run(exe + ["analyze", "--json"], capture_output=True, text=True,
+                       check=False, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+    assert main(["analyze", "--json"]) == 0
+    assert json.loads(r.stdout) == json.loads(capsys.readouterr().out)
     assert len(json.loads(r.stdout)["points"]) == 3
 
 

@@ -103,7 +103,9 @@ def test_the_rule_checker_sees_a_violation(tmp_path, monkeypatch):
     """The checker itself can fail: a VTK import in the optics layer is reported."""
     fake = tmp_path / "mod.py"
     fake.write_text("def f():\n    import vtk\n    from eyelab.render import raster\n")
-    monkeypatch.setattr(__import__(__name__), "_modules",
+    import sys
+
+    monkeypatch.setattr(sys.modules[__name__], "_modules",
                         lambda: [("eyelab.optics.fake", fake)])
     found = _violations()
     assert len(found) == 3, found
