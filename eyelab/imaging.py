@@ -20,7 +20,7 @@ from __future__ import annotations
 import abc
 import dataclasses
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -111,29 +111,51 @@ class View:
         return dataclasses.asdict(self)
 
 
-@dataclass
 class RenderResult:
     """A rendered image and how it was made.
 
-    linear : (h, w, 3) float32 linear radiance (relative; 1 = white), row 0 at the top;
+    linear : (h, w, 3) float32 linear values (relative; 1 = white), row 0 at the top;
     srgb : (h, w, 3) uint8, the sRGB encoding of ``linear`` (what a PNG holds);
     report : dict with the keys :data:`REPORT_KEYS` (same schema for every renderer);
-    layers : optional (h, w[, 3]) arrays by name: "depth" (eye-space depth, m; inf where
-    nothing is hit), "lens_mask" (bool: seen through the lens), "naked" / "environment"
-    (uint8 intermediate images of the raster renderer);
+    layers : optional (h, w[, 3]) arrays by name: "lens_mask" (bool: seen through the
+    lens), "naked" / "environment" (uint8 intermediate images of the raster renderer);
     progressive : [(samples done, srgb image)] when asked for.
+
+    A renderer gives ``linear`` or ``srgb`` (or both); the other is derived on first use
+    (exactly: every uint8 code decodes and re-encodes to itself), so a frame pays for the
+    conversion only when someone reads it.
     """
 
-    linear: np.ndarray
-    srgb: np.ndarray
-    report: dict
-    layers: dict = field(default_factory=dict)
-    progressive: list = field(default_factory=list)
+    def __init__(self, report: dict, *, linear=None, srgb=None, layers=None,
+                 progressive=None):
+        if linear is None and srgb is None:
+            raise ValueError("a RenderResult needs linear or srgb")
+        self._linear = None if linear is None else np.asarray(linear, np.float32)
+        self._srgb = srgb
+        self.report = report
+        self.layers = dict(layers or {})
+        self.progressive = list(progressive or [])
+
+    @property
+    def linear(self) -> np.ndarray:
+        if self._linear is None:
+            self._linear = decode_srgb(self._srgb)
+        return self._linear
+
+    @property
+    def srgb(self) -> np.ndarray:
+        if self._srgb is None:
+            self._srgb = encode_srgb(self._linear)
+        return self._srgb
 
     @property
     def image(self) -> np.ndarray:
         """The sRGB image (alias of :attr:`srgb`)."""
         return self.srgb
+
+    @property
+    def shape(self) -> tuple:
+        return (self._srgb if self._srgb is not None else self._linear).shape
 
 
 def new_report(renderer: str, view: View, quality) -> dict:
@@ -158,31 +180,31 @@ def decode_srgb(image_u8: np.ndarray) -> np.ndarray:
 _DECODE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
-def observe(linear: np.ndarray, view: View, srgb: np.ndarray | None = None):
-    """(linear float32, srgb uint8) as the view's observer sees them: the colour-vision
-    deficiency applied in linear RGB (Machado 2009), encoded once. ``srgb`` may pass the
-    exact encoding of ``linear`` when the caller has it (kept unless a CVD changes it)."""
-    linear = np.asarray(linear, np.float32)
-    if view.cvd is not None:
-        m = machado_matrix(view.cvd, view.cvd_severity).astype(np.float32)
-        linear = np.clip(linear @ m.T, 0.0, 1.0)
-        srgb = None
-    if srgb is None:
-        srgb = encode_srgb(linear)
-    return linear, srgb
+def observe(view: View, *, linear=None, srgb=None):
+    """(linear, srgb) as the view's observer sees them: the colour-vision deficiency applied
+    in linear RGB (Machado 2009) when the view has one, else the inputs unchanged (either
+    may be None; :class:`RenderResult` derives the missing one)."""
+    if view.cvd is None:
+        return linear, srgb
+    lin = decode_srgb(srgb) if linear is None else np.asarray(linear, np.float32)
+    m = machado_matrix(view.cvd, view.cvd_severity).astype(np.float32)
+    return np.clip(lin @ m.T, 0.0, 1.0), None
 
 
-def finish(linear: np.ndarray, report: dict, view: View, *, srgb: np.ndarray | None = None,
-           layers=None, progressive=None, t_start: float | None = None) -> RenderResult:
+def finish(report: dict, view: View, *, linear=None, srgb=None, layers=None,
+           progressive=None, t_start: float | None = None) -> RenderResult:
     """The :class:`RenderResult`: :func:`observe` applied, the report's CVD entry and total
-    time filled in."""
-    linear, srgb = observe(linear, view, srgb)
+    time filled in; ``progressive`` images [(samples, srgb)] get the same observer."""
+    linear, srgb = observe(view, linear=linear, srgb=srgb)
     if view.cvd is not None:
         report["details"]["cvd"] = {"kind": view.cvd, "severity": view.cvd_severity,
                                     "model": "Machado 2009, linear RGB"}
+        progressive = [(k, encode_srgb(observe(view, srgb=im)[0]))
+                       for k, im in progressive or []]
     if t_start is not None:
         report["timings_s"]["total"] = time.perf_counter() - t_start
-    return RenderResult(linear, srgb, report, dict(layers or {}), list(progressive or []))
+    return RenderResult(report, linear=linear, srgb=srgb, layers=layers,
+                        progressive=progressive)
 
 
 class Renderer(abc.ABC):

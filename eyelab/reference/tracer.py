@@ -118,7 +118,7 @@ class ReferenceRenderer(Renderer):
         report["details"].update(channels_traced=len(wls), rays=counts["rays"],
                                  rays_per_s=counts["rays"] / dt, model=q.model)
         srgb = np.clip(np.round(img), 0, 255).astype(np.uint8)
-        return finish(srgb_to_linear(img / 255.0), report, view, srgb=srgb, t_start=t0)
+        return finish(report, view, linear=srgb_to_linear(img / 255.0), srgb=srgb, t_start=t0)
 
     def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
         m = len(d)

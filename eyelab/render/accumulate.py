@@ -27,10 +27,10 @@ class PassAccumulator:
 
     def mean(self) -> np.ndarray:
         """(h, w, 3) uint8 RGB average of the passes so far, rounded, row 0 at the top."""
-        rgb = self.sum[::-1, :, :3]
+        # converted whole (contiguous, vectorised), then viewed flipped without alpha
         if self.count <= 1:
-            return rgb.astype(np.uint8)
-        out = rgb.astype(np.float32)
+            return self.sum.astype(np.uint8)[::-1, :, :3]
+        out = self.sum.astype(np.float32)
         out *= np.float32(1.0 / self.count)
         out += np.float32(0.5)                       # round half up (values are >= 0)
-        return out.astype(np.uint8)
+        return out.astype(np.uint8)[::-1, :, :3]

@@ -34,10 +34,8 @@ from eyelab.imaging import (
     Renderer,
     RenderResult,
     View,
-    decode_srgb,
     finish,
     new_report,
-    observe,
 )
 from eyelab.optics.camera import fit_virtual_camera, fit_window
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
@@ -129,9 +127,8 @@ class RasterRenderer(Renderer):
         gl = sum(w.render_s for w in (naked["win"], env and env["win"]) if w)
         rb = sum(w.readback_s for w in (naked["win"], env and env["win"]) if w)
         timings.update(gl_render=gl, readback=rb)
-        prog = [(k, observe(decode_srgb(im), view, im)[1]) for k, im in prog]
-        return finish(decode_srgb(image), report, view, srgb=image, layers=layers,
-                      progressive=prog, t_start=t_start)
+        return finish(report, view, srgb=image, layers=layers, progressive=prog,
+                      t_start=t_start)
 
     def _lens_in_view(self, lens, cam, report) -> bool:
         if lens is None:
