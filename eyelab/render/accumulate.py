@@ -25,12 +25,20 @@ class PassAccumulator:
         np.add(self.sum, rgba, out=self.sum)
         self.count += 1
 
-    def mean(self) -> np.ndarray:
-        """(h, w, 3) uint8 RGB average of the passes so far, rounded, row 0 at the top."""
-        # converted whole (contiguous, vectorised), then viewed flipped without alpha
+    def mean_rgba(self) -> np.ndarray:
+        """(h, w, 4) uint8 RGBA average of the passes so far, rounded, contiguous, in GL row
+        order (row 0 at the bottom), alpha 255: what a texture takes without a copy."""
         if self.count <= 1:
-            return self.sum.astype(np.uint8)[::-1, :, :3]
-        out = self.sum.astype(np.float32)
-        out *= np.float32(1.0 / self.count)
-        out += np.float32(0.5)                       # round half up (values are >= 0)
-        return out.astype(np.uint8)[::-1, :, :3]
+            out = self.sum.astype(np.uint8)
+        else:
+            f = self.sum.astype(np.float32)
+            f *= np.float32(1.0 / self.count)
+            f += np.float32(0.5)                     # round half up (values are >= 0)
+            out = f.astype(np.uint8)
+        out[..., 3] = 255
+        return out
+
+    def mean(self) -> np.ndarray:
+        """(h, w, 3) uint8 RGB average of the passes so far, rounded, row 0 at the top (a
+        view of :meth:`mean_rgba`: converting whole and viewing is the fast way)."""
+        return self.mean_rgba()[::-1, :, :3]

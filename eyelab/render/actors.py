@@ -58,6 +58,17 @@ def set_image(data, img_top_first) -> None:
     data.Modified()
 
 
+def set_image_rgba_gl(data, rgba) -> None:
+    """Replace the pixels (and size) of image data with an (h, w, 4) uint8 RGBA image in GL
+    row order (row 0 at the bottom, as VTK stores images), contiguous: no flip, no gather."""
+    h, w = rgba.shape[:2]
+    data.SetDimensions(w, h, 1)
+    arr = _vtk.numpy_to_vtk(np.ascontiguousarray(rgba).reshape(-1, 4), deep=True)
+    arr.SetName("rgba")
+    data.GetPointData().SetScalars(arr)
+    data.Modified()
+
+
 def texture(img_top_first, *, mipmap: bool = False):
     """vtkTexture (bilinear, clamped, the colours used as they are) of an (h, w, 3) uint8
     image, row 0 at the top. ``mipmap``: trilinear mip-mapping, for scene textures seen

@@ -19,7 +19,7 @@ from eyelab.render.actors import (
     image_data,
     polydata,
     set_geometry,
-    set_image,
+    set_image_rgba_gl,
     set_tcoords,
     unlit_actor,
 )
@@ -72,26 +72,27 @@ class LensCompositor:
             for a in saved:
                 a.VisibilityOn()
 
-    def lens_view(self, env: np.ndarray, grid_v, grid_f, uv_sets, grid_key) -> np.ndarray:
+    def lens_view(self, env_rgba: np.ndarray, grid_v, grid_f, uv_sets, grid_key
+                  ) -> np.ndarray:
         """(h, w, 3) uint8, row 0 at the top: the lens grid (vertices (n, 3), faces) textured
-        with ``env`` (h_e, w_e, 3) uint8 at ``uv_sets`` (channels, n, 2): channel c of the
-        result from set c (one set: all channels)."""
+        with ``env_rgba`` (h_e, w_e, 4) uint8 (GL row order, opaque) at ``uv_sets``
+        (channels, n, 2): channel c of the result from set c (one set: all channels)."""
         if grid_key != self._grid_key:
             set_geometry(self._pd, grid_v, grid_f)
             self._grid_key = grid_key
-        set_image(self._image, env)
+        set_image_rgba_gl(self._image, env_rgba)
         out = None
         with self._lens_stage() as ren:
             ren.AddActor(self._actor)
             try:
                 for ch, uv in enumerate(uv_sets):
                     set_tcoords(self._pd, uv)
-                    img = self.window.grab()
+                    rgba = self.window.grab_rgba()           # GL order: row 0 at the bottom
                     if len(uv_sets) == 1:
-                        return img
+                        return rgba[::-1, :, :3].copy()
                     if out is None:
-                        out = np.zeros_like(img)
-                    out[..., ch] = img[..., ch]
+                        out = np.empty(rgba.shape[:2] + (3,), np.uint8)
+                    out[..., ch] = rgba[::-1, :, ch]
             finally:
                 ren.RemoveActor(self._actor)
         return out

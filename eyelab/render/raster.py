@@ -286,29 +286,34 @@ class RasterRenderer(Renderer):
         return image, layers, prog
 
     def _mean(self, st, q, report) -> np.ndarray:
-        img = st["acc"].mean()
+        """The stage's average as GL-ordered RGBA (h, w, 4) uint8, reconstructed when asked
+        (:mod:`eyelab.blur.reconstruct`)."""
+        rgba = st["acc"].mean_rgba()
         if "zbuf" not in st:
-            return img
+            return rgba
         t = time.perf_counter()
         n = st["acc"].count
-        sig, _ = self._cached("small", ("sigma",) + st["key"] + (img.shape, n), lambda: sigma_map(
+        sig, _ = self._cached("small", ("sigma",) + st["key"] + (rgba.shape, n), lambda: sigma_map(
             st["zbuf"], st["cam"], st["field"], n), report, "reconstruction_sigma")
-        out = variable_gaussian(img, sig)
+        src = rgba[::-1, :, :3]
+        img = variable_gaussian(src, sig)
+        if img is not src:                 # filtered: back to GL order, opaque
+            rgba = np.concatenate([img[::-1], rgba[..., 3:]], axis=2)
         tm = report["timings_s"]
         tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
-        return out
+        return rgba
 
     def _image(self, naked, env, view, q, report):
-        image = self._mean(naked, q, report)
+        image = self._mean(naked, q, report)[::-1, :, :3]
         layers = {"naked": image}
         if env is None:
             return image, layers
         t = time.perf_counter()
-        env_img = self._mean(env, q, report)
+        env_rgba = self._mean(env, q, report)
         if self._compositor is None:
             self._compositor = LensCompositor(self._eye_win, self.caches["small"])
         geo = env["geo"]
-        lens_img = self._compositor.lens_view(env_img, geo["grid_v"], geo["grid_f"],
+        lens_img = self._compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
                                               geo["tc_grid"].uv, env["geo_key"])
         masks = self._compositor.masks(geo["lens_v"], geo["lens_f"],
                                        geo["tc"].lens_ok.all(0),
@@ -317,7 +322,7 @@ class RasterRenderer(Renderer):
         invalid, inside, _ = masks
         report["details"]["lens"].update(pixels_inside=int(inside.sum()),
                                          pixels_invalid=int(invalid.sum()))
-        layers.update(environment=env_img, lens_mask=inside)
+        layers.update(environment=env_rgba[::-1, :, :3], lens_mask=inside)
         tm = report["timings_s"]
         tm["lens_composite"] = tm.get("lens_composite", 0.0) + time.perf_counter() - t
         return image, layers
