@@ -22,14 +22,141 @@ def disc_seeds(n: int) -> np.ndarray:
 
 
 def seeds_for(samples: int) -> np.ndarray:
-    """The fixed seed set for S passes: the centre for S = 1, else :func:`disc_seeds`."""
-    return np.zeros((1, 2)) if samples == 1 else disc_seeds(samples)
+    """The blur-disc seeds of S passes, (S, 2) in (about) the unit disc: see
+    :func:`pass_samples`."""
+    return pass_samples(samples)[0]
 
 
-def pixel_jitter(n: int) -> np.ndarray:
-    """(n, 2) sub-pixel offsets in [-0.5, 0.5) px: the R2 low-discrepancy sequence (Roberts
-    2018), starting at the pixel centre."""
+def pass_samples(samples: int):
+    """(seeds, jitter) for S passes: seeds (S, 2), points of the unit disc that each pass
+    displaces every vertex by (through the blur-field matrix); jitter (S, 2), sub-pixel
+    offsets in pixels (antialiasing). Deterministic: the same S gives the same sets.
+
+    A sample set is part of the physics: S displaced copies of a point render the blur
+    disc only if the seeds have the disc's mean (0) and covariance (I/4); otherwise a
+    circular blur renders off-centre or elongated. Construction:
+
+    * seeds come in *quads* (s, -s, R s, -R s) with R a quarter turn: every quad has mean 0
+      and covariance |s|^2/2 I (isotropic);
+    * the quads fill blocks that end at S = 4, 8, 16, 32, ...; inside a block of n quads
+      the radii are stratified in area, |s_j|^2 = (j + 1/2) / n, whose mean is exactly 1/2,
+      and the angles follow the van der Corput sequence: every power-of-two prefix >= 4
+      (each image of progressive refinement) has mean 0 and covariance I/4 exactly, and the
+      disc is covered evenly;
+    * S not a multiple of 4 ends with the centre (S mod 4 = 1), an antithetic pair (2) or
+      both (3), and the whole set is whitened (s -> W s, W = C^(-1/2) / 2, linear: every
+      even prefix keeps mean 0) to covariance I/4;
+    * the set is centrally symmetric (with each (seed, jitter) pass there is the pass
+      (-seed, -jitter)), so every odd moment vanishes: a blurred step edge is exactly
+      half-way at the edge, not only on average.
+
+    Exact (to round-off) for every S >= 3: mean 0, covariance I/4. S = 1 is the centre;
+    S = 2 is an antithetic pair (mean 0 and the right mean |s|^2 = 1/2, but two points
+    span one direction only: no 2-point set is isotropic); S = 3 an equilateral triangle
+    (exact moments; three points cannot also be centrally symmetric). Even prefixes have
+    mean 0; a one-pass preview is a single (biased) sample.
+
+    Jitter: each antithetic pair of seeds gets (j, -j), j from the R2 sequence (Roberts
+    2018), then every j is corrected by a small linear term so that the jitter is
+    uncorrelated with the seeds (sum of s j^T = 0: the antialiasing does not skew the blur
+    ellipse); its mean is 0. The centre pass gets none.
+    """
+    if samples < 1:
+        raise ValueError(f"samples must be >= 1, got {samples}")
+    if samples == 1:
+        return np.zeros((1, 2)), np.zeros((1, 2))
+    if samples == 2:
+        s = np.array([[math.sqrt(0.5), 0.0], [-math.sqrt(0.5), 0.0]])
+        return s, np.zeros((2, 2))
+    if samples == 3:
+        t = np.arange(3) * 2 * math.pi / 3
+        return math.sqrt(0.5) * np.column_stack([np.cos(t), np.sin(t)]), np.zeros((3, 2))
+    n_quads, rem = divmod(samples, 4)
+    parts = [_quads(n_quads)]
+    if rem >= 2:
+        t = 0.5 * math.pi * (math.sqrt(5.0) - 1.0) / 2      # off the quads' directions
+        p = math.sqrt(0.5) * np.array([math.cos(t), math.sin(t)])
+        parts.append(np.stack([p, -p]))
+    if rem % 2:
+        parts.append(np.zeros((1, 2)))
+    s = np.concatenate(parts)
+    if rem:
+        s = s @ _whitening(s).T
+    n_pairs = (samples - rem % 2) // 2
+    pairs = s[0:2 * n_pairs:2]                                # s of each (s, -s) pair
+    j = _r2(n_pairs + 1)[1:]      # from R2's second point: its first is the pixel centre
+    x = pairs.T @ j                                           # sum over pairs of s j^T
+    j = j - pairs @ np.linalg.solve(pairs.T @ pairs, x)       # now sum of s j^T = 0
+    jit = np.zeros((samples, 2))
+    jit[0:2 * n_pairs:2] = j
+    jit[1:2 * n_pairs:2] = -j
+    return s, jit
+
+
+def _quads(n: int) -> np.ndarray:
+    """(4n, 2) seeds: n quads in blocks ending at 1, 2, 4, 8, ... quads (the last block
+    possibly partial), radii stratified in area within each block; quad k is turned by
+    the van der Corput angle vdc(k) x 90 deg (0, 45, 22.5, 67.5, ... : each power-of-two
+    prefix spreads its quads evenly over the quarter turn that a quad repeats)."""
+    out = []
+    start = 0
+    while start < n:
+        size = 1 if start < 2 else start           # blocks of 1, 1, 2, 4, 8, ... quads
+        size = min(size, n - start)
+        j = np.arange(size)
+        r = np.sqrt((_vdc(j, size) + 0.5 / size) if size > 1 else np.full(1, 0.5))
+        for k, rk in zip(start + j, r, strict=True):
+            tk = 0.5 * math.pi * _vdc(np.array([k]), None)[0]
+            c, sn = rk * math.cos(tk), rk * math.sin(tk)
+            out += [(c, sn), (-c, -sn), (-sn, c), (sn, -c)]
+        start += size
+    return np.array(out)
+
+
+def _vdc(k: np.ndarray, size) -> np.ndarray:
+    """Base-2 van der Corput radical inverse of integers ``k`` (in [0, 1)); with ``size``
+    (a block of that many), the bit-reversed stratum j / size of each index instead (a
+    permutation of the strata when size is a power of two, else the strata in order)."""
+    if size is not None:
+        bits = max(1, int(size - 1).bit_length())
+        if 1 << bits != size:
+            return np.arange(len(k)) / size
+        rev = np.array([int(format(int(x), f"0{bits}b")[::-1], 2) for x in k])
+        return rev / size
+    out = np.zeros(len(k))
+    f = 0.5
+    k = k.copy()
+    while np.any(k):
+        out += f * (k & 1)
+        k >>= 1
+        f *= 0.5
+    return out
+
+
+def _r2(n: int) -> np.ndarray:
+    """(n, 2) R2 low-discrepancy offsets in [-0.5, 0.5) px (Roberts 2018)."""
     g = 1.32471795724474602596          # plastic number
     a = np.array([1 / g, 1 / g**2])
     k = np.arange(n)[:, None]
     return np.mod(0.5 + k * a, 1.0) - 0.5
+
+
+def _whitening(s: np.ndarray) -> np.ndarray:
+    """The symmetric 2x2 W with W C W^T = I/4 for the zero-mean set ``s``'s covariance C."""
+    c = s.T @ s / len(s)
+    w, v = np.linalg.eigh(c)
+    return v @ np.diag(0.5 / np.sqrt(w)) @ v.T
+
+
+def antialias_jitter(n: int) -> np.ndarray:
+    """(n, 2) sub-pixel offsets (px) for passes that only antialias: the R2 sequence, less
+    its mean (exactly zero-mean: the image is not shifted)."""
+    j = _r2(n + 1)[1:]
+    return j - j.mean(axis=0)
+
+
+def pixel_jitter(n: int) -> np.ndarray:
+    """(n, 2) sub-pixel offsets in [-0.5, 0.5) px: the R2 low-discrepancy sequence (Roberts
+    2018), starting at the pixel centre (the reference renderer shifts it per pixel:
+    Cranley-Patterson rotation, so its mean does not matter there)."""
+    return _r2(n)

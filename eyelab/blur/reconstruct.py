@@ -40,10 +40,10 @@ def sigma_map(zbuf: np.ndarray, cam, field, passes: int) -> np.ndarray:
 
 
 def variable_gaussian(img: np.ndarray, sig: np.ndarray) -> np.ndarray:
-    """Filter an (h, w, 3) uint8 image with a per-pixel Gaussian of sigma ``sig`` (h, w) px,
-    by blending copies filtered at sigma levels 0, 0.35, 0.7, 1.4, ... (linear in sigma
-    between the two levels around each pixel's). Returns uint8; the image itself where
-    every sigma is below 0.25 px."""
+    """Filter an (h, w, 3) image of linear light (float) with a per-pixel Gaussian of sigma
+    ``sig`` (h, w) px, by blending copies filtered at sigma levels 0, 0.35, 0.7, 1.4, ...
+    (linear in sigma between the two levels around each pixel's). Returns float32; the
+    image itself where every sigma is below 0.25 px."""
     from scipy.ndimage import gaussian_filter
 
     smax = float(sig.max())
@@ -52,14 +52,14 @@ def variable_gaussian(img: np.ndarray, sig: np.ndarray) -> np.ndarray:
     levels = [0.0]
     while levels[-1] < smax:
         levels.append(0.35 if levels[-1] == 0 else levels[-1] * 2)
-    src = img.astype(np.float32)
+    src = np.asarray(img, np.float32)
     filt = [src] + [gaussian_filter(src, (lv, lv, 0)) for lv in levels[1:]]
     idx = np.clip(np.searchsorted(levels, sig) - 1, 0, len(levels) - 2)
     lo = np.asarray(levels)[idx]
     hi = np.asarray(levels)[idx + 1]
-    t = np.clip((sig - lo) / (hi - lo), 0, 1)[..., None]
+    t = np.clip((sig - lo) / (hi - lo), 0, 1)[..., None].astype(np.float32)
     out = np.zeros_like(src)
     for i in range(len(levels) - 1):
         sel = (idx == i)[..., None]
-        out += np.where(sel, (1 - t) * filt[i] + t * filt[i + 1], 0.0)
-    return np.clip(out + 0.5, 0, 255).astype(np.uint8)
+        out += np.where(sel, (1 - t) * filt[i] + t * filt[i + 1], np.float32(0.0))
+    return out

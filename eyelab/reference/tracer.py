@@ -10,13 +10,15 @@ For each pixel (a direction from the pupil centre, the eye camera of the raster 
    with that accommodation (slope form: a ray through pupil point rho leaves with the slope
    -(P - n2/z_r) rho relative to the chief ray, as every ray of the pixel's retinal point
    does), through the lens exactly (a ray that misses the lens goes on straight), into the
-   scene; their colours are averaged.
+   scene; their radiances are averaged in linear light.
 
-Shading is the raster renderer's: unlit vertex colours or bilinear texture look-ups,
-averaged in the same (sRGB-encoded) values. With a dispersive lens each colour channel
-is traced at its own wavelength (C, e, F lines). Pupil samples: Vogel's equal-area spiral,
-rotated per pixel by a seeded random angle (deterministic for a seed, decorrelated between
-pixels). Rows of pixels run on a thread pool.
+Shading is the raster renderer's: unlit vertex colours or bilinear texture look-ups of the
+sRGB-encoded texels (the rasteriser's convention for what a surface looks like), decoded
+to linear light per ray; light adds in linear radiance, so the rays of a pixel are
+averaged after decoding and the average is encoded once, at output. With a dispersive lens
+each colour channel is traced at its own wavelength (C, e, F lines). Pupil samples:
+Vogel's equal-area spiral, rotated per pixel by a seeded random angle (deterministic for a
+seed, decorrelated between pixels). Rows of pixels run on a thread pool.
 
 ``model = "fons"`` replaces the eye by Fons et al. 2023's reduced-eye sampling: n x m + 1
 polar pupil points (n radii, m diameters) aimed at the focus plane P at the accommodated
@@ -117,8 +119,7 @@ class ReferenceRenderer(Renderer):
         report["timings_s"]["trace"] = dt
         report["details"].update(channels_traced=len(wls), rays=counts["rays"],
                                  rays_per_s=counts["rays"] / dt, model=q.model)
-        srgb = np.clip(np.round(img), 0, 255).astype(np.uint8)
-        return finish(report, view, linear=srgb_to_linear(img / 255.0), srgb=srgb, t_start=t0)
+        return finish(report, view, linear=img, t_start=t0)
 
     def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
         m = len(d)
@@ -195,7 +196,7 @@ class ReferenceRenderer(Renderer):
             else:
                 oo, od = o, dd
             h = inter.intersect(oo + 1e-7 * od, od)
-            c = h.colors(scene).reshape(m, -1, 3).mean(axis=1)
+            c = srgb_to_linear(h.colors(scene) / 255.0).reshape(m, -1, 3).mean(axis=1)
             nrays += len(o)
             if len(wls) == 1:
                 col = c

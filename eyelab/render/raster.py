@@ -40,11 +40,11 @@ from eyelab.imaging import (
 from eyelab.optics.camera import fit_virtual_camera, fit_window
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.options import RasterQuality
-from eyelab.render.accumulate import PassAccumulator
+from eyelab.render.accumulate import PassAccumulator, encode_linear
 from eyelab.render.actors import field_actor_factory
 from eyelab.render.composite import LensCompositor, compose
 from eyelab.render.window import OffscreenWindow
-from eyelab.sampling import pixel_jitter, seeds_for
+from eyelab.sampling import antialias_jitter, pass_samples
 from eyelab.scene.lensview import lens_back_mesh, lens_in_view_of, lens_view_mesh, widened_lens
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.raycast import EmbreeIntersector
@@ -186,12 +186,24 @@ class RasterRenderer(Renderer):
         win.show([((m.content_key, field.key, route), field_actor_factory(m, field, route))
                   for m in meshes])
 
-    def _passes_for(self, field, q, report, label) -> int:
-        if field.all_zero and q.skip_unneeded and q.samples > 1:
-            report["skipped"].append(f"{label}: blur field all zero: 1 pass instead of "
-                                     f"{q.samples}")
-            return 1
-        return q.samples
+    def _passes_for(self, field, q, report, label) -> tuple:
+        """(passes, seeds (S, 2), jitter (S, 2) px) of a stage. A zero field needs no blur
+        samples: without antialiasing one pass is the exact image (the rest are skipped);
+        with it, the S passes still run, as jittered copies only (a skip may remove work,
+        never quality)."""
+        seeds, jit = pass_samples(q.samples)
+        if not q.antialias:
+            jit = np.zeros_like(jit)
+        if field.all_zero and q.skip_unneeded:
+            if not q.antialias and q.samples > 1:
+                report["skipped"].append(f"{label}: blur field all zero: 1 pass instead of "
+                                         f"{q.samples}")
+                return 1, np.zeros((1, 2)), np.zeros((1, 2))
+            if q.samples > 1:
+                report["skipped"].append(f"{label}: blur field all zero: the {q.samples} "
+                                         f"passes only antialias (jitter, no displacement)")
+                return q.samples, np.zeros_like(seeds), antialias_jitter(q.samples)
+        return q.samples, seeds, jit
 
     def _naked_stage(self, scene, meshes, cam, field, view, q, report) -> dict:
         if self._eye_win is None:
@@ -202,7 +214,8 @@ class RasterRenderer(Renderer):
         self._show_scene(win, meshes, field, q.field_route)
         return {"win": win, "cam": cam, "field": field,
                 "key": ("naked", scene.content_key, field.key),
-                "passes": self._passes_for(field, q, report, "naked view"),
+                **dict(zip(("passes", "seeds", "jitter"),
+                           self._passes_for(field, q, report, "naked view"), strict=True)),
                 "acc": PassAccumulator(view.height, view.width)}
 
     def _env_width(self, cam, vcam, view, q) -> int:
@@ -217,7 +230,7 @@ class RasterRenderer(Renderer):
         vcam, (w_env, h_env) = fit_window(vcam, self._env_width(cam, vcam, view, q))
         win.set_view(vcam, (w_env, h_env), scene.background)
         self._show_scene(win, meshes, field, q.field_route)
-        passes = self._passes_for(field, q, report, "environment")
+        passes, seeds, jitter = self._passes_for(field, q, report, "environment")
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
         if not disperses:
@@ -238,7 +251,8 @@ class RasterRenderer(Renderer):
                                "fov_y_deg": vcam.fov_y_deg, "aspect": vcam.aspect}}
         return {"win": win, "cam": vcam, "field": field,
                 "key": ("env", scene.content_key, field.key),
-                "passes": passes, "geo": geo, "geo_key": tkey,
+                "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
+                "geo_key": tkey,
                 "acc": PassAccumulator(h_env, w_env)}
 
     @staticmethod
@@ -257,8 +271,6 @@ class RasterRenderer(Renderer):
     def _passes(self, naked, env, view, q, report, progressive):
         """Run the passes (checkpoints 1, 2, 4, ... S when ``progressive``); returns the
         final uint8 image, its layers and the progressive images."""
-        seeds = seeds_for(q.samples)
-        jit = pixel_jitter(q.samples) if q.antialias else np.zeros((q.samples, 2))
         stages = [s for s in (naked, env) if s is not None]
         timings = report["timings_s"]
         checkpoints = _checkpoints(q.samples) if progressive else [q.samples]
@@ -269,11 +281,9 @@ class RasterRenderer(Renderer):
                     if k >= st["passes"]:
                         continue
                     t = time.perf_counter()
-                    many = st["passes"] > 1
-                    st["win"].set_seed(seeds[k] if many else (0.0, 0.0),
-                                       jit[k] if many else (0.0, 0.0))
+                    st["win"].set_seed(st["seeds"][k], st["jitter"][k])
                     st["acc"].add(st["win"].grab_rgba())
-                    if k == 0 and many and q.reconstruct:
+                    if k == 0 and st["passes"] > 1 and q.reconstruct:
                         st["zbuf"] = st["win"].depth()
                     name = "naked_passes" if st is naked else "env_passes"
                     timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
@@ -286,19 +296,20 @@ class RasterRenderer(Renderer):
         return image, layers, prog
 
     def _mean(self, st, q, report) -> np.ndarray:
-        """The stage's average as GL-ordered RGBA (h, w, 4) uint8, reconstructed when asked
-        (:mod:`eyelab.blur.reconstruct`)."""
-        rgba = st["acc"].mean_rgba()
+        """The stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
+        reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`)."""
+        acc = st["acc"]
+        rgba = acc.mean_rgba()
         if "zbuf" not in st:
             return rgba
         t = time.perf_counter()
-        n = st["acc"].count
-        sig, _ = self._cached("small", ("sigma",) + st["key"] + (rgba.shape, n), lambda: sigma_map(
-            st["zbuf"], st["cam"], st["field"], n), report, "reconstruction_sigma")
-        src = rgba[::-1, :, :3]
-        img = variable_gaussian(src, sig)
-        if img is not src:                 # filtered: back to GL order, opaque
-            rgba = np.concatenate([img[::-1], rgba[..., 3:]], axis=2)
+        sig, _ = self._cached("small", ("sigma",) + st["key"] + (rgba.shape, acc.count),
+                              lambda: sigma_map(st["zbuf"], st["cam"], st["field"], acc.count),
+                              report, "reconstruction_sigma")
+        lin = acc.mean_linear()
+        out = variable_gaussian(lin, sig)
+        if out is not lin:                 # filtered: re-encode, back to GL order
+            rgba[..., :3] = encode_linear(out[::-1])
         tm = report["timings_s"]
         tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
         return rgba
