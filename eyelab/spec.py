@@ -31,7 +31,7 @@ EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupi
             "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
-             "front", "back", "torus"}
+             "front", "back", "torus", "coating"}
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
@@ -211,7 +211,8 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         if ct is None:
             raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
         return SpectacleLens(_surface(t["front"], "lens.front"), _surface(t["back"], "lens.back"),
-                             ct * 1e-3, material, (diam or 60.0) * 1e-3, pose)
+                             ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
+                             coating=t.get("coating", "none"))
     if "rx" in t:
         rx = _rx(t["rx"], "lens.rx")
     elif eye_rx is not None:
@@ -221,7 +222,8 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
     return SpectacleLens.from_rx(
         rx, material=material, base_curve=_num(t, "base_curve_d", "lens", -20, 30),
         center_thickness=None if ct is None else ct * 1e-3,
-        diameter=None if diam is None else diam * 1e-3, pose=pose, torus=t.get("torus", "y"))
+        diameter=None if diam is None else diam * 1e-3, pose=pose, torus=t.get("torus", "y"),
+        coating=t.get("coating", "none"))
 
 
 def parse_points(items) -> ObjectPoints:

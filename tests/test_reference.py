@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.color import linear_to_srgb
+from eyelab.color import linear_to_srgb, srgb_to_linear
 from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
@@ -44,7 +44,8 @@ def test_converges_at_least_like_one_over_sqrt_spp():
 def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
     """A chart at 0.5 m seen by a 4 D myope without accommodation: each point spreads into a
     uniform disc of angular radius r_p * dV (Eq. 8 with a circular pupil); the reference
-    image must equal the sharp image convolved with that disc."""
+    image must equal the sharp image convolved with that disc, in linear light (compared
+    in sRGB grey levels)."""
     from scipy.ndimage import convolve
 
     scene = chart_scene(0.5, px_per_mm=4.0)
@@ -52,8 +53,8 @@ def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
     # the sharp image point-samples the texture: take it 3x finer and convolve there, so
     # that the comparison integrates the texture as the blurred rays do
     f = 3
-    sharp = _ref(scene, Eye(accommodation_max=10.0), width=f * w, height=f * h,
-                 fov_y_deg=fov, samples=3)[1]
+    sharp = srgb_to_linear(_ref(scene, Eye(accommodation_max=10.0), width=f * w,
+                                height=f * h, fov_y_deg=fov, samples=3)[1] / 255.0)
     eye = Eye.from_rx(Prescription(-4.0), vertex_distance=0.0, accommodation_max=0.0,
                       pupil_diameter=6e-3)
     blurred = _ref(scene, eye, width=w, height=h, fov_y_deg=fov, samples=1024)[1]
@@ -70,7 +71,7 @@ def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
             ker += (xx + dx) ** 2 + (yy + dy) ** 2 <= r_hi**2
     ker /= ker.sum()
     conv = np.stack([convolve(sharp[..., c], ker, mode="nearest") for c in range(3)], -1)
-    conv = conv[1::f, 1::f]                      # fine pixel 3i+1 is coarse pixel i's centre
+    conv = linear_to_srgb(conv[1::f, 1::f]) * 255.0   # fine pixel 3i+1 is coarse pixel i's
     m = int(math.ceil(r_px)) + 1
     inner = (slice(m, -m), slice(m, -m))
     diff = np.abs(conv[inner] - blurred[inner])

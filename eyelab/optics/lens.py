@@ -21,10 +21,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
+from eyelab.optics.fresnel import COATINGS, transmittance
 from eyelab.optics.materials import Material, get_material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Asphere, Surface, Toric
-from eyelab.optics.trace import PlacedSurface, Status, intersect, refract
+from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
 
 #: Minimum centre thickness of minus lenses by material (m) (SCIENCE.md §7, lab practice).
 MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
@@ -83,6 +84,8 @@ class SpectacleLens:
     pose : LensPose
     rx : Prescription or None
         The prescription the lens was designed for, if any (informational).
+    coating : "none" (Fresnel reflection of the bare surfaces) or "ar" (anti-reflection:
+        :data:`eyelab.optics.fresnel.AR_REFLECTANCE` per surface)
     """
 
     front: Surface
@@ -92,10 +95,14 @@ class SpectacleLens:
     diameter: float = 0.060
     pose: LensPose = field(default_factory=LensPose)
     rx: Prescription | None = None
+    coating: str = "none"
 
     def __post_init__(self):
         check_range("lens.center_thickness_mm", self.center_thickness * 1e3, 0.2, 30.0)
         check_range("lens.diameter_mm", self.diameter * 1e3, 10.0, 90.0)
+        if self.coating not in COATINGS:
+            raise SpecError("lens.coating", f"must be one of {', '.join(map(repr, COATINGS))},"
+                                            f" got {self.coating!r}")
 
     # --------------------------------------------------------------- placement
     def placed_surfaces(self) -> tuple[PlacedSurface, PlacedSurface]:
@@ -121,7 +128,8 @@ class SpectacleLens:
         -------
         dict with keys ``hit1``, ``hit2`` (:class:`Hit` at the first/second surface met),
         ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs`` (n, 3)
-        and ``status`` (n,) uint8.
+        ``status`` (n,) uint8 and ``transmittance`` (n,): the fraction of unpolarised light
+        the two surfaces pass (Fresnel, :mod:`eyelab.optics.fresnel`; 0 for failed rays).
         """
         return self.trace_wavelengths(origins, directions, (wavelength_nm,),
                                       reverse=reverse)[0]
@@ -139,15 +147,20 @@ class SpectacleLens:
         out = []
         for wl in wavelengths_nm:
             nl = self.material.n(wl)
-            d1, _, _, _, st1 = refract(directions, h1.normals, 1.0 / nl)
+            d1, _, ci1, ct1, st1 = refract(directions, h1.normals, 1.0 / nl)
             h2 = intersect(s2, h1.points, d1)
-            d2, _, _, _, st2 = refract(d1, h2.normals, nl)
+            d2, _, ci2, ct2, st2 = refract(d1, h2.normals, nl)
             status = h1.status | st1 | h2.status | st2
             # a ray that must go forward inside the glass but goes backward has missed
             back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
             status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
+            # Fresnel: air -> glass, glass -> air (eyelab.optics.fresnel)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                t = (transmittance(ci1, ct1, 1.0, nl, self.coating)
+                     * transmittance(ci2, ct2, nl, 1.0, self.coating))
+            t = np.where((status & np.uint8(FATAL)) == 0, np.nan_to_num(t), 0.0)
             out.append({"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
-                        "out_dirs": d2, "status": status})
+                        "out_dirs": d2, "status": status, "transmittance": t})
         return out
 
     def back_vertex_powers(self, wavelength_nm: float = 587.56):
@@ -218,7 +231,7 @@ class SpectacleLens:
     def from_rx(cls, rx: Prescription, *, material="cr39", base_curve: float | None = None,
                 center_thickness: float | None = None, diameter: float | None = None,
                 pose: LensPose | None = None, wavelength_nm: float = 587.56,
-                torus: str = "y") -> SpectacleLens:
+                torus: str = "y", coating: str = "none") -> SpectacleLens:
         """Design a lens whose back vertex power equals ``rx`` (distance part) in both
         principal meridians.
 
@@ -273,4 +286,4 @@ class SpectacleLens:
             if abs(t_new - t) < 1e-10:
                 break
             t = t_new
-        return cls(Asphere(c1), back, t, mat, diameter, pose, rx)
+        return cls(Asphere(c1), back, t, mat, diameter, pose, rx, coating)

@@ -189,14 +189,17 @@ class ReferenceRenderer(Renderer):
         traced = lens.trace_wavelengths(o, dd, wls, reverse=True) if lens is not None \
             else [None] * len(wls)
         for ci, r2 in enumerate(traced):
+            weight = 1.0
             if r2 is not None:
                 ok = ((r2["status"] & np.uint8(FATAL)) == 0)
                 oo = np.where(ok[:, None], r2["out_points"], o)
                 od = np.where(ok[:, None], r2["out_dirs"], dd)
+                # Fresnel transmission of both surfaces; rays past the lens go on unweakened
+                weight = np.where(ok, r2["transmittance"], 1.0)[:, None]
             else:
                 oo, od = o, dd
             h = inter.intersect(oo + 1e-7 * od, od)
-            c = srgb_to_linear(h.colors(scene) / 255.0).reshape(m, -1, 3).mean(axis=1)
+            c = (srgb_to_linear(h.colors(scene) / 255.0) * weight).reshape(m, -1, 3).mean(axis=1)
             nrays += len(o)
             if len(wls) == 1:
                 col = c

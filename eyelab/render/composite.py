@@ -14,7 +14,9 @@ from contextlib import contextmanager
 import numpy as np
 
 from eyelab.cache import LRUCache
+from eyelab.imaging import decode_srgb
 from eyelab.render import _vtk
+from eyelab.render.accumulate import encode_linear
 from eyelab.render.actors import (
     image_data,
     polydata,
@@ -130,10 +132,17 @@ class LensCompositor:
             actor.SetTexture(None)
 
 
-def compose(naked, lens_img, masks, rim_color, invalid_color) -> np.ndarray:
-    """The lens view inside the outline, the naked view around it, the invalid pixels and
+def compose(naked, lens_img, masks, rim_color, invalid_color, *, transmittance=None
+            ) -> np.ndarray:
+    """The lens view inside the outline (times the lens's Fresnel ``transmittance`` (h, w,
+    channels), applied in linear light), the naked view around it, the invalid pixels and
     the rim in their colours. All (h, w, 3) uint8 / (h, w) bool."""
     invalid, inside, rim = masks
+    if transmittance is not None:
+        sel = inside & ~invalid & ~rim
+        lin = decode_srgb(lens_img[sel]) * transmittance[sel]
+        lens_img = lens_img.copy()
+        lens_img[sel] = encode_linear(lin)
     out = np.where(inside[..., None], lens_img, naked)
     out[invalid] = invalid_color
     out[rim] = rim_color

@@ -260,12 +260,13 @@ class RasterRenderer(Renderer):
         """Lens outline mesh, view grid mesh and their texture coordinates (§3)."""
         inter = EmbreeIntersector(scene)
         lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
-        gv, gf = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
+        gv, gf, axes = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
         tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls)
         # the grid's coordinates through the lens extended beyond its rim (the outline mask
         # clips it), so that rim cells are filled
         tcg = lens_texcoords(widened_lens(lens), gv, vcam, inter, wavelengths=wls)
-        return {"lens_v": lv, "lens_f": lf, "grid_v": gv, "grid_f": gf, "tc": tc, "tc_grid": tcg}
+        return {"lens_v": lv, "lens_f": lf, "grid_v": gv, "grid_f": gf, "tc": tc, "tc_grid": tcg,
+                "transmittance": transmittance_map(tcg.transmittance, axes, view)}
 
     # ------------------------------------------------------------------ passes
     def _passes(self, naked, env, view, q, report, progressive):
@@ -329,7 +330,8 @@ class RasterRenderer(Renderer):
         masks = self._compositor.masks(geo["lens_v"], geo["lens_f"],
                                        geo["tc"].lens_ok.all(0),
                                        ("masks", env["geo_key"], self._eye_win.size))
-        image = compose(image, lens_img, masks, q.rim_color, q.invalid_color)
+        image = compose(image, lens_img, masks, q.rim_color, q.invalid_color,
+                        transmittance=geo["transmittance"])
         invalid, inside, _ = masks
         report["details"]["lens"].update(pixels_inside=int(inside.sum()),
                                          pixels_invalid=int(invalid.sum()))
@@ -337,6 +339,24 @@ class RasterRenderer(Renderer):
         tm = report["timings_s"]
         tm["lens_composite"] = tm.get("lens_composite", 0.0) + time.perf_counter() - t
         return image, layers
+
+
+def transmittance_map(t_grid, axes, view) -> np.ndarray | None:
+    """(h, w, channels) float32 Fresnel transmittance per pixel (row 0 at the top), bilinear
+    between the lens grid's vertices (``t_grid`` (channels, ny * nx) on the NDC ``axes``);
+    None when the lens transmits everything (an index-1 lens)."""
+    from scipy.ndimage import map_coordinates
+
+    gx, gy = axes
+    t = np.asarray(t_grid, float).reshape(len(t_grid), len(gy), len(gx))
+    if np.all(t >= 1.0):
+        return None
+    x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
+    y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
+    fy, fx = np.meshgrid((y - gy[0]) / (gy[1] - gy[0]), (x - gx[0]) / (gx[1] - gx[0]),
+                         indexing="ij")
+    return np.stack([map_coordinates(tc, [fy, fx], order=1, mode="nearest")
+                     for tc in t], axis=-1).astype(np.float32)
 
 
 def _checkpoints(samples):

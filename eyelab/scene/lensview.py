@@ -39,7 +39,8 @@ def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
 def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     """Grid mesh on the (widened) lens's back surface: where eye rays through every
     ``step_px``-th pixel (one cell of margin around the view) meet it; cells whose corners
-    all meet it. Returns (vertices (n, 3) m, faces (m, 3))."""
+    all meet it. Returns (vertices (ny * nx, 3) m, faces (m, 3), (gx (nx,), gy (ny,)) the
+    grid's NDC coordinates: vertex j * nx + i lies on the ray through (gx[i], gy[j]))."""
     nx = max(2, int(math.ceil(width / step_px)) + 3)
     ny = max(2, int(math.ceil(height / step_px)) + 3)
     gx = np.linspace(-1 - 2 * step_px / width, 1 + 2 * step_px / width, nx)
@@ -55,7 +56,7 @@ def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     faces = np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, c], 1)])
     faces = faces[ok[faces].all(1)]
     pts = np.where(ok[:, None], hit.points, 0.0)
-    return pts, faces
+    return pts, faces, (gx, gy)
 
 
 def lens_back_mesh(lens, rings: int, segments: int):

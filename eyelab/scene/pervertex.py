@@ -19,13 +19,15 @@ class LensTexcoords:
     hits : (channels, n, 3) world points seen (far points along the ray on a miss);
     scene_hit : (channels, n) bool; lens_ok : (channels, n) bool (False: the ray misses the
     lens or is totally reflected: the vertex gets the defined 'invalid' colour);
-    wavelengths : tuple of nm."""
+    wavelengths : tuple of nm; transmittance : (channels, n) Fresnel transmission of the
+    two lens surfaces along each vertex's ray (0 where the ray fails)."""
 
     uv: np.ndarray
     hits: np.ndarray
     scene_hit: np.ndarray
     lens_ok: np.ndarray
     wavelengths: tuple
+    transmittance: np.ndarray
 
 
 def lens_texcoords(lens, points, camera, intersector, *, wavelengths=(587.56,),
@@ -39,7 +41,7 @@ def lens_texcoords(lens, points, camera, intersector, *, wavelengths=(587.56,),
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     o = np.broadcast_to(pupil, d.shape)
     far = miss_distance or camera.far * 0.999
-    uvs, hits, shit, lok = [], [], [], []
+    uvs, hits, shit, lok, trans = [], [], [], [], []
     for res in lens.trace_wavelengths(o, d, wavelengths, reverse=True):
         ok = (res["status"] & np.uint8(FATAL)) == 0
         q, dd = res["out_points"], res["out_dirs"]
@@ -55,5 +57,6 @@ def lens_texcoords(lens, points, camera, intersector, *, wavelengths=(587.56,),
         hits.append(p)
         shit.append(h.hit & ok)
         lok.append(ok)
+        trans.append(res["transmittance"])
     return LensTexcoords(np.array(uvs), np.array(hits), np.array(shit), np.array(lok),
-                         tuple(wavelengths))
+                         tuple(wavelengths), np.array(trans))
