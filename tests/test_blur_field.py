@@ -196,3 +196,38 @@ def test_cache_hits_and_misses(tmp_path):
     assert (a.report["cache"], b.report["cache"], c.report["cache"]) == ("miss", "hit", "miss")
     np.testing.assert_array_equal(a.matrix, b.matrix)
     assert len(list(tmp_path.glob("*.npz"))) == 2
+
+
+def test_lookups_at_the_lens_rim_do_not_mix_in_invisible_zeros():
+    """Voxels with no light path through the lens (beyond its rim) have no matrix; a
+    visible point near the rim reads them by trilinear look-up, so they are extended from
+    their visible neighbours: the looked-up blur stays within 10 % of its own voxel's,
+    where zeros would shrink it towards half."""
+    from eyelab.blur.field import VoxelStatus
+    from eyelab.optics.camera import fit_virtual_camera
+
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
+    lens = SpectacleLens.from_rx(Prescription(-4.0), diameter=0.03)
+    cam = fit_virtual_camera(lens, eye_camera(fov_y_deg=90, aspect=1.0, near=0.1,
+                                              far=20.0)).camera
+    f = compute_blur_field(eye, lens, cam, shape=(32, 32, 32))
+    st = f.status
+    assert f.report["not_visible_extended"] == int((st == VoxelStatus.NOT_VISIBLE).sum()) > 0
+    nz, ny, nx = f.shape
+    ok = st == VoxelStatus.OK
+    inv = st == VoxelStatus.NOT_VISIBLE
+    k, j, i = np.nonzero(ok[:, 1:-1, 1:-1] & inv[:, 1:-1, 2:])          # rim to the right
+    j, i = j + 1, i + 1
+    ndc = np.column_stack([-1 + (2 * i + 1.8) / nx, -1 + (2 * j + 1.0) / ny,
+                           f.camera.depth_to_ndc_z(f.slice_depths()[k])])
+    pts = f.camera.ndc_to_world(ndc)       # 0.4 voxel from the centre toward the rim
+    own = np.linalg.norm(f.matrix[k, j, i].reshape(-1, 4), axis=1)
+    got = np.linalg.norm(f.lookup(pts).reshape(-1, 4), axis=1)
+    sel = own > 1e-4
+    assert sel.sum() > 20
+    np.testing.assert_allclose(got[sel] / own[sel], 1.0, atol=0.10)
+    zeroed = f.matrix.copy()
+    zeroed[inv] = 0.0                       # what the look-up read before the extension
+    f.matrix = zeroed
+    shrunk = np.linalg.norm(f.lookup(pts).reshape(-1, 4), axis=1)
+    assert np.median(shrunk[sel] / own[sel]) < 0.75

@@ -331,3 +331,25 @@ def test_reconstruction_filter_smooths_only_blurred_pixels():
                                           skip_unneeded=False)) as r:
             imgs.append(r.render(scene, sharp_eye, None, view).image)
     np.testing.assert_array_equal(imgs[0], imgs[1])
+
+
+def test_a_lens_covering_the_view_skips_the_naked_view_and_changes_nothing():
+    """The default view (60 deg) through a 60 mm lens at 12 mm: every pixel sees through
+    the lens, so the naked-eye field and passes are skipped (and said so); the image is
+    the one rendered without skipping."""
+    scene = room_scene()
+    rx = Prescription(-3.0, -1.0, 180)
+    eye = Eye.from_rx(rx, accommodation_max=1.0)
+    lens = SpectacleLens.from_rx(rx)
+    view = View(width=96, height=72)
+    imgs = {}
+    for skip in (True, False):
+        with RasterRenderer(RasterQuality(samples=4, skip_unneeded=skip)) as r:
+            res = r.render(scene, eye, lens, view)
+        imgs[skip] = res
+    assert imgs[True].report["samples"]["done"]["naked"] == 0
+    assert "naked" not in imgs[True].report["details"]["fields"]
+    assert any("covers the whole view" in s for s in imgs[True].report["skipped"])
+    assert imgs[False].report["samples"]["done"]["naked"] == 4
+    assert imgs[True].layers["lens_mask"].all()
+    np.testing.assert_array_equal(imgs[True].srgb, imgs[False].srgb)

@@ -132,6 +132,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     t = time.perf_counter()
     map_row_chunks(run, ncol, workers=workers, block=max(1, 16384 // max(len(ks), 1)))
     timings["voxels_s"] = time.perf_counter() - t
+    extended = extend_into_invisible(matrix, status) if lens is not None else 0
     timings["total_s"] = time.perf_counter() - t0
     counts = {s.name.lower(): int((status == s).sum()) for s in VoxelStatus}
     report = {
@@ -143,6 +144,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         "voxels_computed": int(ncol * len(ks)),
         "voxel_status": counts,
         "in_focus_skipped": counters["in_focus_skipped"],
+        "not_visible_extended": extended,
         "skipped_why": skip_reason,
         "columns": ncol,
         "reference_depth_m": float(reference_depth),
@@ -216,6 +218,48 @@ def _scene_mask(camera, shape, depth_mode, bounds):
         cy = (ey[1:] >= y0) & (ey[:-1] <= y1)
         col_ok = _dilate1(cy)[:, None] & _dilate1(cx)[None, :]
     return col_ok, slice_ok, w_lo, w_hi
+
+
+#: Rings of not-visible voxels next to visible ones whose matrices are extended from their
+#: visible neighbours. One ring is what a trilinear look-up in a visible voxel reads; the
+#: second covers look-ups between the lens's rim and the first ring's centres.
+RIM_RINGS = 2
+
+
+def extend_into_invisible(matrix, status, rings: int = RIM_RINGS) -> int:
+    """Give NOT_VISIBLE voxels next to visible (OK) ones, ring by ring in each depth slice,
+    the mean matrix of their already-filled 8-neighbours; returns how many were filled.
+
+    A not-visible voxel (no light path through the lens) has no matrix of its own, and
+    zero there would be mixed into every trilinear look-up at the lens's rim, shrinking
+    the blur by up to half in a one-voxel band (the scene-margin defect's twin); the
+    field is smooth there, so its visible neighbours' mean is the right continuation.
+    The status stays NOT_VISIBLE. ``matrix`` (nz, ny, nx, 2, 2) is changed in place."""
+    filled = status == VoxelStatus.OK
+    todo = status == VoxelStatus.NOT_VISIBLE
+    total = 0
+    nz, ny, nx = status.shape
+    for _ in range(rings):
+        acc = np.zeros(matrix.shape)
+        cnt = np.zeros(status.shape)
+        src = np.where(filled[..., None, None], matrix, 0.0)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy == dx == 0:
+                    continue
+                ys = slice(max(dy, 0), ny + min(dy, 0))
+                yd = slice(max(-dy, 0), ny + min(-dy, 0))
+                xs = slice(max(dx, 0), nx + min(dx, 0))
+                xd = slice(max(-dx, 0), nx + min(-dx, 0))
+                acc[:, yd, xd] += src[:, ys, xs]
+                cnt[:, yd, xd] += filled[:, ys, xs]
+        new = todo & ~filled & (cnt > 0)
+        if not new.any():
+            break
+        matrix[new] = acc[new] / cnt[new][:, None, None]
+        filled = filled | new
+        total += int(new.sum())
+    return total
 
 
 def _dilate1(ok):

@@ -45,7 +45,13 @@ from eyelab.render.actors import field_actor_factory
 from eyelab.render.composite import LensCompositor, compose
 from eyelab.render.window import OffscreenWindow
 from eyelab.sampling import antialias_jitter, pass_samples
-from eyelab.scene.lensview import lens_back_mesh, lens_in_view_of, lens_view_mesh, widened_lens
+from eyelab.scene.lensview import (
+    lens_back_mesh,
+    lens_covers_view,
+    lens_in_view_of,
+    lens_view_mesh,
+    widened_lens,
+)
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.raycast import EmbreeIntersector
 from eyelab.scene.refine import refine_for_fields
@@ -103,8 +109,10 @@ class RasterRenderer(Renderer):
         cam = view.camera()
         bounds = scene.bounds()
         lens_in_view = self._lens_in_view(lens, cam, report)
+        covered = lens_in_view and q.skip_unneeded and self._lens_covers(lens, cam, report)
         t = time.perf_counter()
-        f_naked = self._field(eye, None, cam, bounds, view, q, report, "naked")
+        f_naked = None if covered else self._field(eye, None, cam, bounds, view, q, report,
+                                                   "naked")
         f_lens = vcam = None
         if lens_in_view:
             vcam = self._virtual_camera(lens, cam, view, q, report)
@@ -129,6 +137,16 @@ class RasterRenderer(Renderer):
         timings.update(gl_render=gl, readback=rb)
         return finish(report, view, srgb=image, layers=layers, progressive=prog,
                       t_start=t_start)
+
+    def _lens_covers(self, lens, cam, report) -> bool:
+        """Whether every pixel sees through the lens (then the naked view is not drawn)."""
+        key = content_key(what="covers", lens=lens, camera=cam)
+        covers, _ = self._cached("small", key, lambda: lens_covers_view(lens, cam), report,
+                                 "lens_covers_view")
+        if covers:
+            report["skipped"].append("naked view: the lens covers the whole view: the "
+                                     "naked-eye field and passes are not needed")
+        return covers
 
     def _lens_in_view(self, lens, cam, report) -> bool:
         if lens is None:
@@ -173,8 +191,8 @@ class RasterRenderer(Renderer):
             return list(scene.meshes)
         meshes = []
         for m in scene.meshes:
-            key = (m.content_key, f_naked.key, None if f_lens is None else f_lens.key,
-                   view.width)
+            key = (m.content_key, None if f_naked is None else f_naked.key,
+                   None if f_lens is None else f_lens.key, view.width)
             (rm, info), _ = self._cached("refined", key, lambda m=m: refine_for_fields(
                 m, [f_naked, f_lens], px_scale=view.width / 2), report, f"refined_{m.name}")
             meshes.append(rm)
@@ -211,6 +229,9 @@ class RasterRenderer(Renderer):
         win = self._eye_win
         win.render_s = win.readback_s = 0.0
         win.set_view(cam, (view.width, view.height), scene.background)
+        if field is None:                           # the lens covers the view
+            win.show([])
+            return {"win": win, "passes": 0, "acc": None}
         self._show_scene(win, meshes, field, q.field_route)
         return {"win": win, "cam": cam, "field": field,
                 "key": ("naked", scene.content_key, field.key),
@@ -316,8 +337,13 @@ class RasterRenderer(Renderer):
         return rgba
 
     def _image(self, naked, env, view, q, report):
-        image = self._mean(naked, q, report)[::-1, :, :3]
-        layers = {"naked": image}
+        if naked["passes"]:
+            image = self._mean(naked, q, report)[::-1, :, :3]
+            layers = {"naked": image}
+        else:   # covered by the lens: every pixel is the lens's (a stray one: invalid colour)
+            image = np.empty((view.height, view.width, 3), np.uint8)
+            image[:] = q.invalid_color
+            layers = {}
         if env is None:
             return image, layers
         t = time.perf_counter()

@@ -23,6 +23,20 @@ def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
     return bool(np.any((res["status"] & np.uint8(FATAL)) == 0))
 
 
+def lens_covers_view(lens, cam: Camera, samples: int = 33, margin: float = 0.99) -> bool:
+    """True if every ray of a ``samples`` x ``samples`` grid over the camera's view (its
+    border included) passes through the lens shrunk to ``margin`` of its diameter (the
+    outline the renderer masks with is at 99.5 %): the lens and the view are both convex,
+    so then every pixel sees through the lens."""
+    small = dataclasses.replace(lens, diameter=lens.diameter * margin)
+    g = np.linspace(-1.0, 1.0, samples)
+    gx, gy = np.meshgrid(g, g)
+    d = cam.ray_directions(gx.ravel(), gy.ravel())
+    o = np.broadcast_to(np.asarray(cam.position, float), d.shape)
+    res = small.trace(o, d, reverse=True)
+    return bool(np.all((res["status"] & np.uint8(FATAL)) == 0))
+
+
 def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
     """The same lens with a ``factor`` larger aperture where its surfaces allow (else the
     lens itself): used only for texture coordinates of grid vertices just outside the rim,
