@@ -25,13 +25,30 @@ from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene
 
 
-def rss_mb() -> float:
-    """Resident set size of this process, MB (Linux /proc)."""
+def rss_mb(trim: bool = True) -> float:
+    """Resident set size of this process, MB (Linux /proc); ``trim``: first garbage-collect
+    and hand the allocator's free memory back to the system (glibc ``malloc_trim``), so
+    that what is measured is what is still held, not the arenas' free lists."""
+    if trim:
+        gc.collect()
+        _malloc_trim()
     with open("/proc/self/status") as f:
         for line in f:
             if line.startswith("VmRSS"):
                 return int(line.split()[1]) / 1024
     raise OSError("VmRSS not found in /proc/self/status")
+
+
+def _malloc_trim() -> None:
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name:
+        try:
+            ctypes.CDLL(name).malloc_trim(0)
+        except (OSError, AttributeError):       # not glibc: nothing to trim
+            pass
 
 
 def _eye(i: int) -> Eye:

@@ -12,13 +12,15 @@ For each pixel (a direction from the pupil centre, the eye camera of the raster 
    does), through the lens exactly (a ray that misses the lens goes on straight), into the
    scene; their radiances are averaged in linear light.
 
-Shading is the raster renderer's: unlit vertex colours or bilinear texture look-ups of the
-sRGB-encoded texels (the rasteriser's convention for what a surface looks like), decoded
-to linear light per ray; light adds in linear radiance, so the rays of a pixel are
-averaged after decoding and the average is encoded once, at output. With a dispersive lens
-each colour channel is traced at its own wavelength (C, e, F lines). Pupil samples:
-Vogel's equal-area spiral, rotated per pixel by a seeded random angle (deterministic for a
-seed, decorrelated between pixels). Rows of pixels run on a thread pool.
+Shading is the raster renderer's: unlit vertex colours or textures, in linear light:
+texels are decoded from sRGB and then filtered bilinearly (the raster renderer's sRGB
+textures are filtered and mip-mapped in linear light by the GL), vertex colours decoded
+and then interpolated. Light adds in linear radiance, so the rays of a pixel are averaged
+as they are, times the lens's Fresnel transmission, and the average is encoded once, at
+output. With a dispersive lens each colour channel is traced at its own wavelength (C, e,
+F lines). Pupil samples: Vogel's equal-area spiral, rotated per pixel by a seeded random
+angle (deterministic for a seed, decorrelated between pixels: stratified in area, uniform
+in angle, an unbiased estimate of the disc). Rows of pixels run on a thread pool.
 
 ``model = "fons"`` replaces the eye by Fons et al. 2023's reduced-eye sampling: n x m + 1
 polar pupil points (n radii, m diameters) aimed at the focus plane P at the accommodated
@@ -35,7 +37,6 @@ import time
 
 import numpy as np
 
-from eyelab.color import srgb_to_linear
 from eyelab.imaging import Renderer, View, finish, new_report
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.optics.paths import ChiefRays
@@ -199,7 +200,7 @@ class ReferenceRenderer(Renderer):
             else:
                 oo, od = o, dd
             h = inter.intersect(oo + 1e-7 * od, od)
-            c = (srgb_to_linear(h.colors(scene) / 255.0) * weight).reshape(m, -1, 3).mean(axis=1)
+            c = (h.linear_colors(scene) * weight).reshape(m, -1, 3).mean(axis=1)
             nrays += len(o)
             if len(wls) == 1:
                 col = c

@@ -69,11 +69,15 @@ def set_image_rgba_gl(data, rgba) -> None:
     data.Modified()
 
 
-def texture(img_top_first, *, mipmap: bool = False):
-    """vtkTexture (bilinear, clamped, the colours used as they are) of an (h, w, 3) uint8
-    image, row 0 at the top. ``mipmap``: trilinear mip-mapping, for scene textures seen
-    smaller than their texels."""
+def texture(img_top_first, *, mipmap: bool = False, srgb: bool = False):
+    """vtkTexture (bilinear, clamped) of an (h, w, 3) uint8 image, row 0 at the top.
+    ``mipmap``: trilinear mip-mapping, for textures seen smaller than their texels;
+    ``srgb``: the texels are sRGB codes that the GL decodes to linear light before
+    filtering and mip-mapping (the fragment shader must then re-encode its output:
+    ``shaders/encode_srgb.frag.glsl``)."""
     tex = _vtk.vtkTexture()
+    if srgb:
+        tex.UseSRGBColorSpaceOn()
     tex.SetInputData(image_data(img_top_first))
     tex.InterpolateOn()
     tex.RepeatOff()
@@ -104,7 +108,9 @@ def mesh_actor(mesh: SceneMesh, blur_rows: np.ndarray | None = None):
     pd = polydata(mesh.vertices, mesh.faces)
     if mesh.texture is not None:
         set_tcoords(pd, mesh.uv)
-        actor = unlit_actor(pd, texture(mesh.texture))
+        # filtered and mip-mapped in linear light, as the passes are averaged (the
+        # actor's shader re-encodes): minified text greys as light mixes, without aliasing
+        actor = unlit_actor(pd, texture(mesh.texture, mipmap=True, srgb=True))
     else:
         col = _vtk.numpy_to_vtk(np.ascontiguousarray(mesh.colors), deep=True)
         col.SetName("colors")

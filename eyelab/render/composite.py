@@ -25,7 +25,7 @@ from eyelab.render.actors import (
     set_tcoords,
     unlit_actor,
 )
-from eyelab.render.window import OffscreenWindow
+from eyelab.render.window import OffscreenWindow, inject_fragment
 
 
 class LensCompositor:
@@ -38,12 +38,16 @@ class LensCompositor:
         self._image = image_data(np.zeros((2, 2, 3), np.uint8))
         tex = _vtk.vtkTexture()
         tex.SetInputData(self._image)
+        tex.UseSRGBColorSpaceOn()           # sampled and filtered in linear light ...
         tex.InterpolateOn()
         tex.RepeatOff()
         tex.EdgeClampOn()
         tex.SetColorModeToDirectScalars()
         self._pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
         self._actor = unlit_actor(self._pd, tex)
+        sp = _vtk.vtkOpenGLShaderProperty()
+        inject_fragment(sp, "encode_srgb.frag")   # ... and re-encoded for the framebuffer
+        self._actor.SetShaderProperty(sp)
         self._grid_key = None
         self._mask_pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
         self._mask_actor = unlit_actor(self._mask_pd)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 import weakref
+from collections import OrderedDict
 from importlib import resources
 
 import numpy as np
@@ -16,6 +17,12 @@ from eyelab.render import _vtk
 #: Vertex shader tags measured to exist in VTK 9.7 (shared/docs/VTK_NOTES.md, Q5).
 VERTEX_TAGS = ("//VTK::PositionVC::Dec", "//VTK::PositionVC::Impl",
                "//VTK::CustomBegin::Impl", "//VTK::CustomEnd::Impl")
+
+#: Actors a window keeps built while not shown (a scene's meshes for another field).
+SPARE_ACTORS = 16
+
+#: Fragment shader tags used (the late hook after VTK has set ``fragOutput0``).
+FRAGMENT_TAGS = ("//VTK::DepthPeeling::Impl",)
 
 #: The shader files of each blur-field route (see :class:`OffscreenWindow.use_field`).
 ROUTE_SHADERS = {"attribute": ("displace.dec", "displace.impl"),
@@ -30,11 +37,23 @@ def glsl(name: str) -> str:
 def inject_vertex(shader_property, name: str) -> None:
     """Apply ``shaders/<name>.glsl`` as a vertex-shader replacement. The file's first line
     must be the VTK tag it replaces (kept in the replacement, so VTK's own code stays)."""
+    tag, text = _tagged(name, VERTEX_TAGS)
+    shader_property.AddVertexShaderReplacement(tag, True, text, False)
+
+
+def inject_fragment(shader_property, name: str) -> None:
+    """Apply ``shaders/<name>.glsl`` as a fragment-shader replacement (as
+    :func:`inject_vertex`)."""
+    tag, text = _tagged(name, FRAGMENT_TAGS)
+    shader_property.AddFragmentShaderReplacement(tag, True, text, False)
+
+
+def _tagged(name, known):
     text = glsl(name)
     tag = text.splitlines()[0].strip()
-    if tag not in VERTEX_TAGS:
-        raise ValueError(f"shader {name!r} starts with unknown tag {tag!r}; known: {VERTEX_TAGS}")
-    shader_property.AddVertexShaderReplacement(tag, True, text, False)
+    if tag not in known:
+        raise ValueError(f"shader {name!r} starts with unknown tag {tag!r}; known: {known}")
+    return tag, text
 
 
 class OffscreenWindow:
@@ -53,16 +72,22 @@ class OffscreenWindow:
         self.ren = _vtk.vtkRenderer()
         self.win.AddRenderer(self.ren)
         self.size = (0, 0)
+        # one property per (route, textured): textured actors sample sRGB textures in
+        # linear light and re-encode their output (encode_srgb.frag)
         self.shaders = {}
         for route, names in ROUTE_SHADERS.items():
-            sp = _vtk.vtkOpenGLShaderProperty()
-            for name in names:
-                inject_vertex(sp, name)
-            sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
-            sp.GetVertexCustomUniforms().SetUniform2f("jitter", [0.0, 0.0])
-            self.shaders[route] = sp
+            for textured in (False, True):
+                sp = _vtk.vtkOpenGLShaderProperty()
+                for name in names:
+                    inject_vertex(sp, name)
+                if textured:
+                    inject_fragment(sp, "encode_srgb.frag")
+                sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
+                sp.GetVertexCustomUniforms().SetUniform2f("jitter", [0.0, 0.0])
+                self.shaders[route, textured] = sp
         self.route = "attribute"
         self.actors = {}
+        self._spare = OrderedDict()
         self.field_texture = None
         self.field_texture_key = None
         self._field_data = None
@@ -70,17 +95,17 @@ class OffscreenWindow:
         self.readback_s = 0.0
         self._buf = _vtk.vtkUnsignedCharArray()
 
-    @property
-    def shader(self):
-        return self.shaders[self.route]
+    def _route_shaders(self):
+        return [self.shaders[self.route, t] for t in (False, True)]
 
     def set_seed(self, seed, jitter_px=(0.0, 0.0)) -> None:
         """Per-pass uniforms: the unit-disc seed and a sub-pixel offset (pixels)."""
-        u = self.shader.GetVertexCustomUniforms()
-        u.SetUniform2f("seed", [float(seed[0]), float(seed[1])])
         w, h = self.size
-        u.SetUniform2f("jitter", [2.0 * float(jitter_px[0]) / max(w, 1),
-                                  2.0 * float(jitter_px[1]) / max(h, 1)])
+        for sp in self._route_shaders():
+            u = sp.GetVertexCustomUniforms()
+            u.SetUniform2f("seed", [float(seed[0]), float(seed[1])])
+            u.SetUniform2f("jitter", [2.0 * float(jitter_px[0]) / max(w, 1),
+                                      2.0 * float(jitter_px[1]) / max(h, 1)])
 
     def use_field(self, field, route: str) -> None:
         """Select the route. "texture": the field as a 3D RGBA32F texture (linear filtering,
@@ -89,11 +114,12 @@ class OffscreenWindow:
         self.route = route
         if route != "texture":
             return
-        u = self.shader.GetVertexCustomUniforms()
         cam = field.camera
-        u.SetUniformf("depthMode", 0.0 if field.depth_mode == "ndc" else 1.0)
-        u.SetUniformf("nearPlane", float(cam.near))
-        u.SetUniformf("farPlane", float(cam.far))
+        for sp in self._route_shaders():
+            u = sp.GetVertexCustomUniforms()
+            u.SetUniformf("depthMode", 0.0 if field.depth_mode == "ndc" else 1.0)
+            u.SetUniformf("nearPlane", float(cam.near))
+            u.SetUniformf("farPlane", float(cam.far))
         if self.field_texture_key == field.key:
             return
         self.win.Initialize()
@@ -112,21 +138,27 @@ class OffscreenWindow:
 
     def show(self, items) -> list:
         """Show exactly the actors of ``items`` [(key, factory)], reusing the ones already
-        built under the same key; returns them. Actors not shown are released."""
+        built under the same key; returns them. Actors not shown stay built (up to
+        :data:`SPARE_ACTORS`, least recently shown released first, GL resources included),
+        so that views alternating between two sets rebuild nothing."""
         keep = {}
         self.ren.RemoveAllViewProps()
         for key, factory in items:
             actor = self.actors.get(key)
             if actor is None:
+                actor = self._spare.pop(key, None)
+            if actor is None:
                 actor = factory()
-                actor.SetShaderProperty(self.shader)
+                actor.SetShaderProperty(self.shaders[self.route, actor.GetTexture() is not None])
                 if self.route == "texture":
                     bind_field_texture(actor.GetMapper(), self)
             keep[key] = actor
             self.ren.AddActor(actor)
         for key, actor in self.actors.items():
             if key not in keep:
-                release_actor(actor)
+                self._spare[key] = actor
+        while len(self._spare) > SPARE_ACTORS:
+            release_actor(self._spare.popitem(last=False)[1], self.win)
         self.actors = keep
         return list(keep.values())
 
@@ -179,9 +211,10 @@ class OffscreenWindow:
     def close(self) -> None:
         """Release every actor, the field texture and the GL context."""
         self.ren.RemoveAllViewProps()
-        for actor in self.actors.values():
-            release_actor(actor)
+        for actor in list(self.actors.values()) + list(self._spare.values()):
+            release_actor(actor, self.win)
         self.actors.clear()
+        self._spare.clear()
         self._release_field_texture()
         self.win.Finalize()
 
@@ -204,8 +237,14 @@ def bind_field_texture(mapper, window: OffscreenWindow) -> None:
     mapper._eyelab_observer = mapper.AddObserver(_vtk.vtkCommand.UpdateShaderEvent, bind)
 
 
-def release_actor(actor) -> None:
-    """Drop an actor's observers and inputs so its polydata and textures can be freed."""
+def release_actor(actor, win=None) -> None:
+    """Free an actor's GL resources (buffers, textures) in ``win`` and drop its observers
+    and inputs so that its polydata and textures can be freed."""
+    if win is not None:
+        actor.ReleaseGraphicsResources(win)
+        tex = actor.GetTexture()
+        if tex is not None:
+            tex.ReleaseGraphicsResources(win)
     mapper = actor.GetMapper()
     if mapper is not None:
         mapper.RemoveAllObservers()

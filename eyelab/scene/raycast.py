@@ -19,6 +19,19 @@ class Hits:
     def hit(self):
         return np.isfinite(self.t)
 
+    def linear_colors(self, scene: Scene):
+        """(n, 3) linear-light colours at the hits (:meth:`SceneMesh.linear_color_at`); the
+        background's on misses."""
+        from eyelab.color import srgb_to_linear
+
+        bg = srgb_to_linear(np.asarray(scene.background, float) / 255.0)
+        out = np.broadcast_to(bg, (len(self.t), 3)).copy()
+        for k, m in enumerate(scene.meshes):
+            sel = self.hit & (self.mesh == k)
+            if sel.any():
+                out[sel] = m.linear_color_at(self.tri[sel], self.uv[sel])
+        return out
+
     def colors(self, scene: Scene):
         """(n, 3) float colours at the hits; the background colour on misses."""
         out = np.broadcast_to(np.asarray(scene.background, float), (len(self.t), 3)).copy()

@@ -59,6 +59,7 @@ class SceneMesh:
             value.flags.writeable = False
         if name in self._ARRAYS or name == "name":
             self.__dict__.pop("_key", None)
+            self.__dict__.pop("_linear_tex", None)
         super().__setattr__(name, value)
 
     @property
@@ -97,13 +98,40 @@ class SceneMesh:
         c = self.colors
         return w0 * c[f[:, 0]] + u * c[f[:, 1]] + v * c[f[:, 2]]
 
+    def linear_color_at(self, face_ids, bary_uv):
+        """Linear-light colours (k, 3) float in [0, 1] at points given by triangle ids and
+        barycentric (u, v): texels decoded to linear light, then filtered bilinearly (as the
+        raster renderer's sRGB textures are); vertex colours decoded, then interpolated."""
+        f = self.faces[face_ids]
+        u, v = bary_uv[:, 0:1], bary_uv[:, 1:2]
+        w0 = 1.0 - u - v
+        if self.texture is not None:
+            uv = w0 * self.uv[f[:, 0]] + u * self.uv[f[:, 1]] + v * self.uv[f[:, 2]]
+            return sample_texture(self._linear_texture(), uv)
+        c = _decode_u8(self.colors)
+        return w0 * c[f[:, 0]] + u * c[f[:, 1]] + v * c[f[:, 2]]
+
+    def _linear_texture(self):
+        tex = self.__dict__.get("_linear_tex")
+        if tex is None:
+            tex = _decode_u8(self.texture)
+            self.__dict__["_linear_tex"] = tex
+        return tex
+
     def bounds(self):
         return self.vertices.min(0), self.vertices.max(0)
 
 
+def _decode_u8(arr):
+    """uint8 sRGB codes -> float32 linear light (table look-up)."""
+    from eyelab.color import srgb_to_linear
+
+    return srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)[arr]
+
+
 def sample_texture(tex, uv):
-    """Bilinear sample of an (h, w, 3) uint8 texture at uv (k, 2) (texel centres at
-    (i + 0.5)/w, clamped to the edge, v = 0 at the bottom row) -> (k, 3) float."""
+    """Bilinear sample of an (h, w, 3) texture (uint8 or float) at uv (k, 2) (texel centres
+    at (i + 0.5)/w, clamped to the edge, v = 0 at the bottom row) -> (k, 3) float."""
     h, w = tex.shape[:2]
     x = np.clip(uv[:, 0] * w - 0.5, 0, w - 1)
     y = np.clip((1.0 - uv[:, 1]) * h - 0.5, 0, h - 1)
