@@ -119,7 +119,7 @@ def test_render_and_demo_commands(tmp_path, capsys):
     import matplotlib.image as mpimg
 
     assert mpimg.imread(out).shape[:2] == (72, 96)
-    assert json.loads(rep.read_text())["samples"]["done"]["naked"] == 2
+    assert json.loads(rep.read_text())["samples"]["done"] == {"naked": 0, "environment": 2}
     demo = tmp_path / "d.png"
     assert main(["demo", "-o", str(demo), "--samples", "2", "--width", "96",
                  "--height", "72"]) == 0

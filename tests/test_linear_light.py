@@ -81,3 +81,21 @@ def test_one_pass_is_passed_through_exactly():
     acc = PassAccumulator(8, 8)
     acc.add(rgba)
     np.testing.assert_array_equal(acc.mean(), rgba[::-1, :, :3])
+
+
+def test_a_minified_texture_is_its_mean_light_without_aliasing():
+    """A fine black/white checker texture seen far smaller than its texels (64 texels per
+    pixel) renders, in one pass, at the texture's mean linear light (0.5, code 188) with
+    little pixel-to-pixel variation: mip-maps built in linear light (point sampling would
+    alias to a random black/white pattern; averaging codes would give 0.21)."""
+    tex = np.zeros((512, 512, 3), np.uint8)
+    tex[(np.arange(512)[:, None] + np.arange(512)[None]) % 2 == 1] = 255
+    quad = grid_quad("fine", (0.0, 0.0, -1.0), (1, 0, 0), (0, 1, 0), 0.2, 0.2, nu=2, nv=2,
+                     texture=tex)
+    view = View(width=64, height=64, fov_y_deg=8.0, near=0.2, far=5.0)
+    with make_renderer("raster", RasterQuality(samples=1)) as r:
+        res = r.render(Scene([quad], background=(0, 0, 0)), Eye(accommodation_max=5.0),
+                       None, view)
+    inner = res.linear[16:-16, 16:-16, 1]
+    assert inner.mean() == pytest.approx(0.5, abs=0.03)
+    assert inner.std() < 0.05

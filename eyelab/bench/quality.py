@@ -95,7 +95,7 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     so a renderer change is re-measured without re-tracing the ground truth."""
     w, h = size or ((160, 120) if quick else (1024, 768))
     raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
-    ref_spp = tuple(ref_spp or ((4, 16, 64) if quick else (4, 16, 64, 256, 1024)))
+    ref_spp = tuple(ref_spp or ((1, 4, 16, 64) if quick else (1, 4, 16, 64, 256, 1024)))
     truth_spp = truth_spp or (256 if quick else 4096)
     check_range("truth_spp", truth_spp, 1, 65536)
     for spp in ref_spp:

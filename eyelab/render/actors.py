@@ -102,15 +102,16 @@ def unlit_actor(pd, tex=None):
     return actor
 
 
-def mesh_actor(mesh: SceneMesh, blur_rows: np.ndarray | None = None):
-    """An unlit actor of a scene mesh (vertex colours or its texture) with the per-vertex
-    ``blurM`` attribute (n, 4) float32 of the CPU route (zeros when None)."""
+def mesh_actor(mesh: SceneMesh, blur_rows: np.ndarray | None = None, *, mipmap: bool = False):
+    """An unlit actor of a scene mesh (vertex colours or its texture, an sRGB texture
+    filtered in linear light, mip-mapped if ``mipmap``) with the per-vertex ``blurM``
+    attribute (n, 4) float32 of the CPU route (zeros when None)."""
     pd = polydata(mesh.vertices, mesh.faces)
     if mesh.texture is not None:
         set_tcoords(pd, mesh.uv)
-        # filtered and mip-mapped in linear light, as the passes are averaged (the
-        # actor's shader re-encodes): minified text greys as light mixes, without aliasing
-        actor = unlit_actor(pd, texture(mesh.texture, mipmap=True, srgb=True))
+        # filtered (and mip-mapped) in linear light, as the passes are averaged (the
+        # actor's shader re-encodes): minified text greys as light mixes
+        actor = unlit_actor(pd, texture(mesh.texture, mipmap=mipmap, srgb=True))
     else:
         col = _vtk.numpy_to_vtk(np.ascontiguousarray(mesh.colors), deep=True)
         col.SetName("colors")
@@ -130,10 +131,10 @@ def mesh_actor(mesh: SceneMesh, blur_rows: np.ndarray | None = None):
     return actor
 
 
-def field_actor_factory(mesh: SceneMesh, field, route: str):
+def field_actor_factory(mesh: SceneMesh, field, route: str, *, mipmap: bool = False):
     """A zero-argument factory of the mesh's actor for a blur-field route: "texture" (the
     shader samples the field) or "attribute" (matrices looked up here, per vertex)."""
     if route == "texture":
-        return lambda: mesh_actor(mesh, None)
+        return lambda: mesh_actor(mesh, None, mipmap=mipmap)
     return lambda: mesh_actor(mesh, field.lookup(mesh.vertices).reshape(-1, 4)
-                              .astype(np.float32))
+                              .astype(np.float32), mipmap=mipmap)
