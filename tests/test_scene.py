@@ -97,3 +97,18 @@ def test_load_mesh_round_trip(tmp_path):
     assert (m.colors == [10, 20, 30]).all()
     with pytest.raises(SpecError, match="scene.mesh"):
         load_mesh(tmp_path / "missing.obj")
+
+
+def test_prefiltered_texture_keeps_the_mean_light():
+    """Reducing a texture by f x f blocks keeps each block's mean linear light (a fine
+    black/white checker becomes code 188, linear 0.5, not the codes' mean 128)."""
+    import numpy as np
+
+    from eyelab.scene.prefilter import reduce_texture
+
+    tex = np.zeros((8, 8, 3), np.uint8)
+    tex[(np.arange(8)[:, None] + np.arange(8)[None]) % 2 == 1] = 255
+    out = reduce_texture(tex, 4)
+    assert out.shape == (2, 2, 3)
+    assert np.all(out == 188)
+    np.testing.assert_array_equal(reduce_texture(tex, 1), tex)

@@ -53,6 +53,7 @@ from eyelab.scene.lensview import (
     widened_lens,
 )
 from eyelab.scene.pervertex import lens_texcoords
+from eyelab.scene.prefilter import prefiltered, reduction_factor
 from eyelab.scene.raycast import EmbreeIntersector
 from eyelab.scene.refine import refine_for_fields
 
@@ -208,11 +209,23 @@ class RasterRenderer(Renderer):
             report["details"]["refinement"].append(info)
         return meshes
 
-    def _show_scene(self, win, meshes, field, q):
-        mip = q.samples < MIPMAP_BELOW_SAMPLES
+    def _show_scene(self, win, meshes, field, q, passes, cam, height, report):
+        """Show the meshes' actors for a field. Few passes: textures mip-mapped; more: the
+        passes supersample, and textures are prefiltered to about two texels per pixel
+        instead (:mod:`eyelab.scene.prefilter`), cached."""
+        mip = passes < MIPMAP_BELOW_SAMPLES
+        shown = []
+        for m in meshes:
+            f = 1 if mip else reduction_factor(m, cam, height)
+            if f > 1:
+                m, _ = self._cached("refined", ("prefiltered", m.content_key, f),
+                                    lambda m=m, f=f: prefiltered(m, f), report,
+                                    f"prefiltered_{m.name}")
+            shown.append((m, f))
         win.use_field(field, q.field_route)
         win.show([((m.content_key, field.key, q.field_route, mip),
-                   field_actor_factory(m, field, q.field_route, mipmap=mip)) for m in meshes])
+                   field_actor_factory(m, field, q.field_route, mipmap=mip))
+                  for m, _ in shown])
 
     def _passes_for(self, field, q, report, label) -> tuple:
         """(passes, seeds (S, 2), jitter (S, 2) px) of a stage. A zero field needs no blur
@@ -242,11 +255,11 @@ class RasterRenderer(Renderer):
         if field is None:                           # the lens covers the view
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
-        self._show_scene(win, meshes, field, q)
+        passes, seeds, jitter = self._passes_for(field, q, report, "naked view")
+        self._show_scene(win, meshes, field, q, passes, cam, view.height, report)
         return {"win": win, "cam": cam, "field": field,
                 "key": ("naked", scene.content_key, field.key),
-                **dict(zip(("passes", "seeds", "jitter"),
-                           self._passes_for(field, q, report, "naked view"), strict=True)),
+                "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
 
     def _env_width(self, cam, vcam, view, q) -> int:
@@ -260,8 +273,8 @@ class RasterRenderer(Renderer):
         win.render_s = win.readback_s = 0.0
         vcam, (w_env, h_env) = fit_window(vcam, self._env_width(cam, vcam, view, q))
         win.set_view(vcam, (w_env, h_env), scene.background)
-        self._show_scene(win, meshes, field, q)
         passes, seeds, jitter = self._passes_for(field, q, report, "environment")
+        self._show_scene(win, meshes, field, q, passes, vcam, h_env, report)
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
         if not disperses:
