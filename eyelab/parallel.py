@@ -29,3 +29,22 @@ def map_row_chunks(fn, n: int, *, workers: int | None = None, block: int = 16_38
         return [fn(a, b) for a, b in bounds]
     with ThreadPoolExecutor(max_workers=workers) as ex:
         return list(ex.map(lambda ab: fn(*ab), bounds))
+
+
+_POOL = None
+
+
+def split_rows(fn, n: int, *, workers: int | None = None) -> None:
+    """Call ``fn(start, stop)`` on ``workers`` contiguous row ranges covering ``range(n)``,
+    on a process-wide thread pool (created once: per-frame work such as decoding a
+    read-back must not pay for new threads). For numpy kernels that release the GIL."""
+    global _POOL
+    workers = workers or default_workers()
+    if workers == 1 or n < 2 * workers:
+        fn(0, n)
+        return
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=default_workers(),
+                                   thread_name_prefix="eyelab-rows")
+    edges = [n * k // workers for k in range(workers + 1)]
+    list(_POOL.map(lambda k: fn(edges[k], edges[k + 1]), range(workers)))

@@ -16,10 +16,16 @@ within 0.5 code value of the exactly averaged radiance everywhere, dark regions 
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from eyelab.color import linear_to_srgb, srgb_to_linear
 from eyelab.options import MAX_PASSES
+from eyelab.parallel import split_rows
+
+if sys.byteorder != "little":          # the pair look-ups read RGBA bytes as uint16 / uint32
+    raise ImportError("eyelab's pass accumulation assumes a little-endian host")
 
 #: Linear light of each sRGB code value, as 16-bit integers (65535 = white).
 DECODE16 = np.round(srgb_to_linear(np.arange(256) / 255.0) * 65535.0).astype(np.uint64)
@@ -66,8 +72,12 @@ class PassAccumulator:
 
     def _add_pairs(self, rgba):
         pairs = np.ascontiguousarray(rgba).view(np.uint16)          # (h, w, 2): RG, BA
-        np.take(_PAIR, pairs, out=self._buf, mode="clip")
-        np.add(self.sum, self._buf, out=self.sum)
+
+        def rows(a, b):
+            np.take(_PAIR, pairs[a:b], out=self._buf[a:b], mode="clip")
+            np.add(self.sum[a:b], self._buf[a:b], out=self.sum[a:b])
+
+        split_rows(rows, self.shape[0])
 
     def mean16(self) -> np.ndarray:
         """(h, w, 3) uint16 linear light (65535 = white), GL row order."""
@@ -95,7 +105,18 @@ class PassAccumulator:
             out = self._first.copy()
         else:
             out = np.empty(self.shape + (4,), np.uint8)
-            out[..., :3] = ENCODE16[self.mean16()]
+            # the uint64 pairs read as uint32 (little-endian): R, G, B, alpha sums; sums
+            # stay below 2^24, exact in float32
+            u32 = self.sum.view(np.uint32)
+            scale = np.float32(1.0 / self.count)
+
+            def rows(a, b):
+                f = u32[a:b].astype(np.float32)
+                f *= scale
+                f += np.float32(0.5)
+                out[a:b] = ENCODE16[f.astype(np.uint16)]
+
+            split_rows(rows, self.shape[0])
         out[..., 3] = 255
         return out
 
