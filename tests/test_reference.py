@@ -114,3 +114,59 @@ def test_metrics_identity_and_ordering():
     soft = uniform_filter(img.astype(float), size=(3, 3, 1)).astype(np.uint8)
     assert compare_images(soft, img)["blur_size_error"] > 0.2
     assert to_linear(np.array([[[255, 0, 0]]], np.uint8))[0, 0, 0] == pytest.approx(1.0)
+
+
+def test_fons_pattern_is_n_m_plus_one_points_on_m_diameters():
+    """Fons et al. §3, Fig. 4: n radius subdivisions, m diameters at phase pi/m, n m + 1
+    rays; every radius k/n once on every diameter (halves alternating), the centre once."""
+    from eyelab.reference.tracer import fons_pattern
+
+    n, m = 4, 8
+    p = fons_pattern(n, m)
+    assert p.shape == (n * m + 1, 2)
+    np.testing.assert_array_equal(p[0], [0.0, 0.0])
+    r = np.linalg.norm(p[1:], axis=1)
+    np.testing.assert_allclose(np.sort(r), np.repeat(np.arange(1, n + 1) / n, m), atol=1e-12)
+    ang = np.mod(np.arctan2(p[1:, 1], p[1:, 0]), math.pi)          # the diameter's direction
+    steps = ang / (math.pi / m)
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
+    for j in range(m):                                            # each radius on each one
+        on = np.isclose(np.round(steps) % m, j)
+        np.testing.assert_allclose(np.sort(r[on]), np.arange(1, n + 1) / n)
+    assert np.linalg.norm(p.mean(axis=0)) < 0.1                   # the halves alternate
+
+
+def test_fons_focuses_the_lowest_error_meridian_not_the_mean():
+    """An astigmatic hyperope (meridians +1 and +3 D) looking at 1 m: Fons et al.'s focus
+    plane is the lower-error meridian's (accommodation 2 D: that meridian sharp, the other
+    2 D off: a line), Kakimoto's Eq. 13 the mean's (3 D: both 1 D off: a circle). The
+    rendered blob's spread shows it: elongated with "fons", round with "thin"."""
+    from eyelab.reference.tracer import fons_accommodation
+
+    eye = Eye.from_rx(Prescription(1.0, 2.0, 90), accommodation_max=5.0, vertex_distance=0.0,
+                      pupil_diameter=4e-3)
+    assert float(fons_accommodation(eye, -1.0)) == pytest.approx(2.0, abs=1e-9)
+    assert float(eye.accommodation_for(-1.0)) == pytest.approx(3.0, abs=1e-9)
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_raster import _moments, blob_scene
+
+    from eyelab.scene.library import grid_quad
+    from eyelab.scene.scene import Scene
+
+    # a black backdrop just behind the blob: every pixel's chief ray meets the scene at
+    # 1 m, so the per-pixel accommodation is the blob's everywhere
+    backdrop = grid_quad("backdrop", (0.0, 0.0, -1.0005), (1, 0, 0), (0, 1, 0), 0.2, 0.2,
+                         nu=1, nv=1, colors=np.array([0, 0, 0], np.uint8))
+    scene = Scene(blob_scene(size=0.005).meshes + [backdrop], background=(0, 0, 0))
+    ratios = {}
+    for model in ("thin", "fons"):
+        res = ReferenceRenderer(ReferenceQuality(samples=256, model=model, fons_n=8,
+                                                 fons_m=16)).render(
+            scene, eye, None, View(width=96, height=96, fov_y_deg=2.0, near=0.2, far=5.0))
+        ev = np.linalg.eigvalsh(_moments(res.linear))
+        ratios[model] = math.sqrt(ev[1] / ev[0])
+    assert ratios["thin"] == pytest.approx(1.0, abs=0.05)
+    assert ratios["fons"] > 2.0, ratios

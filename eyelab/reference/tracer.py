@@ -22,11 +22,10 @@ F lines). Pupil samples: Vogel's equal-area spiral, rotated per pixel by a seede
 angle (deterministic for a seed, decorrelated between pixels: stratified in area, uniform
 in angle, an unbiased estimate of the disc). Rows of pixels run on a thread pool.
 
-``model = "fons"`` replaces the eye by Fons et al. 2023's reduced-eye sampling: n x m + 1
-polar pupil points (n radii, m diameters) aimed at the focus plane P at the accommodated
-distance, and for astigmatism their two-axis construction (samples projected on the axis
-of larger error are aimed at the focus plane P' of that meridian; the ray keeps its pupil
-origin and goes to where that line meets P).
+``model = "fons"`` replaces the eye by Fons et al. 2023's reduced-eye model: the pupil
+pattern of n x m + 1 points (:func:`fons_pattern`), the focus plane set by the meridian
+of lowest refractive error (:func:`fons_accommodation`, §4) and the two-axis astigmatism
+construction (:func:`fons_slopes`, §4, Fig. 7).
 """
 
 from __future__ import annotations
@@ -66,13 +65,9 @@ class ReferenceRenderer(Renderer):
     @staticmethod
     def pupil_samples(q: ReferenceQuality):
         """(k, 2) pupil points in the unit disc: Vogel's spiral of ``samples`` points, or
-        the Fons pattern (the centre plus fons_n radii x 2 fons_m angles)."""
+        the Fons pattern (:func:`fons_pattern`)."""
         if q.model == "fons":
-            r = np.arange(1, q.fons_n + 1) / q.fons_n
-            t = np.arange(2 * q.fons_m) * math.pi / q.fons_m
-            rr, tt = np.meshgrid(r, t, indexing="ij")
-            pts = np.column_stack([(rr * np.cos(tt)).ravel(), (rr * np.sin(tt)).ravel()])
-            return np.vstack([[0.0, 0.0], pts])
+            return fons_pattern(q.fons_n, q.fons_m)
         return disc_seeds(q.samples)
 
     def _render(self, scene, eye, lens, view, q, progressive):
@@ -154,13 +149,19 @@ class ReferenceRenderer(Renderer):
             t, _ = lens_path_matrix(chief, lens, 587.56, np.zeros((len(idx), 3)), x_e)
             kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
-        acc = eye.accommodation_for(kbar) if view.focus_d is None else np.full(
-            m, min(max(float(view.focus_d), 0.0), eye.accommodation_max))
+        if view.focus_d is not None:
+            acc = np.full(m, min(max(float(view.focus_d), 0.0), eye.accommodation_max))
+        elif quality.model == "fons":
+            acc = fons_accommodation(eye, kbar)
+        else:
+            acc = eye.accommodation_for(kbar)                            # Kakimoto Eq. 13
         # 3. ray bundles from the retina point through the pupil samples
         n_in = -d
         x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
         y_e = cross(n_in, x_e)
-        ang = rng.uniform(0, 2 * math.pi, m)
+        # the pattern turned per pixel (decorrelates pixels; Vogel's spiral is stratified in
+        # area); Fons et al.'s pattern keeps its fixed diameters (§3, Fig. 4)
+        ang = rng.uniform(0, 2 * math.pi, m) if quality.model != "fons" else np.zeros(m)
         ca, sa = np.cos(ang), np.sin(ang)
         sx = samples[None, :, 0] * ca[:, None] - samples[None, :, 1] * sa[:, None]
         sy = samples[None, :, 0] * sa[:, None] + samples[None, :, 1] * ca[:, None]
@@ -168,7 +169,7 @@ class ReferenceRenderer(Renderer):
         pxx, pxy, pyy = eye.power_matrix(acc)
         e = eye.emmetropic_power
         if quality.model == "fons":
-            gx, gy = self._fons_slopes(eye, acc, rho_x, rho_y, kbar)
+            gx, gy = fons_slopes(eye, acc, rho_x, rho_y)
         else:
             gx = (pxx - e)[:, None] * rho_x + pxy[:, None] * rho_y       # incoming slope G rho
             gy = pxy[:, None] * rho_x + (pyy - e)[:, None] * rho_y
@@ -208,29 +209,60 @@ class ReferenceRenderer(Renderer):
                 col[:, ci] = c[:, ci]
         return col, nrays
 
-    @staticmethod
-    def _fons_slopes(eye, acc, rho_x, rho_y, kbar):
-        """Fons et al.'s construction in slope form. The focus plane P is where the mean
-        meridian focuses (vergence F = kbar-independent: the eye's accommodated mean far
-        vergence), P' the plane of the meridian with the larger error; a sample is aimed
-        from its projection on that axis toward P', and the ray from the sample's own origin
-        goes to where that line meets P."""
-        e = eye.emmetropic_power
-        p1, p2 = eye.principal_powers(acc)
-        f_mean = (0.5 * (p1 + p2) - e)[:, None]   # vergence of the bundle (mean meridian)
-        w = math.radians(eye.astigmatism_axis_deg)
-        ax = np.array([math.cos(w), math.sin(w)])                     # meridian of P1
-        f_axis = (p1 - e)[:, None]
-        # slope of a ray from pupil point rho toward the focus of vergence f: f * rho
-        # (rays converge toward the axis point at distance 1/f): spherical part
-        gx = f_mean * rho_x
-        gy = f_mean * rho_y
-        # two-axis construction: the component along the P1 meridian converges with f_axis
-        along = rho_x * ax[0] + rho_y * ax[1]
-        extra = ((f_axis - f_mean) * along)
-        gx = gx + extra * ax[0]
-        gy = gy + extra * ax[1]
-        return gx, gy
+
+
+def fons_pattern(n: int, m: int) -> np.ndarray:
+    """(n m + 1, 2) pupil points of Fons et al. 2023, §3 and Fig. 4, in the unit disc.
+
+    The paper divides the pupil radius into ``n`` subdivisions and lays ``m`` diameters
+    separated by the phase alpha = pi / m, and counts n m + 1 rays (the +1 is the main
+    ray through the centre O). n subdivisions on each of the 2m half-diameters would be
+    2 n m + 1 rays, so the count fixes one point per (subdivision, diameter): point (k, j)
+    lies on diameter j at radius k / n, on that diameter's positive half for even k and on
+    its negative half for odd k — every radius on every diameter once, the two halves of
+    each diameter alternating (with pi/m phases, the m diameters' positive halves alone
+    would cover half the pupil). This reading is eyelab's; the paper's figure does not
+    resolve it (``tests/test_reference.py`` pins it and its mean)."""
+    pts = [(0.0, 0.0)]
+    for j in range(m):
+        t = j * math.pi / m
+        for k in range(1, n + 1):
+            r = k / n * (1.0 if k % 2 == 0 else -1.0)
+            pts.append((r * math.cos(t), r * math.sin(t)))
+    return np.array(pts)
+
+
+def fons_accommodation(eye, mean_vergence):
+    """Fons et al. 2023, §4: the focus plane P lies where the principal meridian with the
+    *lowest* refractive error focuses (Delta P = P_min - P'_min + P_axis_min), within the
+    far and near points: the accommodation (D) that focuses that meridian on the object's
+    wave (mean vergence, 1/m), clamped to [0, amplitude]. Kakimoto's Eq. 13 instead focuses
+    the mean meridian (the circle of least confusion)."""
+    r1, r2 = eye.refraction()                      # far-point vergence of each meridian
+    p_low = eye.principal_powers()[0 if abs(r1) <= abs(r2) else 1]
+    want = eye.emmetropic_power - np.asarray(mean_vergence, float) - p_low
+    return np.clip(want, 0.0, eye.accommodation_max)
+
+
+def fons_slopes(eye, acc, rho_x, rho_y):
+    """Fons et al.'s two-axis construction (§4, Fig. 7) in paraxial slope form, (m, k)
+    each. A sample's projection on the higher-error axis is aimed at that meridian's focus
+    plane P'; the ray from the sample's own origin goes to where that line meets P, the
+    lower-error meridian's plane. Along each principal axis a ray therefore converges to
+    that meridian's own focus: the incoming slope is f_i (rho . a_i) along axis a_i, with
+    f_i = P_i(acc) - n2 / z_r — which is the thin toric eye's G rho, whichever axis is the
+    lower-error one."""
+    e = eye.emmetropic_power
+    p1, p2 = eye.principal_powers(acc)
+    f1, f2 = (p1 - e)[:, None], (p2 - e)[:, None]
+    w = math.radians(eye.astigmatism_axis_deg)
+    a1 = np.array([math.cos(w), math.sin(w)])                       # meridian of P1
+    a2 = np.array([-a1[1], a1[0]])
+    along1 = rho_x * a1[0] + rho_y * a1[1]
+    along2 = rho_x * a2[0] + rho_y * a2[1]
+    gx = f1 * along1 * a1[0] + f2 * along2 * a2[0]
+    gy = f1 * along1 * a1[1] + f2 * along2 * a2[1]
+    return gx, gy
 
 
 def _progress(fn, bar):
