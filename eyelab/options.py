@@ -20,6 +20,8 @@ FIELD_ROUTES = ("texture", "attribute")
 #: Eye models of the reference renderer: Kakimoto's thin toric eye, or Fons et al.'s
 #: reduced-eye sampling.
 MODELS = ("thin", "fons")
+#: Per-pixel accommodation rules of the reference renderer (see ReferenceQuality).
+ACCOMMODATION_RULES = ("eq13", "rms")
 
 
 @dataclass(frozen=True)
@@ -92,7 +94,11 @@ class ReferenceQuality:
     the Fons pupil pattern; seed : random seed of the per-pixel rotations and jitter
     (deterministic for a seed); chromatic : R/G/B traced at their own wavelengths through a
     dispersive lens; workers : threads (None: every core); progress : a progress bar on
-    stderr.
+    stderr; accommodation : how each pixel's accommodation is found when the view does not
+    fix it — "eq13" (Kakimoto's Eq. 13 on the wave carried by the lens's ray matrices, as
+    the blur field does) or "rms" (independent of that machinery: real rays from the scene
+    point through the lens to pupil points, and the accommodation that minimises their
+    retinal spot's RMS in the thin eye; slower).
     """
 
     samples: int = 64
@@ -103,10 +109,12 @@ class ReferenceQuality:
     chromatic: bool = True
     workers: int | None = None
     progress: bool = False
+    accommodation: str = "eq13"
 
     def __post_init__(self):
         check_int("render.samples", self.samples, 1, 65536)
         check_choice("render.model", self.model, MODELS)
+        check_choice("render.accommodation", self.accommodation, ACCOMMODATION_RULES)
         check_int("render.fons_n", self.fons_n, 1, 64)
         check_int("render.fons_m", self.fons_m, 1, 64)
         check_int("render.seed", self.seed, 0, 2**63 - 1)

@@ -144,6 +144,8 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,
                          rays_per_s=rep["rays_per_s"])
                 case["reference"].append(m)
+            case["variants"] = _variants(scene, eye, lens, view, truth, quick,
+                                         spp=ref_spp[-1])
             # equal wall time: the reference's RMSE interpolated (log-log) at each raster time
             rt = np.array([m["time_s"] for m in case["reference"]])
             re = np.array([m["rmse"] for m in case["reference"]])
@@ -156,13 +158,42 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                      plot_path=plot_path)
 
 
+#: The reference renderer's variants measured beside it: Fons et al.'s eye model, and the
+#: accommodation found from real rays (independent of the blur field's Eq. 13 machinery).
+VARIANTS = {"fons": dict(model="fons", fons_n=8, fons_m=16),
+            "rms_accommodation": dict(accommodation="rms")}
+
+
+def _variants(scene, eye, lens, view, truth, quick, spp):
+    """Rows of the reference's variants against the converged (Eq. 13, thin eye) reference:
+    error, time, and for the real-ray accommodation how far it is from Eq. 13's (D). The
+    quick preset measures the real-ray accommodation without a lens only (its path
+    finding through a lens takes ~15 s per 160x120 image on 2 cores)."""
+    rows = []
+    for name, kw in VARIANTS.items():
+        if name == "rms_accommodation" and quick and lens is not None:
+            continue
+        t = time.perf_counter()
+        res = ReferenceRenderer(ReferenceQuality(samples=spp, seed=1, **kw)).render(
+            scene, eye, lens, view)
+        m = compare_images(res.srgb, truth)
+        m.update(variant=name, rmse=_rmse(res.srgb, truth), time_s=time.perf_counter() - t,
+                 samples=res.report["samples"]["target"])
+        diff = res.report["details"].get("accommodation_rms_vs_eq13_d")
+        if diff is not None:
+            m["accommodation_vs_eq13_d"] = diff
+        rows.append(m)
+    return rows
+
+
 def _case_row(case):
     s32 = [m for m in case["raster"] if m["samples"] == 32][0]
     ref = case["reference"][-1]
+    var = "".join(f"; {v['variant']} SSIM {v['ssim']:.4f}" for v in case.get("variants", []))
     return (f"{case['scene']:>12} {case['config']:>22}: raster S=32 SSIM {s32['ssim']:.4f} "
             f"PSNR {s32['psnr_db']:.1f} dB in {s32['time_s'] * 1e3:.0f} ms; reference "
             f"{ref['spp']} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
-            f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s")
+            f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s{var}")
 
 
 def summarise(cases, *, preset, size, plot_path=None) -> dict:

@@ -86,7 +86,7 @@ class ReferenceRenderer(Renderer):
                                                       "the lens material does not disperse")
                                      + ": one wavelength traced")
         out = np.zeros((n, 3))
-        counts = {"rays": 0}
+        counts = {"rays": 0, "acc_diff_sum": 0.0, "acc_diff_max": 0.0, "acc_n": 0}
         lock = threading.Lock()
         rng_root = np.random.SeedSequence(q.seed)
         block = max(1, 16384 // len(samples))   # ~16k rays per task: numpy-friendly
@@ -94,11 +94,15 @@ class ReferenceRenderer(Renderer):
 
         def run(a, b):
             rng = np.random.default_rng(seeds[a // block])
-            col, nrays = self._pixels(dirs[a:b], ndc[a:b], scene, inter, eye, lens, samples,
-                                      wls, rng, view, q)
+            col, nrays, diff = self._pixels(dirs[a:b], ndc[a:b], scene, inter, eye, lens,
+                                            samples, wls, rng, view, q)
             out[a:b] = col
             with lock:
                 counts["rays"] += nrays
+                if len(diff):
+                    counts["acc_diff_sum"] += float(np.abs(diff).sum())
+                    counts["acc_diff_max"] = max(counts["acc_diff_max"], float(np.abs(diff).max()))
+                    counts["acc_n"] += len(diff)
 
         bar = None
         if q.progress:
@@ -114,7 +118,12 @@ class ReferenceRenderer(Renderer):
         report["samples"].update(target=len(samples), done={"pixel": len(samples)})
         report["timings_s"]["trace"] = dt
         report["details"].update(channels_traced=len(wls), rays=counts["rays"],
-                                 rays_per_s=counts["rays"] / dt, model=q.model)
+                                 rays_per_s=counts["rays"] / dt, model=q.model,
+                                 accommodation=q.accommodation)
+        if counts["acc_n"]:
+            report["details"]["accommodation_rms_vs_eq13_d"] = {
+                "mean_abs": counts["acc_diff_sum"] / counts["acc_n"],
+                "max_abs": counts["acc_diff_max"], "pixels": counts["acc_n"]}
         return finish(report, view, linear=img, t_start=t0)
 
     def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
@@ -149,12 +158,21 @@ class ReferenceRenderer(Renderer):
             t, _ = lens_path_matrix(chief, lens, 587.56, np.zeros((len(idx), 3)), x_e)
             kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
+        acc_diff = np.zeros(0)
         if view.focus_d is not None:
             acc = np.full(m, min(max(float(view.focus_d), 0.0), eye.accommodation_max))
         elif quality.model == "fons":
             acc = fons_accommodation(eye, kbar)
         else:
             acc = eye.accommodation_for(kbar)                            # Kakimoto Eq. 13
+            if quality.accommodation == "rms":
+                found = np.isfinite(dist)
+                pts = np.where(through[:, None], q + dist[:, None] * dq, dist[:, None] * d)
+                a_rms = rms_accommodation(eye, lens, np.where(found[:, None], pts, -d),
+                                          through, d)
+                use = found & np.isfinite(a_rms)
+                acc_diff = (a_rms - acc)[use]
+                acc = np.where(use, a_rms, acc)
         # 3. ray bundles from the retina point through the pupil samples
         n_in = -d
         x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
@@ -207,8 +225,60 @@ class ReferenceRenderer(Renderer):
                 col = c
             else:
                 col[:, ci] = c[:, ci]
-        return col, nrays
+        return col, nrays, acc_diff
 
+
+
+#: Pupil points (Vogel's spiral, stratified in area) of the real-ray RMS accommodation.
+RMS_PUPIL_POINTS = 12
+
+
+def rms_accommodation(eye, lens, points, through, pixel_dirs):
+    """(m,) accommodation (D) that minimises the RMS of the retinal spot of scene points
+    ``points`` (m, 3), found without the blur field's machinery: for pupil points rho_k
+    the real light path from the point through the lens (exact path finding, per row where
+    ``through``; straight otherwise) gives the arriving slope u_k relative to the pixel's
+    axis; the thin eye of power P0 + A I maps it to the retinal point r_k(A) = rho_k +
+    z_r (u_k - P0 rho_k - A rho_k) / n2 (paraxial refraction at the eye, n' u' = n u -
+    P y), and the A minimising sum |r_k - mean r|^2 is solved in closed form (the spot is
+    linear in A), then clamped to [0, amplitude]. NaN where a path fails."""
+    from eyelab.optics.paths import ObjectPoints, find_chief_rays
+
+    m = len(points)
+    n_in = -pixel_dirs                                     # the pixel's axis, toward the eye
+    x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
+    y_e = cross(n_in, x_e)
+    rp = eye.pupil_diameter / 2
+    rho = rp * disc_seeds(RMS_PUPIL_POINTS)                # (k, 2)
+    pxx, pxy, pyy = eye.power_matrix(np.zeros(m))
+    n2, zr = eye.n_vitreous, eye.retina_distance
+    c = np.zeros((m, len(rho), 2))
+    ok = np.ones(m, bool)
+    objects = ObjectPoints.from_positions(points)
+    for k, (rx, ry) in enumerate(rho):
+        target = rx * x_e + ry * y_e
+        if lens is not None and through.any():
+            idx = np.flatnonzero(through)
+            sub = ObjectPoints(objects.direction[idx], objects.distance[idx])
+            ch = find_chief_rays(lens, target[idx], sub)
+            arrive = -pixel_dirs.copy()
+            arrive[idx] = ch.dir_out
+            ok[idx] &= (ch.status & np.uint8(FATAL)) == 0
+        else:
+            arrive = np.zeros((m, 3))
+        straight = ~through if lens is not None else np.ones(m, bool)
+        arrive[straight] = unit(target[straight] - points[straight])
+        along = np.einsum("ij,ij->i", arrive, n_in)
+        ux = np.einsum("ij,ij->i", arrive, x_e) / along
+        uy = np.einsum("ij,ij->i", arrive, y_e) / along
+        c[:, k, 0] = rx + zr * (ux - (pxx * rx + pxy * ry)) / n2
+        c[:, k, 1] = ry + zr * (uy - (pxy * rx + pyy * ry)) / n2
+    b = c - c.mean(axis=1, keepdims=True)
+    qv = rho - rho.mean(axis=0)
+    s = zr / n2
+    a = np.einsum("mkj,kj->m", b, qv) / (s * np.sum(qv**2))
+    a = np.clip(a, 0.0, eye.accommodation_max)
+    return np.where(ok, a, np.nan)
 
 
 def fons_pattern(n: int, m: int) -> np.ndarray:
