@@ -196,3 +196,20 @@ def test_real_ray_accommodation_through_a_strong_toric_lens_is_reported():
     d = b[2]["accommodation_rms_vs_eq13_d"]
     assert d["pixels"] > 100
     assert 0.0 < d["mean_abs"] < 0.05 and d["max_abs"] < 0.2
+
+
+def test_the_fons_pattern_reading_changes_the_mean_not_the_spread():
+    """The paper's pattern is ambiguous (n subdivisions of the radius on m diameters, but
+    n m + 1 rays). eyelab's reading puts each radius on one half of each diameter; the other
+    reading (both halves, 2 n m + 1 rays) has the same second moments — the blur's size
+    and shape — and differs only in a small mean offset of the bundle."""
+    from eyelab.reference.tracer import fons_pattern
+
+    n, m = 4, 8
+    ours = fons_pattern(n, m)
+    both = np.vstack([ours, -ours[1:]])              # every point on both halves
+    assert len(both) == 2 * n * m + 1
+    cov = lambda p: p.T @ p / len(p)                 # noqa: E731 (about the centre)
+    np.testing.assert_allclose(cov(ours[1:]), cov(both[1:]), atol=1e-12)
+    np.testing.assert_allclose(both.mean(axis=0), 0.0, atol=1e-12)
+    assert 0.0 < np.linalg.norm(ours.mean(axis=0)) < 0.1
