@@ -12,29 +12,29 @@ from eyelab.optics.camera import Camera
 from eyelab.optics.trace import FATAL, intersect
 
 
-def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
-    """True if any ray of a ``samples`` x ``samples`` grid over the camera's view (edges
-    included) passes through the lens."""
+def view_rays_through(lens, cam: Camera, samples: int) -> np.ndarray:
+    """(samples^2,) bool: which rays of a ``samples`` x ``samples`` grid over the camera's
+    view (its border included) pass through the lens."""
     g = np.linspace(-1.0, 1.0, samples)
     gx, gy = np.meshgrid(g, g)
     d = cam.ray_directions(gx.ravel(), gy.ravel())
     o = np.broadcast_to(np.asarray(cam.position, float), d.shape)
     res = lens.trace(o, d, reverse=True)
-    return bool(np.any((res["status"] & np.uint8(FATAL)) == 0))
+    return (res["status"] & np.uint8(FATAL)) == 0
+
+
+def lens_in_view_of(lens, cam: Camera, samples: int = 17) -> bool:
+    """True if any ray of a grid over the camera's view passes through the lens."""
+    return bool(np.any(view_rays_through(lens, cam, samples)))
 
 
 def lens_covers_view(lens, cam: Camera, samples: int = 33, margin: float = 0.99) -> bool:
-    """True if every ray of a ``samples`` x ``samples`` grid over the camera's view (its
-    border included) passes through the lens shrunk to ``margin`` of its diameter (the
-    outline the renderer masks with is at 99.5 %): the lens and the view are both convex,
-    so then every pixel sees through the lens."""
+    """True if every ray of a grid over the camera's view (its border included) passes
+    through the lens shrunk to ``margin`` of its diameter (the outline the renderer masks
+    with is at 99.5 %): the lens and the view are both convex, so then every pixel sees
+    through the lens."""
     small = dataclasses.replace(lens, diameter=lens.diameter * margin)
-    g = np.linspace(-1.0, 1.0, samples)
-    gx, gy = np.meshgrid(g, g)
-    d = cam.ray_directions(gx.ravel(), gy.ravel())
-    o = np.broadcast_to(np.asarray(cam.position, float), d.shape)
-    res = small.trace(o, d, reverse=True)
-    return bool(np.all((res["status"] & np.uint8(FATAL)) == 0))
+    return bool(np.all(view_rays_through(small, cam, samples)))
 
 
 def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
