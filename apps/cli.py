@@ -77,6 +77,9 @@ def _render_overrides(parser) -> None:
                         "the raster renderer, rays per pixel of the reference)")
     parser.add_argument("--width", type=int, help="override render.width (pixels)")
     parser.add_argument("--height", type=int, help="override render.height (pixels)")
+    parser.add_argument("--gaze", type=float, nargs=2, metavar=("RIGHT", "UP"),
+                        help="override render.gaze_deg: the eye turned this many degrees "
+                        "right and up behind the lens")
 
 
 def main(argv=None) -> int:
@@ -122,7 +125,8 @@ def _render(args) -> int:
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     try:
         rs = spec.render.with_changes(renderer=args.renderer, samples=args.samples,
-                                      width=args.width, height=args.height)
+                                      width=args.width, height=args.height,
+                                      gaze_deg=None if args.gaze is None else list(args.gaze))
     except SpecError as e:
         flag = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{flag} ({e.field})", e.message) from None

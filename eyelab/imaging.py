@@ -26,7 +26,7 @@ import numpy as np
 
 from eyelab.color import CVD_KINDS, linear_to_srgb, machado_matrix, srgb_to_linear
 from eyelab.errors import SpecError, check_range
-from eyelab.optics.camera import Camera, eye_camera
+from eyelab.optics.camera import Camera, eye_camera, gaze_camera
 
 #: Top-level keys of every renderer's report, in this order.
 REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "timings_s", "cache",
@@ -63,9 +63,13 @@ class View:
     outside is not drawn); focus_d : None (each point gets the eye's best accommodation for
     it, Kakimoto Eq. 13) or a fixed accommodation in D (clamped to the eye's amplitude);
     cvd, cvd_severity : colour-vision deficiency of the observer (Machado 2009; None,
-    "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB.
+    "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB;
+    gaze_deg : (right, up) degrees (each within +-60): the eye turns about its centre of
+    rotation behind the head-fixed lens (:func:`eyelab.optics.camera.gaze_camera`), as
+    ``eyelab analyze --fixation rotating`` turns it toward each point.
 
-    The eye's pupil centre is the origin and it looks along -z (eyelab's world frame).
+    In primary gaze the eye's pupil centre is the origin and it looks along -z (eyelab's
+    world frame).
     """
 
     width: int = 640
@@ -76,6 +80,7 @@ class View:
     focus_d: float | None = None
     cvd: str | None = None
     cvd_severity: float = 1.0
+    gaze_deg: tuple = (0.0, 0.0)
 
     def __post_init__(self):
         check_int("render.width", self.width, 16, 4096)
@@ -90,6 +95,14 @@ class View:
         if self.cvd is not None:
             check_choice("render.cvd", self.cvd, CVD_KINDS)
         check_range("render.cvd_severity", self.cvd_severity, 0, 1)
+        g = self.gaze_deg
+        if not (isinstance(g, (tuple, list)) and len(g) == 2):
+            raise SpecError("render.gaze_deg", f"must be [right, up] in degrees, got {g!r}")
+        for i, v in enumerate(g):
+            if isinstance(v, bool):
+                raise SpecError(f"render.gaze_deg[{i}]", f"must be a number, got {v!r}")
+            check_range(f"render.gaze_deg[{i}]", v, -60, 60)
+        object.__setattr__(self, "gaze_deg", (float(g[0]), float(g[1])))
         aspect = self.width / self.height
         if not 0.05 <= aspect <= 20:
             raise SpecError("render.width", f"width / height must be in [0.05, 20], got "
@@ -100,9 +113,14 @@ class View:
         """(height, width) of the image."""
         return self.height, self.width
 
-    def camera(self) -> Camera:
-        """The eye camera: centre of projection at the pupil centre, looking along -z."""
-        return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
+    def camera(self, rotation_centre: float = 0.0135) -> Camera:
+        """The eye camera: centre of projection at the pupil centre, looking along the line
+        of sight (along -z in primary gaze; turned about the eye's centre of rotation,
+        ``rotation_centre`` m behind the pupil, for a gaze)."""
+        if self.gaze_deg == (0.0, 0.0):
+            return eye_camera(self.fov_y_deg, self.width / self.height, self.near, self.far)
+        return gaze_camera(self.gaze_deg, rotation_centre, self.fov_y_deg,
+                           self.width / self.height, self.near, self.far)
 
     def replace(self, **changes) -> View:
         return dataclasses.replace(self, **changes)

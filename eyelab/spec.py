@@ -67,7 +67,7 @@ class RenderSpec:
 #: Keys of ``[render]`` that every renderer takes (the rest are renderers' quality options).
 RENDER_VIEW_KEYS = {"width": "width", "height": "height", "fov_y_deg": "fov_y_deg",
                     "near_m": "near", "far_m": "far", "focus_d": "focus_d", "cvd": "cvd",
-                    "cvd_severity": "cvd_severity"}
+                    "cvd_severity": "cvd_severity", "gaze_deg": "gaze_deg"}
 #: Quality options that are display choices rather than spec keys.
 _NOT_SPEC_KEYS = {"progress"}
 

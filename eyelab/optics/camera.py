@@ -112,6 +112,29 @@ def eye_camera(fov_y_deg=60.0, aspect=4 / 3, near=0.05, far=100.0) -> Camera:
                   near, far)
 
 
+def gaze_camera(gaze_deg=(0.0, 0.0), rotation_centre: float = 0.0135, fov_y_deg=60.0,
+                aspect=4 / 3, near=0.05, far=100.0) -> Camera:
+    """The eye camera of an eye turned by ``gaze_deg`` = (right, up) degrees about its
+    centre of rotation, ``rotation_centre`` (m) behind the pupil in primary gaze (the
+    pupil at the origin, looking along -z): the line of sight (Fick angles: azimuth, then
+    elevation; no torsion about it) is f = (cos e sin a, sin e, -cos e cos a), the pupil
+    moves to C + r f with C = (0, 0, r), and the camera looks along f from there. (0, 0) is
+    :func:`eye_camera` exactly.
+
+    >>> gaze_camera((0.0, -30.0)).position[1] < 0     # looking down: the pupil moves down
+    True
+    """
+    a, e = (math.radians(float(v)) for v in gaze_deg)
+    f = np.array([math.cos(e) * math.sin(a), math.sin(e), -math.cos(e) * math.cos(a)])
+    centre = np.array([0.0, 0.0, rotation_centre])
+    pos = centre + rotation_centre * f
+    pos = np.where(np.abs(pos) < 1e-15, 0.0, pos)
+    up = np.array([0.0, 1.0, 0.0]) if abs(e) < 1e-12 else \
+        np.array([-math.sin(e) * math.sin(a), math.cos(e), math.sin(e) * math.cos(a)])
+    return Camera(tuple(float(v) for v in pos), tuple(float(v) for v in f),
+                  tuple(float(v) for v in up), fov_y_deg, aspect, near, far)
+
+
 def least_squares_point(origins, directions):
     """Point minimising the sum of squared distances to the lines (origins, directions).
 

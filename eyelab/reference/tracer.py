@@ -74,7 +74,7 @@ class ReferenceRenderer(Renderer):
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
         ndc = self.pixel_ndc(view)
-        cam = view.camera()
+        cam = view.camera(eye.rotation_centre)
         dirs = cam.ray_directions(ndc[:, 0], ndc[:, 1])
         n = len(dirs)
         inter = EmbreeIntersector(scene)
@@ -128,17 +128,17 @@ class ReferenceRenderer(Renderer):
 
     def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
         m = len(d)
-        pupil = np.zeros(3)
+        pupil = np.asarray(view.camera(eye.rotation_centre).position, float)
         rp = eye.pupil_diameter / 2
         nrays = m
         # 1. chief rays: through the lens where they pass it
         through = np.zeros(m, bool)
-        q = np.zeros((m, 3))
+        q = np.broadcast_to(pupil, (m, 3)).copy()
         dq = d.copy()
         if lens is not None:
-            res = lens.trace(np.zeros_like(d), d, 587.56, reverse=True)
+            res = lens.trace(q, d, 587.56, reverse=True)
             through = (res["status"] & np.uint8(FATAL)) == 0
-            q = np.where(through[:, None], res["out_points"], 0.0)
+            q = np.where(through[:, None], res["out_points"], pupil)
             dq = np.where(through[:, None], res["out_dirs"], d)
         hit = inter.intersect(q + 1e-7 * dq, dq)
         dist = np.where(hit.hit, hit.t + 1e-7, np.inf)
@@ -155,7 +155,8 @@ class ReferenceRenderer(Renderer):
                               None, None, np.zeros(len(idx), np.uint8), dist[idx])
             n_in = -d[idx]
             x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
-            t, _ = lens_path_matrix(chief, lens, 587.56, np.zeros((len(idx), 3)), x_e)
+            t, _ = lens_path_matrix(chief, lens, 587.56, np.broadcast_to(pupil, (len(idx), 3)),
+                                    x_e)
             kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
         acc_diff = np.zeros(0)
@@ -167,9 +168,8 @@ class ReferenceRenderer(Renderer):
             acc = eye.accommodation_for(kbar)                            # Kakimoto Eq. 13
             if quality.accommodation == "rms":
                 found = np.isfinite(dist)
-                pts = np.where(through[:, None], q + dist[:, None] * dq, dist[:, None] * d)
-                a_rms = rms_accommodation(eye, lens, np.where(found[:, None], pts, -d),
-                                          through, d)
+                pts = q + np.where(found, dist, 1.0)[:, None] * dq
+                a_rms = rms_accommodation(eye, lens, pts, through, d, pupil)
                 use = found & np.isfinite(a_rms)
                 acc_diff = (a_rms - acc)[use]
                 acc = np.where(use, a_rms, acc)
@@ -196,7 +196,7 @@ class ReferenceRenderer(Renderer):
         # passes): R2 offsets, shifted per pixel (Cranley-Patterson rotation)
         k = samples.shape[0]
         jit = np.mod(pixel_jitter(k)[None] + 0.5 + rng.uniform(0, 1, (m, 1, 2)), 1.0) - 0.5
-        cam = view.camera()
+        cam = view.camera(eye.rotation_centre)
         tx, ty = cam.tan_half
         b = cam.basis
         jx = ndc[:, None, 0] + 2 * jit[..., 0] / view.width
@@ -233,7 +233,7 @@ class ReferenceRenderer(Renderer):
 RMS_PUPIL_POINTS = 12
 
 
-def rms_accommodation(eye, lens, points, through, pixel_dirs):
+def rms_accommodation(eye, lens, points, through, pixel_dirs, pupil=(0.0, 0.0, 0.0)):
     """(m,) accommodation (D) that minimises the RMS of the retinal spot of scene points
     ``points`` (m, 3), found without the blur field's machinery: for pupil points rho_k
     the real light path from the point through the lens (exact path finding, per row where
@@ -256,7 +256,7 @@ def rms_accommodation(eye, lens, points, through, pixel_dirs):
     ok = np.ones(m, bool)
     objects = ObjectPoints.from_positions(points)
     for k, (rx, ry) in enumerate(rho):
-        target = rx * x_e + ry * y_e
+        target = np.asarray(pupil, float) + rx * x_e + ry * y_e
         if lens is not None and through.any():
             idx = np.flatnonzero(through)
             sub = ObjectPoints(objects.direction[idx], objects.distance[idx])

@@ -116,7 +116,7 @@ class RasterRenderer(Renderer):
         details = report["details"]
         details.update(fields={}, refinement=[])
         timings = report["timings_s"]
-        cam = view.camera()
+        cam = view.camera(eye.rotation_centre)
         bounds = scene.bounds()
         lens_in_view = self._lens_in_view(lens, cam, report)
         covered = lens_in_view and q.skip_unneeded and self._lens_covers(lens, cam, report)
@@ -126,7 +126,8 @@ class RasterRenderer(Renderer):
         f_lens = vcam = None
         if lens_in_view:
             vcam = self._virtual_camera(lens, cam, view, q, report)
-            f_lens = self._field(eye, lens, vcam, bounds, view, q, report, "through_lens")
+            f_lens = self._field(eye, lens, vcam, bounds, view, q, report, "through_lens",
+                                 pupil=cam.position)
         timings["fields"] = time.perf_counter() - t
         t = time.perf_counter()
         meshes = self._refined(scene, f_naked, f_lens, view, q, report)
@@ -179,13 +180,14 @@ class RasterRenderer(Renderer):
                           width=view.width)
         return self._cached("small", key, fit, report, "virtual_camera")[0]
 
-    def _field(self, eye, lens, cam, bounds, view, q, report, label):
+    def _field(self, eye, lens, cam, bounds, view, q, report, label, pupil=None):
+        pupil = np.asarray(cam.position if pupil is None else pupil, float)
         key = content_key(eye=eye, lens=lens, camera=cam, shape=q.field_shape,
                           depth_mode=q.depth_mode, focus=view.focus_d,
-                          bounds=np.asarray(bounds, float))
+                          bounds=np.asarray(bounds, float), pupil=pupil)
         f, hit = self._cached("fields", key, lambda: compute_blur_field(
             eye, lens, cam, shape=q.field_shape, depth_mode=q.depth_mode, focus=view.focus_d,
-            scene_bounds=bounds), report, f"field_{label}")
+            scene_bounds=bounds, pupil=pupil), report, f"field_{label}")
         info = {"cache": "hit" if hit else "miss", "all_zero": f.all_zero,
                 "voxels_total": f.report["voxels_total"],
                 "voxels_computed": f.report["voxels_computed"],
@@ -305,10 +307,11 @@ class RasterRenderer(Renderer):
         inter = EmbreeIntersector(scene)
         lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
         gv, gf, axes = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
-        tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls)
+        tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls, pupil=cam.position)
         # the grid's coordinates through the lens extended beyond its rim (the outline mask
         # clips it), so that rim cells are filled
-        tcg = lens_texcoords(widened_lens(lens), gv, vcam, inter, wavelengths=wls)
+        tcg = lens_texcoords(widened_lens(lens), gv, vcam, inter, wavelengths=wls,
+                             pupil=cam.position)
         return {"lens_v": lv, "lens_f": lf, "grid_v": gv, "grid_f": gf, "tc": tc, "tc_grid": tcg,
                 "transmittance": transmittance_map(tcg.transmittance, axes, view)}
 

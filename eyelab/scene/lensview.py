@@ -62,7 +62,7 @@ def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     mx, my = np.meshgrid(gx, gy)
     d = cam.ray_directions(mx.ravel(), my.ravel())
     _, back = widened_lens(lens).placed_surfaces()
-    hit = intersect(back, np.zeros_like(d), d)
+    hit = intersect(back, np.broadcast_to(np.asarray(cam.position, float), d.shape), d)
     ok = hit.status == 0
     idx = np.arange(nx * ny).reshape(ny, nx)
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
