@@ -70,6 +70,10 @@ def _build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+#: [render] keys whose command-line flag has another name.
+_FLAGS = {"gaze_deg": "gaze"}
+
+
 def _render_overrides(parser) -> None:
     parser.add_argument("--renderer", choices=("raster", "reference"),
                         help="override render.renderer")
@@ -128,8 +132,8 @@ def _render(args) -> int:
                                       width=args.width, height=args.height,
                                       gaze_deg=None if args.gaze is None else list(args.gaze))
     except SpecError as e:
-        flag = e.field.removeprefix("render.").split("[")[0]
-        raise SpecError(f"--{flag} ({e.field})", e.message) from None
+        key = e.field.removeprefix("render.").split("[")[0]
+        raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
     from eyelab.jobs import demo, render_spec, write_json, write_png
 

@@ -136,6 +136,9 @@ def test_render_bad_input_leaves_no_file(tmp_path, capsys):
     assert main(["render", "-o", str(out), "--renderer", "reference", "--samples",
                  "70000"]) == 2
     assert "[1, 65536]" in capsys.readouterr().err
+    assert main(["render", "-o", str(out), "--gaze", "0", "-90"]) == 2
+    assert "--gaze (render.gaze_deg[1]): must be in [-60, 60]" in capsys.readouterr().err
+    assert not out.exists()
     spec = tmp_path / "s.toml"
     spec.write_text('[render]\nscene = "nowhere.obj"\n')
     assert main(["render", str(spec), "-o", str(out)]) == 2
