@@ -83,14 +83,35 @@ def linear_to_srgb(c):
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)
 
 
-def simulate_cvd(image_u8: np.ndarray, kind: str, severity: float = 1.0) -> np.ndarray:
-    """Simulate a colour-vision deficiency on an sRGB uint8 image (h, w, 3): decode to linear
-    RGB, apply the matrix (or Rec. 709 luminance for ``"achromat"``), clip, re-encode."""
-    lin = srgb_to_linear(np.asarray(image_u8)[..., :3] / 255.0)
+#: Linear light of each sRGB code value (float32 table: decoding is a look-up).
+_DECODE_U8 = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
+
+
+def decode_srgb(codes) -> np.ndarray:
+    """uint8 sRGB codes (any shape) -> float32 linear light in [0, 1] (a table look-up;
+    :func:`encode_srgb` inverts it exactly on every code)."""
+    return _DECODE_U8[np.asarray(codes, np.uint8)]
+
+
+def encode_srgb(linear) -> np.ndarray:
+    """Linear light (any shape, clipped to [0, 1]) -> uint8 sRGB codes, rounded."""
+    return np.round(linear_to_srgb(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
+
+
+def cvd_linear(lin: np.ndarray, kind: str, severity: float = 1.0) -> np.ndarray:
+    """A colour-vision deficiency applied to linear RGB (..., 3): Machado 2009's matrix, or
+    Rec. 709 luminance mixed in by ``severity`` for ``"achromat"``; clipped to [0, 1]."""
     if kind == "achromat":
         check_range("cvd_severity", severity, 0.0, 1.0)
         y = lin @ REC709_Y
         out = (1 - severity) * lin + severity * y[..., None]
     else:
         out = lin @ machado_matrix(kind, severity).T
-    return np.round(linear_to_srgb(out) * 255.0).astype(np.uint8)
+    return np.clip(out, 0.0, 1.0)
+
+
+def simulate_cvd(image_u8: np.ndarray, kind: str, severity: float = 1.0) -> np.ndarray:
+    """Simulate a colour-vision deficiency on an sRGB uint8 image (h, w, 3): decode to linear
+    RGB, :func:`cvd_linear`, re-encode."""
+    lin = srgb_to_linear(np.asarray(image_u8)[..., :3] / 255.0)
+    return encode_srgb(cvd_linear(lin, kind, severity))

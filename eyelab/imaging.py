@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.color import CVD_KINDS, linear_to_srgb, machado_matrix, srgb_to_linear
+from eyelab.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.errors import SpecError, check_range
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
 
@@ -184,20 +184,6 @@ def new_report(renderer: str, view: View, quality) -> dict:
             "details": {}}
 
 
-def encode_srgb(linear: np.ndarray) -> np.ndarray:
-    """(h, w, 3) linear values -> uint8 sRGB (clipped to [0, 1], rounded)."""
-    return np.round(linear_to_srgb(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
-
-
-def decode_srgb(image_u8: np.ndarray) -> np.ndarray:
-    """(h, w, 3) uint8 sRGB -> float32 linear values in [0, 1] (exact inverse of
-    :func:`encode_srgb` on every code value)."""
-    return _DECODE[np.asarray(image_u8, np.uint8)]
-
-
-_DECODE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
-
-
 def observe(view: View, *, linear=None, srgb=None):
     """(linear, srgb) as the view's observer sees them: the colour-vision deficiency applied
     in linear RGB (Machado 2009) when the view has one, else the inputs unchanged (either
@@ -205,8 +191,7 @@ def observe(view: View, *, linear=None, srgb=None):
     if view.cvd is None:
         return linear, srgb
     lin = decode_srgb(srgb) if linear is None else np.asarray(linear, np.float32)
-    m = machado_matrix(view.cvd, view.cvd_severity).astype(np.float32)
-    return np.clip(lin @ m.T, 0.0, 1.0), None
+    return cvd_linear(lin, view.cvd, view.cvd_severity).astype(np.float32), None
 
 
 def finish(report: dict, view: View, *, linear=None, srgb=None, layers=None,

@@ -103,34 +103,34 @@ def _quads(n: int) -> np.ndarray:
     while start < n:
         size = 1 if start < 2 else start           # blocks of 1, 1, 2, 4, 8, ... quads
         size = min(size, n - start)
-        j = np.arange(size)
-        r = np.sqrt((_vdc(j, size) + 0.5 / size) if size > 1 else np.full(1, 0.5))
-        for k, rk in zip(start + j, r, strict=True):
-            tk = 0.5 * math.pi * _vdc(np.array([k]), None)[0]
-            c, sn = rk * math.cos(tk), rk * math.sin(tk)
-            out += [(c, sn), (-c, -sn), (-sn, c), (sn, -c)]
+        r = np.sqrt(_strata(size) + 0.5 / size)    # area strata (j + 1/2) / size, mean 1/2
+        t = 0.5 * math.pi * _van_der_corput(np.arange(start, start + size))
+        c, s = r * np.cos(t), r * np.sin(t)
+        out.append(np.stack([np.column_stack([c, s]), np.column_stack([-c, -s]),
+                             np.column_stack([-s, c]), np.column_stack([s, -c])], axis=1))
         start += size
-    return np.array(out)
+    return np.concatenate(out).reshape(-1, 2)
 
 
-def _vdc(k: np.ndarray, size) -> np.ndarray:
-    """Base-2 van der Corput radical inverse of integers ``k`` (in [0, 1)); with ``size``
-    (a block of that many), the bit-reversed stratum j / size of each index instead (a
-    permutation of the strata when size is a power of two, else the strata in order)."""
-    if size is not None:
-        bits = max(1, int(size - 1).bit_length())
-        if 1 << bits != size:
-            return np.arange(len(k)) / size
-        rev = np.array([int(format(int(x), f"0{bits}b")[::-1], 2) for x in k])
-        return rev / size
+def _van_der_corput(k: np.ndarray) -> np.ndarray:
+    """Base-2 radical inverse of the integers ``k``: values in [0, 1)."""
     out = np.zeros(len(k))
     f = 0.5
-    k = k.copy()
+    k = np.array(k)
     while np.any(k):
         out += f * (k & 1)
         k >>= 1
         f *= 0.5
     return out
+
+
+def _strata(size: int) -> np.ndarray:
+    """The strata j / size of a block, in bit-reversed order when size is a power of two
+    (then every aligned half of the block is itself stratified), else in order."""
+    j = np.arange(size)
+    if size & (size - 1):
+        return j / size
+    return _van_der_corput(j) if size > 1 else np.zeros(1)
 
 
 def _r2(n: int) -> np.ndarray:

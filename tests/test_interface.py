@@ -211,3 +211,19 @@ def test_no_leak_new_renderer_each_render_quick():
     from eyelab.bench.memory import new_renderer_each
 
     assert new_renderer_each(30, warmup=5)["rss_growth_mb"] < 15
+
+
+@pytest.mark.parametrize("name", ["raster", "reference"])
+def test_achromat_observer_sees_grey_in_both_renderers(name, chart):
+    """``cvd = "achromat"`` (Rec. 709 luminance, not a Machado table) goes through the same
+    observer step as the other deficiencies in every renderer: a grey image."""
+    from eyelab.scene.library import room_scene
+
+    q = RasterQuality(samples=1) if name == "raster" else ReferenceQuality(samples=1)
+    with make_renderer(name, q) as r:
+        res = r.render(room_scene(), Eye(accommodation_max=5.0), None,
+                       View(width=32, height=24, cvd="achromat"))
+    lin = res.linear
+    np.testing.assert_allclose(lin[..., 0], lin[..., 1], atol=1e-6)
+    np.testing.assert_allclose(lin[..., 1], lin[..., 2], atol=1e-6)
+    assert res.report["details"]["cvd"]["kind"] == "achromat"

@@ -64,6 +64,11 @@ def configs(quick: bool):
     return out
 
 
+#: Part of every cached converged reference's file name: references made before linear
+#: light and Fresnel transmission (averaged sRGB codes) are never taken for truth.
+TRUTH_FORMAT = "linear-fresnel"
+
+
 def _truth(cache, name, quality, view, scene, eye, lens):
     """The converged reference -> (image, seconds, report), from ``cache`` if kept there
     (the stored time and report are those of the run that made it)."""
@@ -115,7 +120,7 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 continue
             view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
             truth, t_truth, trep = _truth(truth_cache, f"{sname}__{cname}__{w}x{h}__"
-                                          f"{truth_spp}spp", ReferenceQuality(
+                                          f"{truth_spp}spp__{TRUTH_FORMAT}", ReferenceQuality(
                                               samples=truth_spp), view, scene, eye, lens)
             case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
                     "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],

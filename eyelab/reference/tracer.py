@@ -95,7 +95,7 @@ class ReferenceRenderer(Renderer):
         def run(a, b):
             rng = np.random.default_rng(seeds[a // block])
             col, nrays, diff = self._pixels(dirs[a:b], ndc[a:b], scene, inter, eye, lens,
-                                            samples, wls, rng, view, q)
+                                            samples, wls, rng, view, q, cam)
             out[a:b] = col
             with lock:
                 counts["rays"] += nrays
@@ -126,9 +126,10 @@ class ReferenceRenderer(Renderer):
                 "max_abs": counts["acc_diff_max"], "pixels": counts["acc_n"]}
         return finish(report, view, linear=img, t_start=t0)
 
-    def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality):
+    def _pixels(self, d, ndc, scene, inter, eye, lens, samples, wls, rng, view, quality,
+                cam):
         m = len(d)
-        pupil = np.asarray(view.camera(eye.rotation_centre).position, float)
+        pupil = np.asarray(cam.position, float)
         rp = eye.pupil_diameter / 2
         nrays = m
         # 1. chief rays: through the lens where they pass it
@@ -196,7 +197,6 @@ class ReferenceRenderer(Renderer):
         # passes): R2 offsets, shifted per pixel (Cranley-Patterson rotation)
         k = samples.shape[0]
         jit = np.mod(pixel_jitter(k)[None] + 0.5 + rng.uniform(0, 1, (m, 1, 2)), 1.0) - 0.5
-        cam = view.camera(eye.rotation_centre)
         tx, ty = cam.tan_half
         b = cam.basis
         jx = ndc[:, None, 0] + 2 * jit[..., 0] / view.width

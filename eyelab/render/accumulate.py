@@ -79,24 +79,21 @@ class PassAccumulator:
 
         split_rows(rows, self.shape[0])
 
-    def mean16(self) -> np.ndarray:
-        """(h, w, 3) uint16 linear light (65535 = white), GL row order."""
-        if self.count == 0:
-            raise ValueError("no pass accumulated")
-        if self.count == 1:
-            return DECODE16[self._first[..., :3]].astype(np.uint16)
-        lo32 = np.uint64(0xFFFFFFFF)
-        out = np.empty(self.shape + (3,), np.float64)
-        out[..., 0] = self.sum[..., 0] & lo32
-        out[..., 1] = self.sum[..., 0] >> np.uint64(32)
-        out[..., 2] = self.sum[..., 1] & lo32
-        out *= 1.0 / self.count
-        out += 0.5
-        return out.astype(np.uint16)
+    def _mean16_rows(self, a, b) -> np.ndarray:
+        """(b - a, w, 4) float32 mean 16-bit linear light of rows a:b (R, G, B, alpha): the
+        uint64 pairs read as uint32 (little-endian) are the four channels' sums, below
+        2^24 and so exact in float32."""
+        f = self.sum[a:b].view(np.uint32).astype(np.float32)
+        f *= np.float32(1.0 / self.count)
+        return f
 
     def mean_linear(self) -> np.ndarray:
         """(h, w, 3) float32 linear light in [0, 1], row 0 at the top."""
-        return (self.mean16()[::-1] * np.float32(1.0 / 65535.0)).astype(np.float32)
+        if self.count == 0:
+            raise ValueError("no pass accumulated")
+        if self.count == 1:
+            return (DECODE16[self._first[::-1, :, :3]] / 65535.0).astype(np.float32)
+        return self._mean16_rows(0, self.shape[0])[::-1, :, :3] * np.float32(1 / 65535.0)
 
     def mean_rgba(self) -> np.ndarray:
         """(h, w, 4) uint8 sRGB RGBA of the linear average, contiguous, GL row order, alpha
@@ -105,14 +102,9 @@ class PassAccumulator:
             out = self._first.copy()
         else:
             out = np.empty(self.shape + (4,), np.uint8)
-            # the uint64 pairs read as uint32 (little-endian): R, G, B, alpha sums; sums
-            # stay below 2^24, exact in float32
-            u32 = self.sum.view(np.uint32)
-            scale = np.float32(1.0 / self.count)
 
             def rows(a, b):
-                f = u32[a:b].astype(np.float32)
-                f *= scale
+                f = self._mean16_rows(a, b)
                 f += np.float32(0.5)
                 out[a:b] = ENCODE16[f.astype(np.uint16)]
 

@@ -347,17 +347,20 @@ class RasterRenderer(Renderer):
         """The stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
         reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`)."""
         acc = st["acc"]
-        rgba = acc.mean_rgba()
         if "zbuf" not in st:
-            return rgba
+            return acc.mean_rgba()
         t = time.perf_counter()
-        sig, _ = self._cached("small", ("sigma",) + st["key"] + (rgba.shape, acc.count),
+        sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               lambda: sigma_map(st["zbuf"], st["cam"], st["field"], acc.count),
                               report, "reconstruction_sigma")
         lin = acc.mean_linear()
         out = variable_gaussian(lin, sig)
-        if out is not lin:                 # filtered: re-encode, back to GL order
+        if out is lin:                     # every sigma below a quarter pixel
+            rgba = acc.mean_rgba()
+        else:                              # filtered: encoded once, back to GL order
+            rgba = np.empty(acc.shape + (4,), np.uint8)
             rgba[..., :3] = encode_linear(out[::-1])
+            rgba[..., 3] = 255
         tm = report["timings_s"]
         tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
         return rgba

@@ -14,10 +14,8 @@ import math
 
 import numpy as np
 
-from eyelab.color import linear_to_srgb, srgb_to_linear
+from eyelab.color import decode_srgb, encode_srgb
 from eyelab.scene.scene import SceneMesh
-
-_DECODE = srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)
 
 
 def world_per_texel(mesh: SceneMesh) -> float:
@@ -63,9 +61,9 @@ def reduce_texture(tex: np.ndarray, f: int) -> np.ndarray:
         return tex
     h, w = tex.shape[:2]
     hh, ww = -(-h // f) * f, -(-w // f) * f
-    lin = _DECODE[np.pad(tex, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge")]
+    lin = decode_srgb(np.pad(tex, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge"))
     mean = lin.reshape(hh // f, f, ww // f, f, 3).mean(axis=(1, 3))
-    return np.round(linear_to_srgb(mean) * 255.0).astype(np.uint8)
+    return encode_srgb(mean)
 
 
 def prefiltered(mesh: SceneMesh, f: int) -> SceneMesh:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from eyelab.color import decode_srgb
 from eyelab.errors import SpecError
 
 
@@ -108,25 +109,18 @@ class SceneMesh:
         if self.texture is not None:
             uv = w0 * self.uv[f[:, 0]] + u * self.uv[f[:, 1]] + v * self.uv[f[:, 2]]
             return sample_texture(self._linear_texture(), uv)
-        c = _decode_u8(self.colors)
+        c = decode_srgb(self.colors)
         return w0 * c[f[:, 0]] + u * c[f[:, 1]] + v * c[f[:, 2]]
 
     def _linear_texture(self):
         tex = self.__dict__.get("_linear_tex")
         if tex is None:
-            tex = _decode_u8(self.texture)
+            tex = decode_srgb(self.texture)
             self.__dict__["_linear_tex"] = tex
         return tex
 
     def bounds(self):
         return self.vertices.min(0), self.vertices.max(0)
-
-
-def _decode_u8(arr):
-    """uint8 sRGB codes -> float32 linear light (table look-up)."""
-    from eyelab.color import srgb_to_linear
-
-    return srgb_to_linear(np.arange(256) / 255.0).astype(np.float32)[arr]
 
 
 def sample_texture(tex, uv):
