@@ -27,6 +27,8 @@ import numpy as np
 from eyelab.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.errors import SpecError, check_range
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
+from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 
 #: Top-level keys of every renderer's report, in this order.
 REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "timings_s", "cache",
@@ -254,3 +256,16 @@ class Renderer(abc.ABC):
 
     def __exit__(self, *exc):
         self.close()
+
+
+def channel_wavelengths(eye, lens, chromatic: bool, report) -> tuple:
+    """The wavelengths (nm) a render traces: R/G/B's design wavelengths when ``chromatic``
+    and either the eye's own chromatic aberration or the lens's dispersion makes the
+    channels differ; else the eye's reference wavelength alone (said in the report)."""
+    lens_disperses = lens is not None and lens.material.dispersive
+    if chromatic and (eye.chromatic or lens_disperses):
+        return RGB_WAVELENGTHS_NM
+    why = ("disabled" if not chromatic else
+           "neither the eye (eye.chromatic = false) nor the lens material disperses")
+    report["skipped"].append(f"chromatic: {why}: one wavelength")
+    return (EYE_REFERENCE_NM,)

@@ -34,7 +34,10 @@ class RasterQuality:
     along edges; reconstruct : per-pixel Gaussian reconstruction filter against the
     ghosting of large blurs (~0.1-0.25 s per 1024x768 frame); antialias : a sub-pixel
     jitter per pass; skip_unneeded : skip passes a frame does not need (False only to
-    measure what skipping saves); chromatic : R/G/B refraction through a dispersive lens;
+    measure what skipping saves); chromatic : each colour channel with its own light
+    paths and blur (R, G, B at the C, e, F lines) where the lens disperses or the eye has
+    its own chromatic aberration (``Eye.chromatic``): per-channel blur fields and one
+    render per channel and pass (false: one wavelength, one render per pass);
     field_route : "texture" (3D texture sampled in the vertex shader) or "attribute"
     (per-vertex look-up on the CPU); lens_rings / lens_segments : the lens outline mesh;
     lens_grid_px : pixel spacing of the lens mesh that carries the texture coordinates;
@@ -88,17 +91,17 @@ class RasterQuality:
 class ReferenceQuality:
     """Options of the reference renderer (spec table ``[render]``, renderer = "reference").
 
-    samples : rays per pixel and colour channel (1-65536; the "fons" model traces its own
-    n x m + 1 pupil points instead); model : "thin" (Kakimoto's thin toric eye) or "fons"
-    (Fons et al. 2023's reduced-eye sampling); fons_n / fons_m : radii and diameters of
-    the Fons pupil pattern; seed : random seed of the per-pixel rotations and jitter
-    (deterministic for a seed); chromatic : R/G/B traced at their own wavelengths through a
-    dispersive lens; workers : threads (None: every core); progress : a progress bar on
-    stderr; accommodation : how each pixel's accommodation is found when the view does not
-    fix it — "eq13" (Kakimoto's Eq. 13 on the wave carried by the lens's ray matrices, as
-    the blur field does) or "rms" (independent of that machinery: real rays from the scene
-    point through the lens to pupil points, and the accommodation that minimises their
-    retinal spot's RMS in the thin eye; slower).
+    samples : rays per pixel and colour channel (1-65536; the "fons" model traces its own n
+    x m + 1 pupil points instead); model : "thin" (Kakimoto's thin toric eye) or "fons"
+    (Fons et al. 2023's reduced-eye sampling); fons_n / fons_m : radii and diameters of the
+    Fons pupil pattern; seed : random seed of the per-pixel rotations and jitter
+    (deterministic for a seed); chromatic : R/G/B traced at their own wavelengths where the
+    lens disperses or the eye has its own chromatic aberration; workers : threads (None:
+    every core); progress : a progress bar on stderr; accommodation : how each pixel's
+    accommodation is found when the view does not fix it — "eq13" (Kakimoto's Eq. 13 on the
+    wave carried by the lens's ray matrices, as the blur field does) or "rms" (independent
+    of that machinery: real rays from the scene point through the lens to pupil points, and
+    the accommodation that minimises their retinal spot's RMS in the thin eye; slower).
     """
 
     samples: int = 64

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
-from eyelab.imaging import View
+from eyelab.imaging import View, check_bool
 from eyelab.optics.eye import Eye, hofstetter_amplitude, watson_yellott_pupil
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.materials import get_material
@@ -28,7 +28,8 @@ from eyelab.scene.library import SCENE_NAMES
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
-            "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm"}
+            "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm",
+            "chromatic"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating"}
@@ -127,6 +128,8 @@ def parse_eye(t: dict) -> Eye:
         kw["n_vitreous"] = _num(t, "n_vitreous", "eye", 1.2, 1.6)
     if "rotation_centre_mm" in t:
         kw["rotation_centre"] = _num(t, "rotation_centre_mm", "eye", 5, 20) * 1e-3
+    if "chromatic" in t:
+        kw["chromatic"] = check_bool("eye.chromatic", t["chromatic"])
     explicit = {"power_min_d", "astigmatism_d", "astigmatism_axis_deg"} & set(t)
     if "rx" in t:
         if explicit:

@@ -158,6 +158,7 @@ def test_bench_render_small(tmp_path, monkeypatch):
     assert {r["view"] for r in res["rows"]} == {"naked", "through_lens"}
     # the numbers are measurements (no timing assertions in tests): check their presence
     assert set(res["skip_speedups"]) == {"one_pass_for_zero_field", "no_lens_passes",
-                                         "one_texcoord_set", "caches_reused"}
+                                         "one_texcoord_set", "caches_reused",
+                                         "one_wavelength", "one_wavelength_no_lens"}
     assert all(np.isfinite(v) and v > 0 for v in res["skip_speedups"].values())
     assert all(r["gl_render_s"] > 0 for r in res["rows"])

@@ -125,7 +125,8 @@ def test_depth_mode_reaches_the_shader():
     slicing does (the field is sampled at the same voxel centres either way)."""
     from eyelab.scene.library import dot_scene
 
-    eye = Eye.from_rx(Prescription(-4.0), accommodation_max=0.0)    # 3 D: ~5 px radius
+    eye = Eye.from_rx(Prescription(-4.0), accommodation_max=0.0,    # 3 D: ~5 px radius
+                      chromatic=False)
     view = View(width=64, height=64, fov_y_deg=4.0, near=0.2, far=5.0)
     imgs = {}
     for mode in ("ndc", "linear"):

@@ -24,8 +24,9 @@ def chart():
 
 def test_in_focus_emmetrope_antialiases_and_skips_only_without_antialiasing(chart):
     """A zero field needs no blur samples: with antialiasing the S passes still run as
-    jittered copies (a skip never costs quality), without it one pass is the exact image."""
-    eye = Eye(accommodation_max=5.0)
+    jittered copies (a skip never costs quality), without it one pass is the exact image
+    (one wavelength: with the eye's own chromatic aberration R and B blur)."""
+    eye = Eye(accommodation_max=5.0, chromatic=False)
     view = View(width=160, height=120, fov_y_deg=8)
     with RasterRenderer(RasterQuality(samples=16, antialias=False)) as r:
         many = r.render(chart, eye, None, view)
@@ -116,9 +117,10 @@ def _dot_spread(eye, focus, samples, w=200, fov=8.0):
 
 @pytest.mark.parametrize("samples", [8, 64])
 @pytest.mark.parametrize("eye, focus", [
-    (Eye.from_rx(Prescription(-4.0), accommodation_max=0.0, pupil_diameter=4e-3), None),
+    (Eye.from_rx(Prescription(-4.0), accommodation_max=0.0, pupil_diameter=4e-3,
+                 chromatic=False), None),
     (Eye(astigmatism=3.0, astigmatism_axis_deg=30.0, accommodation_max=0.0,
-         pupil_diameter=4e-3), 0.0),
+         pupil_diameter=4e-3, chromatic=False), 0.0),
 ], ids=["myope", "astigmat-line"])
 def test_rendered_dot_spread_matches_the_blur_ellipse(eye, focus, samples):
     """A small bright blob: the rendered light's second moments match the analytic
@@ -139,7 +141,8 @@ def test_rendered_dot_spread_matches_the_blur_ellipse(eye, focus, samples):
 def test_a_circular_blur_renders_circular_at_8_passes():
     """A spherical myope's dot at S = 8: the rendered spread's axis ratio is 1 +- 0.03 (the
     old Vogel seeds rendered it 21 % elongated: a false astigmatism)."""
-    eye = Eye.from_rx(Prescription(-4.0), accommodation_max=0.0, pupil_diameter=4e-3)
+    eye = Eye.from_rx(Prescription(-4.0), accommodation_max=0.0, pupil_diameter=4e-3,
+                      chromatic=False)
     meas, _ = _dot_spread(eye, None, 8)
     ev = np.linalg.eigvalsh(meas)
     assert math.sqrt(ev[1] / ev[0]) == pytest.approx(1.0, abs=0.03)

@@ -101,7 +101,7 @@ def test_in_focus_checkerboard_edges_match_the_reference():
             meshes.append(SceneMesh(f"sq{i}{k}", v, [[0, 1, 2], [0, 2, 3]],
                                     colors=np.array([c, c, c], np.uint8)))
     scene = Scene(meshes, background=(128, 128, 128), name="checker")
-    eye = Eye(accommodation_max=5.0)
+    eye = Eye(accommodation_max=5.0, chromatic=False)      # in focus in every channel
     view = View(width=96, height=96, fov_y_deg=8.0, near=0.2, far=5.0)
     imgs = {}
     for name, q in (("raster", RasterQuality(samples=16, refine=False)),

@@ -10,6 +10,7 @@ lens texture-coordinate set-up, compositing).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -89,6 +90,11 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
         flat = SpectacleLens.from_rx(rx, material={"n_d": 1.498})
         skips["lens_dispersive"] = skips["lens_in_view"]
         skips["lens_no_dispersion"] = _frame(r, scene, eye, flat, view, repeats)[0]
+        skips["lens_dispersive_eye_achromatic"] = _frame(
+            r, scene, dataclasses.replace(eye, chromatic=False), lens, view, repeats)[0]
+    with RasterRenderer(RasterQuality(samples=10, refine=False, chromatic=False)) as r:
+        skips["one_wavelength"] = _frame(r, scene, eye, lens, view, repeats)[0]
+        skips["one_wavelength_no_lens"] = _frame(r, scene, eye, None, view, repeats)[0]
         t = time.perf_counter()
         r.render(scene, Eye.from_rx(rx, accommodation_max=0.9), lens, view)   # new eye
         skips["cold_frame_new_eye"] = time.perf_counter() - t
@@ -98,6 +104,8 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
         / skips["all_zero_field_skip_True"],
         "no_lens_passes": skips["lens_in_view"] / skips["no_lens"],
         "one_texcoord_set": skips["lens_dispersive"] / skips["lens_no_dispersion"],
+        "one_wavelength": skips["lens_in_view"] / skips["one_wavelength"],
+        "one_wavelength_no_lens": skips["no_lens"] / skips["one_wavelength_no_lens"],
         "caches_reused": skips["cold_frame_new_eye"] / skips["warm_frame"]}
     out = {"benchmark": "render", "size": [width, height], "rows": rows, "skip_times_s": skips,
            "skip_speedups": speedups}

@@ -38,7 +38,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
                        shape=(128, 32, 32), depth_mode: str = "ndc", focus=None,
                        scene_bounds=None, wavelength_nm: float = 587.56,
                        reference_depth: float | None = None, workers: int | None = None,
-                       pupil=(0.0, 0.0, 0.0)) -> BlurField:
+                       pupil=(0.0, 0.0, 0.0), accommodation=None) -> BlurField:
     """Compute a blur field.
 
     Parameters
@@ -55,6 +55,12 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         cannot hold geometry in it are not computed (status OUTSIDE_SCENE).
     reference_depth : depth (m) at which each column's chief ray is aimed at the column
         (default: the dioptric middle of the scene's depth range, or of near..far).
+    wavelength_nm : the lens is traced and the eye's power taken (its chromatic aberration,
+        :meth:`~eyelab.optics.eye.Eye.power_shift`) at this wavelength.
+    accommodation : None, or (nz, ny, nx) D per voxel: the eye's accommodation as found at
+        another wavelength (the eye has one accommodation state whatever the colour: a
+        per-channel field takes it from the field at the eye's reference wavelength);
+        NaN where unknown (there Eq. 13 at this wavelength). Ignored when ``focus`` is set.
     """
     t0 = time.perf_counter()
     shape = tuple(int(s) for s in shape)
@@ -62,6 +68,8 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         raise SpecError("shape", f"must be (nz, ny, nx) with each in [1, 1024], got {shape}")
     if depth_mode not in DEPTH_MODES:
         raise SpecError("depth_mode", f"must be one of {DEPTH_MODES}, got {depth_mode!r}")
+    if accommodation is not None:
+        accommodation = np.broadcast_to(np.asarray(accommodation, float), shape)
     pupil = np.asarray(pupil, float)
     timings = {}
     if camera is None:
@@ -127,7 +135,8 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
 
     def run(a, b):
         _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_status,
-                      t_mats, jac_rays, pupil, focus, out, matrix, status, sources, counters)
+                      t_mats, jac_rays, pupil, focus, out, matrix, status, sources, counters,
+                      wavelength_nm, accommodation)
 
     t = time.perf_counter()
     map_row_chunks(run, ncol, workers=workers, block=max(1, 16384 // max(len(ks), 1)))
@@ -139,7 +148,10 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         "method": "wavefront",
         "shape": list(shape),
         "depth_mode": depth_mode,
-        "focus": "best effort per voxel (Eq. 13)" if focus is None else float(focus),
+        "focus": ("best effort per voxel (Eq. 13)" if accommodation is None else
+                  "given per voxel") if focus is None else float(focus),
+        "wavelength_nm": float(wavelength_nm),
+        "eye_power_shift_d": eye.power_shift(wavelength_nm),
         "voxels_total": int(np.prod(shape)),
         "voxels_computed": int(ncol * len(ks)),
         "voxel_status": counts,
@@ -154,7 +166,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     key = content_key(method="wavefront", eye=eye, lens=lens, camera=camera, shape=shape,
                     depth_mode=depth_mode, focus=focus, scene_bounds=None if scene_bounds is None
                     else np.asarray(scene_bounds, float), wavelength=wavelength_nm,
-                    reference_depth=reference_depth, pupil=pupil)
+                    reference_depth=reference_depth, pupil=pupil, accommodation=accommodation)
     return BlurField(camera, shape, depth_mode, matrix, out["a"], out["b"], out["omega"],
                      out["major"], out["acc"], status, sources, "wavefront", key, report)
 
@@ -295,7 +307,8 @@ def _point_at_depth(cam_pos, fwd, q, d, w):
 
 
 def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_status, t_mats,
-                  jac_rays, pupil, focus, out, matrix, status, sources, counters):
+                  jac_rays, pupil, focus, out, matrix, status, sources, counters,
+                  wavelength_nm, given_acc):
     cols = slice(a, b)
     w = depths[ks]
     cop = np.asarray(camera.position, float)
@@ -330,9 +343,12 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
     kbar = 0.5 * (kxx + kyy)
     if focus is None:
         acc = eye.accommodation_for(kbar)                                # Eq. 13
+        if given_acc is not None:
+            g = given_acc[ks[None, :], iy[cols][:, None], ix[cols][:, None]]
+            acc = np.where(np.isnan(g), acc, g)
     else:
         acc = np.full_like(kbar, min(max(float(focus), 0.0), eye.accommodation_max))
-    pxx, pxy, pyy = eye.power_matrix(acc)
+    pxx, pxy, pyy = eye.power_matrix(acc, wavelength_nm)
     k11 = kxx / n2 + pxx / n2                                            # Eq. 7
     k12 = kxy / n2 + pxy / n2
     k22 = kyy / n2 + pyy / n2
@@ -364,7 +380,8 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
     bm[..., 1, 0] = scale * (jac[..., 1, 0] * m11 + jac[..., 1, 1] * m12)
     bm[..., 1, 1] = scale * (jac[..., 1, 0] * m12 + jac[..., 1, 1] * m22)
     bm[~ok] = 0.0
-    if lens is None and eye.astigmatism == 0.0 and focus is None:
+    if lens is None and eye.astigmatism == 0.0 and focus is None and given_acc is None \
+            and eye.power_shift(wavelength_nm) == 0.0:
         # a spherical naked eye focuses every source inside its accommodation range exactly:
         # mark those voxels zero instead of keeping ~1e-16 round-off
         fv = eye.emmetropic_power - eye.power_min

@@ -29,6 +29,33 @@ GH_P_MIN_PAPER = 58.64           # D, Table 2 as printed
 GH_P_MIN = GH_N_VITREOUS / GH_RETINA_DISTANCE  # D, exactly emmetropic (see module doc)
 GH_ACCOMMODATION = 11.93         # D, Table 2
 
+#: Thibos, Ye, Zhang & Bradley 1992, "The chromatic eye: a new reduced-eye model of ocular
+#: chromatic aberration in humans", Appl. Opt. 31:3594: the chromatic difference of
+#: refraction R(lambda) = p - q / (lambda_um - c), q = 0.63346 D um, c = 0.21410 um (the
+#: constant p only sets where R = 0 and cancels in differences). The same constants are in
+#: ISETCam's humanWaveDefocus.
+THIBOS_Q = 0.63346
+THIBOS_C = 0.21410
+#: The wavelength (nm) at which an eye's refraction (its Rx, far point, Eq. 13's
+#: accommodation) is defined and which it focuses: the helium d line, where the lens
+#: materials' n_d and the analysis default are defined (ISO 7944 allows d or e).
+EYE_REFERENCE_NM = 587.56
+
+
+def ocular_lca(wavelength_nm, reference_nm: float = EYE_REFERENCE_NM):
+    """Chromatic difference of refraction of the eye (D): R(lambda) - R(reference), by
+    Thibos et al. 1992 (see :data:`THIBOS_Q`). Negative = more myopic than at the
+    reference (short wavelengths are refracted more). Valid 400-750 nm (the fitted range;
+    the formula is evaluated on 300-1100 nm).
+
+    >>> round(float(ocular_lca(486.13) - ocular_lca(656.27)), 3)   # F - C: about -0.9 D
+    -0.896
+    """
+    wl = np.asarray(wavelength_nm, float)
+    if np.any(~np.isfinite(wl)) or np.any((wl < 300) | (wl > 1100)):
+        raise SpecError("wavelength_nm", f"must be in [300, 1100] nm, got {wavelength_nm!r}")
+    return THIBOS_Q / (reference_nm * 1e-3 - THIBOS_C) - THIBOS_Q / (wl * 1e-3 - THIBOS_C)
+
 
 def hofstetter_amplitude(age, which: str = "mean"):
     """Amplitude of accommodation (D) by Hofstetter's formulas (SCIENCE.md §3), >= 0.
@@ -86,6 +113,11 @@ class Eye:
         m, in [0.5 mm, 10 mm].
     rotation_centre : float
         Distance (m) of the centre of rotation behind the cornea (SCIENCE.md §2: 13-14 mm).
+    chromatic : bool
+        The eye's own longitudinal chromatic aberration (:func:`ocular_lca`): at a
+        wavelength other than :data:`EYE_REFERENCE_NM` every meridian's power is higher by
+        -R(lambda) + R(reference) (about +0.63 D at 486 nm, -0.26 D at 656 nm). Powers,
+        refraction and accommodation are defined at the reference wavelength.
     """
 
     power_min: float = GH_P_MIN
@@ -96,6 +128,7 @@ class Eye:
     n_vitreous: float = GH_N_VITREOUS
     pupil_diameter: float = 4.0e-3
     rotation_centre: float = 13.5e-3
+    chromatic: bool = True
 
     def __post_init__(self):
         check_range("eye.power_min", self.power_min, 40.0, 80.0)
@@ -106,6 +139,8 @@ class Eye:
         check_range("eye.n_vitreous", self.n_vitreous, 1.2, 1.6)
         check_range("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, 0.5, 10.0)
         check_range("eye.rotation_centre_mm", self.rotation_centre * 1e3, 5.0, 20.0)
+        if not isinstance(self.chromatic, bool):
+            raise SpecError("eye.chromatic", f"must be true or false, got {self.chromatic!r}")
 
     # ---------------------------------------------------------------- builders
     @classmethod
@@ -150,18 +185,27 @@ class Eye:
         """n_2 / z_r (D): the relaxed power that focuses infinity on the retina."""
         return self.n_vitreous / self.retina_distance
 
-    def principal_powers(self, accommodation=0.0):
-        """(P1, P2) (D), Eq. 14-15."""
-        return (self.power_min + self.astigmatism / 2 + accommodation,
-                self.power_min - self.astigmatism / 2 + accommodation)
+    def power_shift(self, wavelength_nm=EYE_REFERENCE_NM) -> float:
+        """Extra power (D) of every meridian at ``wavelength_nm`` from the eye's chromatic
+        aberration: -:func:`ocular_lca`; 0 at the reference wavelength or when the eye is
+        not ``chromatic``."""
+        if not self.chromatic or wavelength_nm == EYE_REFERENCE_NM:
+            return 0.0
+        return -float(ocular_lca(wavelength_nm))
 
-    def power_matrix(self, accommodation):
+    def principal_powers(self, accommodation=0.0, wavelength_nm=EYE_REFERENCE_NM):
+        """(P1, P2) (D), Eq. 14-15, at ``wavelength_nm`` (:meth:`power_shift`)."""
+        base = self.power_min + self.power_shift(wavelength_nm) + accommodation
+        return base + self.astigmatism / 2, base - self.astigmatism / 2
+
+    def power_matrix(self, accommodation, wavelength_nm=EYE_REFERENCE_NM):
         """Eye power matrix (pxx, pxy, pyy) in the eye-lens (x, y) frame (Eq. 3 with
-        omega = -omega_1^(e) applied to P1, P2), each broadcast like ``accommodation``."""
+        omega = -omega_1^(e) applied to P1, P2) at ``wavelength_nm``, each broadcast like
+        ``accommodation``."""
         acc = np.asarray(accommodation, float)
         w = math.radians(self.astigmatism_axis_deg)
         c, s = math.cos(w), math.sin(w)
-        p1, p2 = self.principal_powers(acc)
+        p1, p2 = self.principal_powers(acc, wavelength_nm)
         return (p1 * c * c + p2 * s * s, (p1 - p2) * c * s, p1 * s * s + p2 * c * c)
 
     def accommodation_for(self, mean_curvature):

@@ -17,8 +17,11 @@ texels are decoded from sRGB and then filtered bilinearly (the raster renderer's
 textures are filtered and mip-mapped in linear light by the GL), vertex colours decoded
 and then interpolated. Light adds in linear radiance, so the rays of a pixel are averaged
 as they are, times the lens's Fresnel transmission, and the average is encoded once, at
-output. With a dispersive lens each colour channel is traced at its own wavelength (C, e,
-F lines). Pupil samples: Vogel's equal-area spiral, rotated per pixel by a seeded random
+output. Each colour channel is traced at its own wavelength (C, e, F lines) when the lens
+disperses or the eye has its own chromatic aberration (``Eye.chromatic``, Thibos et al.
+1992): then a channel's rays leave the eye with the slopes of the eye's power at that
+wavelength, while the accommodation (one per pixel) is found at the eye's reference
+wavelength. Pupil samples: Vogel's equal-area spiral, rotated per pixel by a seeded random
 angle (deterministic for a seed, decorrelated between pixels: stratified in area, uniform
 in angle, an unbiased estimate of the disc). Rows of pixels run on a thread pool.
 
@@ -36,8 +39,8 @@ import time
 
 import numpy as np
 
-from eyelab.imaging import Renderer, View, finish, new_report
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.imaging import Renderer, View, channel_wavelengths, finish, new_report
+from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.paths import ChiefRays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.trace import FATAL
@@ -79,12 +82,7 @@ class ReferenceRenderer(Renderer):
         n = len(dirs)
         inter = EmbreeIntersector(scene)
         samples = self.pupil_samples(q)
-        disperses = q.chromatic and lens is not None and lens.material.dispersive
-        wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
-        if lens is not None and not disperses:
-            report["skipped"].append("chromatic: " + ("disabled" if not q.chromatic else
-                                                      "the lens material does not disperse")
-                                     + ": one wavelength traced")
+        wls = channel_wavelengths(eye, lens, q.chromatic, report)
         out = np.zeros((n, 3))
         counts = {"rays": 0, "acc_diff_sum": 0.0, "acc_diff_max": 0.0, "acc_n": 0}
         lock = threading.Lock()
@@ -137,7 +135,7 @@ class ReferenceRenderer(Renderer):
         q = np.broadcast_to(pupil, (m, 3)).copy()
         dq = d.copy()
         if lens is not None:
-            res = lens.trace(q, d, 587.56, reverse=True)
+            res = lens.trace(q, d, EYE_REFERENCE_NM, reverse=True)
             through = (res["status"] & np.uint8(FATAL)) == 0
             q = np.where(through[:, None], res["out_points"], pupil)
             dq = np.where(through[:, None], res["out_dirs"], d)
@@ -156,8 +154,8 @@ class ReferenceRenderer(Renderer):
                               None, None, np.zeros(len(idx), np.uint8), dist[idx])
             n_in = -d[idx]
             x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
-            t, _ = lens_path_matrix(chief, lens, 587.56, np.broadcast_to(pupil, (len(idx), 3)),
-                                    x_e)
+            t, _ = lens_path_matrix(chief, lens, EYE_REFERENCE_NM,
+                                    np.broadcast_to(pupil, (len(idx), 3)), x_e)
             kxx, _, kyy, _ = apply_isotropic(t, v[idx])
             kbar[idx] = 0.5 * (kxx + kyy)
         acc_diff = np.zeros(0)
@@ -206,9 +204,23 @@ class ReferenceRenderer(Renderer):
         o = origins.reshape(-1, 3)
         dd = dirs.reshape(-1, 3)
         col = np.zeros((m, 3))
-        traced = lens.trace_wavelengths(o, dd, wls, reverse=True) if lens is not None \
-            else [None] * len(wls)
+        shifts = [eye.power_shift(wl) for wl in wls]
+        if any(shifts):
+            # the eye's own chromatic aberration: each channel's rays leave the eye with the
+            # slopes of its power at that wavelength (every meridian + shift), then its own
+            # trace through the lens
+            traced, channel_dirs = [], []
+            for wl, dp in zip(wls, shifts, strict=True):
+                dc = unit(d_s - (gx + dp * rho_x)[..., None] * x_e[:, None]
+                          - (gy + dp * rho_y)[..., None] * y_e[:, None]).reshape(-1, 3)
+                channel_dirs.append(dc)
+                traced.append(None if lens is None else lens.trace(o, dc, wl, reverse=True))
+        else:
+            channel_dirs = [dd] * len(wls)
+            traced = lens.trace_wavelengths(o, dd, wls, reverse=True) if lens is not None \
+                else [None] * len(wls)
         for ci, r2 in enumerate(traced):
+            dd = channel_dirs[ci]
             weight = 1.0
             if r2 is not None:
                 ok = ((r2["status"] & np.uint8(FATAL)) == 0)

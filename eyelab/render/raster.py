@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from eyelab.blur.field import VoxelStatus
 from eyelab.blur.reconstruct import sigma_map, variable_gaussian
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.cache import LRUCache, content_key
@@ -38,6 +39,7 @@ from eyelab.imaging import (
     new_report,
 )
 from eyelab.optics.camera import fit_virtual_camera, fit_window
+from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.options import RasterQuality
 from eyelab.render.accumulate import PassAccumulator, encode_linear
@@ -121,16 +123,16 @@ class RasterRenderer(Renderer):
         lens_in_view = self._lens_in_view(lens, cam, report)
         covered = lens_in_view and q.skip_unneeded and self._lens_covers(lens, cam, report)
         t = time.perf_counter()
-        f_naked = None if covered else self._field(eye, None, cam, bounds, view, q, report,
-                                                   "naked")
+        f_naked = None if covered else self._fields(eye, None, cam, bounds, view, q, report,
+                                                    "naked")
         f_lens = vcam = None
         if lens_in_view:
             vcam = self._virtual_camera(lens, cam, view, q, report)
-            f_lens = self._field(eye, lens, vcam, bounds, view, q, report, "through_lens",
-                                 pupil=cam.position)
+            f_lens = self._fields(eye, lens, vcam, bounds, view, q, report, "through_lens",
+                                  pupil=cam.position)
         timings["fields"] = time.perf_counter() - t
         t = time.perf_counter()
-        meshes = self._refined(scene, f_naked, f_lens, view, q, report)
+        meshes = self._refined(scene, f_naked or [], f_lens or [], view, q, report)
         timings["refine"] = time.perf_counter() - t
         t = time.perf_counter()
         naked = self._naked_stage(scene, meshes, cam, f_naked, view, q, report)
@@ -180,14 +182,35 @@ class RasterRenderer(Renderer):
                           width=view.width)
         return self._cached("small", key, fit, report, "virtual_camera")[0]
 
-    def _field(self, eye, lens, cam, bounds, view, q, report, label, pupil=None):
+    def _fields(self, eye, lens, cam, bounds, view, q, report, label, pupil=None) -> list:
+        """The stage's blur fields: one at the eye's reference wavelength, or one per colour
+        channel (R, G, B at their design wavelengths) when the eye's own chromatic
+        aberration or the lens's dispersion makes them differ. The eye has one
+        accommodation state whatever the colour: through a dispersive lens the channels
+        take it per voxel from the reference wavelength's field (elsewhere Eq. 13 gives the
+        same at every wavelength)."""
+        disperses = lens is not None and lens.material.dispersive
+        if not (q.chromatic and (eye.chromatic or disperses)):
+            return [self._field(eye, lens, cam, bounds, view, q, report, label, pupil)]
+        acc = None
+        if disperses and view.focus_d is None:
+            ref = self._field(eye, lens, cam, bounds, view, q, report, label, pupil)
+            acc = np.where(ref.status == VoxelStatus.OK, ref.accommodation, np.nan)
+        return [self._field(eye, lens, cam, bounds, view, q, report,
+                            f"{label}_{wl:g}nm", pupil, wavelength_nm=wl, accommodation=acc)
+                for wl in RGB_WAVELENGTHS_NM]
+
+    def _field(self, eye, lens, cam, bounds, view, q, report, label, pupil=None,
+               wavelength_nm=EYE_REFERENCE_NM, accommodation=None):
         pupil = np.asarray(cam.position if pupil is None else pupil, float)
         key = content_key(eye=eye, lens=lens, camera=cam, shape=q.field_shape,
                           depth_mode=q.depth_mode, focus=view.focus_d,
-                          bounds=np.asarray(bounds, float), pupil=pupil)
+                          bounds=np.asarray(bounds, float), pupil=pupil,
+                          wavelength=wavelength_nm, accommodation=accommodation)
         f, hit = self._cached("fields", key, lambda: compute_blur_field(
             eye, lens, cam, shape=q.field_shape, depth_mode=q.depth_mode, focus=view.focus_d,
-            scene_bounds=bounds, pupil=pupil), report, f"field_{label}")
+            scene_bounds=bounds, pupil=pupil, wavelength_nm=wavelength_nm,
+            accommodation=accommodation), report, f"field_{label}")
         info = {"cache": "hit" if hit else "miss", "all_zero": f.all_zero,
                 "voxels_total": f.report["voxels_total"],
                 "voxels_computed": f.report["voxels_computed"],
@@ -198,23 +221,26 @@ class RasterRenderer(Renderer):
         return f
 
     def _refined(self, scene, f_naked, f_lens, view, q, report) -> list:
+        """The scene's meshes refined for every field of both stages (lists)."""
         if not q.refine:
             report["skipped"].append("refinement: disabled")
             return list(scene.meshes)
         meshes = []
+        fields = list(f_naked) + list(f_lens)
         for m in scene.meshes:
-            key = (m.content_key, None if f_naked is None else f_naked.key,
-                   None if f_lens is None else f_lens.key, view.width)
+            key = (m.content_key, tuple(f.key for f in fields), view.width)
             (rm, info), _ = self._cached("refined", key, lambda m=m: refine_for_fields(
-                m, [f_naked, f_lens], px_scale=view.width / 2), report, f"refined_{m.name}")
+                m, fields, px_scale=view.width / 2), report, f"refined_{m.name}")
             meshes.append(rm)
             report["details"]["refinement"].append(info)
         return meshes
 
-    def _show_scene(self, win, meshes, field, q, passes, cam, height, report):
-        """Show the meshes' actors for a field. Few passes: textures mip-mapped; more: the
-        passes supersample, and textures are prefiltered to about two texels per pixel
-        instead (:mod:`eyelab.scene.prefilter`), cached."""
+    def _scene_items(self, meshes, fields, q, passes, cam, height, report) -> list:
+        """Per field (channel), the [(key, factory)] of the meshes' actors. Few passes:
+        textures mip-mapped; more: the passes supersample, and textures are prefiltered to
+        about two texels per pixel instead (:mod:`eyelab.scene.prefilter`), cached. On the
+        texture route an actor does not depend on the field (the shader samples it), so
+        the channels share their actors."""
         mip = passes < MIPMAP_BELOW_SAMPLES
         shown = []
         for m in meshes:
@@ -223,13 +249,23 @@ class RasterRenderer(Renderer):
                 m, _ = self._cached("refined", ("prefiltered", m.content_key, f),
                                     lambda m=m, f=f: prefiltered(m, f), report,
                                     f"prefiltered_{m.name}")
-            shown.append((m, f))
-        win.use_field(field, q.field_route)
-        win.show([((m.content_key, field.key, q.field_route, mip),
-                   field_actor_factory(m, field, q.field_route, mipmap=mip))
-                  for m, _ in shown])
+            shown.append(m)
+        route = q.field_route
+        return [[((m.content_key, None if route == "texture" else field.key, route, mip),
+                  field_actor_factory(m, field, route, mipmap=mip)) for m in shown]
+                for field in fields]
 
-    def _passes_for(self, field, q, report, label) -> tuple:
+    @staticmethod
+    def _select_channel(st, c, route) -> None:
+        """Make channel ``c``'s field and actors current in the stage's window."""
+        win, items = st["win"], st["items"][c]
+        win.use_field(st["fields"][c], route)
+        keys = [k for k, _ in items]
+        if st.get("shown_keys") != keys:
+            win.show(items)
+            st["shown_keys"] = keys
+
+    def _passes_for(self, fields, q, report, label) -> tuple:
         """(passes, seeds (S, 2), jitter (S, 2) px) of a stage. A zero field needs no blur
         samples: without antialiasing one pass is the exact image (the rest are skipped);
         with it, the S passes still run, as jittered copies only (a skip may remove work,
@@ -237,7 +273,7 @@ class RasterRenderer(Renderer):
         seeds, jit = pass_samples(q.samples)
         if not q.antialias:
             jit = np.zeros_like(jit)
-        if field.all_zero and q.skip_unneeded:
+        if all(f.all_zero for f in fields) and q.skip_unneeded:
             if not q.antialias and q.samples > 1:
                 report["skipped"].append(f"{label}: blur field all zero: 1 pass instead of "
                                          f"{q.samples}")
@@ -248,19 +284,19 @@ class RasterRenderer(Renderer):
                 return q.samples, np.zeros_like(seeds), antialias_jitter(q.samples)
         return q.samples, seeds, jit
 
-    def _naked_stage(self, scene, meshes, cam, field, view, q, report) -> dict:
+    def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
             self._eye_win = OffscreenWindow()
         win = self._eye_win
         win.render_s = win.readback_s = 0.0
         win.set_view(cam, (view.width, view.height), scene.background)
-        if field is None:                           # the lens covers the view
+        if fields is None:                          # the lens covers the view
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
-        passes, seeds, jitter = self._passes_for(field, q, report, "naked view")
-        self._show_scene(win, meshes, field, q, passes, cam, view.height, report)
-        return {"win": win, "cam": cam, "field": field,
-                "key": ("naked", scene.content_key, field.key),
+        passes, seeds, jitter = self._passes_for(fields, q, report, "naked view")
+        return {"win": win, "cam": cam, "fields": fields,
+                "items": self._scene_items(meshes, fields, q, passes, cam, view.height, report),
+                "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
 
@@ -268,21 +304,21 @@ class RasterRenderer(Renderer):
         ratio = vcam.tan_half[0] / cam.tan_half[0]
         return int(min(4096, max(16, round(view.width * ratio * q.env_oversample))))
 
-    def _env_stage(self, scene, meshes, lens, vcam, field, cam, view, q, report) -> dict:
+    def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report) -> dict:
         if self._env_win is None:
             self._env_win = OffscreenWindow()
         win = self._env_win
         win.render_s = win.readback_s = 0.0
         vcam, (w_env, h_env) = fit_window(vcam, self._env_width(cam, vcam, view, q))
         win.set_view(vcam, (w_env, h_env), scene.background)
-        passes, seeds, jitter = self._passes_for(field, q, report, "environment")
-        self._show_scene(win, meshes, field, q, passes, vcam, h_env, report)
+        passes, seeds, jitter = self._passes_for(fields, q, report, "environment")
+        items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
         disperses = q.chromatic and lens.material.dispersive
-        wls = RGB_WAVELENGTHS_NM if disperses else (587.56,)
+        wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
         if not disperses:
-            report["skipped"].append("chromatic: " + ("disabled" if not q.chromatic else
-                                                      "the lens material does not disperse")
-                                     + ": one texture-coordinate set")
+            report["skipped"].append("lens dispersion: " + (
+                "disabled" if not q.chromatic else "the lens material does not disperse")
+                + ": one texture-coordinate set")
         tkey = content_key(scene=scene.content_key, lens=lens, camera=vcam, wls=wls,
                            rings=q.lens_rings, segments=q.lens_segments, grid=q.lens_grid_px,
                            eye=cam, size=(view.width, view.height))
@@ -295,8 +331,8 @@ class RasterRenderer(Renderer):
             "rays_missing_scene": int((~tcg.scene_hit).sum()),
             "virtual_camera": {"position": list(map(float, vcam.position)),
                                "fov_y_deg": vcam.fov_y_deg, "aspect": vcam.aspect}}
-        return {"win": win, "cam": vcam, "field": field,
-                "key": ("env", scene.content_key, field.key),
+        return {"win": win, "cam": vcam, "fields": fields, "items": items,
+                "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
                 "geo_key": tkey,
                 "acc": PassAccumulator(h_env, w_env)}
@@ -319,7 +355,14 @@ class RasterRenderer(Renderer):
     def _passes(self, naked, env, view, q, report, progressive):
         """Run the passes (checkpoints 1, 2, 4, ... S when ``progressive``); returns the
         final uint8 image, its layers and the progressive images."""
-        stages = [s for s in (naked, env) if s is not None]
+        stages = [s for s in (naked, env) if s is not None and s["passes"]]
+        for st in stages:
+            self._select_channel(st, 0, q.field_route)
+            if len(st["fields"]) > 1:
+                st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
+        channels = [len(s["fields"]) for s in stages]
+        if any(c > 1 for c in channels):
+            report["details"]["channel_renders_per_pass"] = max(channels)
         timings = report["timings_s"]
         checkpoints = _checkpoints(q.samples) if progressive else [q.samples]
         done, prog = 0, []
@@ -329,8 +372,7 @@ class RasterRenderer(Renderer):
                     if k >= st["passes"]:
                         continue
                     t = time.perf_counter()
-                    st["win"].set_seed(st["seeds"][k], st["jitter"][k])
-                    st["acc"].add(st["win"].grab_rgba())
+                    st["acc"].add(self._pass(st, k, q.field_route))
                     if k == 0 and st["passes"] > 1 and q.reconstruct:
                         st["zbuf"] = st["win"].depth()
                     name = "naked_passes" if st is naked else "env_passes"
@@ -343,6 +385,22 @@ class RasterRenderer(Renderer):
             st["win"].set_seed((0.0, 0.0))
         return image, layers, prog
 
+    def _pass(self, st, k, route) -> np.ndarray:
+        """Pass ``k`` of a stage as GL-ordered RGBA uint8: one render, or with per-channel
+        fields one render per channel (the same seed and jitter, each displacing by its
+        own channel's field), of which each gives its own colour channel."""
+        win = st["win"]
+        win.set_seed(st["seeds"][k], st["jitter"][k])
+        if len(st["fields"]) == 1:
+            return win.grab_rgba()
+        out = st["rgba"]
+        for c in range(len(st["fields"])):
+            self._select_channel(st, c, route)
+            win.set_seed(st["seeds"][k], st["jitter"][k])
+            out[..., c] = win.grab_rgba()[..., c]
+        out[..., 3] = 255
+        return out
+
     def _mean(self, st, q, report) -> np.ndarray:
         """The stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
         reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`)."""
@@ -350,8 +408,10 @@ class RasterRenderer(Renderer):
         if "zbuf" not in st:
             return acc.mean_rgba()
         t = time.perf_counter()
+        # per-channel fields: the smallest channel's sigma (never over-filters a channel)
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
-                              lambda: sigma_map(st["zbuf"], st["cam"], st["field"], acc.count),
+                              lambda: np.min([sigma_map(st["zbuf"], st["cam"], f, acc.count)
+                                              for f in st["fields"]], axis=0),
                               report, "reconstruction_sigma")
         lin = acc.mean_linear()
         out = variable_gaussian(lin, sig)

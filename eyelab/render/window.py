@@ -18,8 +18,12 @@ from eyelab.render import _vtk
 VERTEX_TAGS = ("//VTK::PositionVC::Dec", "//VTK::PositionVC::Impl",
                "//VTK::CustomBegin::Impl", "//VTK::CustomEnd::Impl")
 
-#: Actors a window keeps built while not shown (a scene's meshes for another field).
-SPARE_ACTORS = 16
+#: Actors a window keeps built while not shown (a scene's meshes for another field, or
+#: another colour channel's on the attribute route).
+SPARE_ACTORS = 48
+
+#: Field textures a window keeps uploaded (one per colour channel, plus one spare).
+FIELD_TEXTURES = 4
 
 #: Fragment shader tags used (the late hook after VTK has set ``fragOutput0``).
 FRAGMENT_TAGS = ("//VTK::DepthPeeling::Impl",)
@@ -88,9 +92,9 @@ class OffscreenWindow:
         self.route = "attribute"
         self.actors = {}
         self._spare = OrderedDict()
-        self.field_texture = None
+        self.field_texture = None          # the current one, bound before each draw
         self.field_texture_key = None
-        self._field_data = None
+        self._textures = OrderedDict()       # key -> (texture object, its data), LRU
         self.render_s = 0.0
         self.readback_s = 0.0
         self._buf = _vtk.vtkUnsignedCharArray()
@@ -109,8 +113,10 @@ class OffscreenWindow:
 
     def use_field(self, field, route: str) -> None:
         """Select the route. "texture": the field as a 3D RGBA32F texture (linear filtering,
-        clamp-to-edge) sampled in the vertex shader, uploaded once per field (VTK_NOTES Q2
-        route A); "attribute": matrices looked up per vertex on the CPU (route D)."""
+        clamp-to-edge) sampled in the vertex shader, uploaded once per field and kept (up to
+        :data:`FIELD_TEXTURES`, so that per-channel fields switch without uploads)
+        (VTK_NOTES Q2 route A); "attribute": matrices looked up per vertex on the CPU
+        (route D)."""
         self.route = route
         if route != "texture":
             return
@@ -122,18 +128,24 @@ class OffscreenWindow:
             u.SetUniformf("farPlane", float(cam.far))
         if self.field_texture_key == field.key:
             return
-        self.win.Initialize()
-        self._release_field_texture()
-        tex = _vtk.vtkTextureObject()
-        tex.SetContext(self.win)
-        nz, ny, nx = field.shape
-        self._field_data = field.texture_rgba()          # kept alive while uploaded
-        tex.Create3DFromRaw(nx, ny, nz, 4, _vtk.VTK_FLOAT, self._field_data)
-        for f in (tex.SetWrapS, tex.SetWrapT, tex.SetWrapR):
-            f(_vtk.vtkTextureObject.ClampToEdge)
-        tex.SetMinificationFilter(_vtk.vtkTextureObject.Linear)
-        tex.SetMagnificationFilter(_vtk.vtkTextureObject.Linear)
-        self.field_texture = tex
+        kept = self._textures.pop(field.key, None)
+        if kept is None:
+            self.win.Initialize()
+            tex = _vtk.vtkTextureObject()
+            tex.SetContext(self.win)
+            nz, ny, nx = field.shape
+            data = field.texture_rgba()                  # kept alive while uploaded
+            tex.Create3DFromRaw(nx, ny, nz, 4, _vtk.VTK_FLOAT, data)
+            for f in (tex.SetWrapS, tex.SetWrapT, tex.SetWrapR):
+                f(_vtk.vtkTextureObject.ClampToEdge)
+            tex.SetMinificationFilter(_vtk.vtkTextureObject.Linear)
+            tex.SetMagnificationFilter(_vtk.vtkTextureObject.Linear)
+            kept = (tex, data)
+        self._textures[field.key] = kept
+        while len(self._textures) > FIELD_TEXTURES:
+            _, (old, _) = self._textures.popitem(last=False)
+            old.ReleaseGraphicsResources(self.win)
+        self.field_texture = kept[0]
         self.field_texture_key = field.key
 
     def show(self, items) -> list:
@@ -202,11 +214,11 @@ class OffscreenWindow:
         return self.grab_rgba()[::-1, :, :3].copy()
 
     def _release_field_texture(self):
-        if self.field_texture is not None:
-            self.field_texture.ReleaseGraphicsResources(self.win)
-            self.field_texture = None
-            self.field_texture_key = None
-            self._field_data = None
+        for tex, _ in self._textures.values():
+            tex.ReleaseGraphicsResources(self.win)
+        self._textures.clear()
+        self.field_texture = None
+        self.field_texture_key = None
 
     def close(self) -> None:
         """Release every actor, the field texture and the GL context."""
