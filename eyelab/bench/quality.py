@@ -65,8 +65,9 @@ def configs(quick: bool):
 
 
 #: Part of every cached converged reference's file name: references made before linear
-#: light and Fresnel transmission (averaged sRGB codes) are never taken for truth.
-TRUTH_FORMAT = "linear-fresnel"
+#: light, Fresnel transmission and the eye's own chromatic aberration are never taken for
+#: truth.
+TRUTH_FORMAT = "linear-fresnel-lca"
 
 
 def _truth(cache, name, quality, view, scene, eye, lens):
