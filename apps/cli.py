@@ -1,4 +1,4 @@
-"""The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``bench``.
+"""The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``inspect``, ``bench``.
 
 Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
 print one line naming the field and exit with status 2; no partial output file is left.
@@ -42,9 +42,12 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
                     "report is written beside it, .json)")
     _render_overrides(dm)
+    from eyelab.apps.inspector import add_parser
+
+    add_parser(sub)
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
     be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
-                                     "memory"))
+                                     "memory", "inspect"))
     pre = be.add_mutually_exclusive_group()
     pre.add_argument("--quick", action="store_true",
                      help="quality: 160x120, two configurations (the default; CI runs it); "
@@ -96,6 +99,10 @@ def main(argv=None) -> int:
             return _bench(args)
         if args.command in ("render", "demo"):
             return _render(args)
+        if args.command == "inspect":
+            from eyelab.apps.inspector import run
+
+            return run(args)
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
         return 2
@@ -186,6 +193,13 @@ def _bench(args) -> int:
                                     only_configs=_names(args.configs),
                                     only_scenes=_names(args.scenes),
                                     truth_cache=args.truth_cache)
+    elif args.what == "inspect":
+        import os
+
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+        from eyelab.bench.inspect import run_inspect_bench
+
+        res = run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
     elif args.what == "memory":
         from eyelab.bench.memory import run_memory_bench
 

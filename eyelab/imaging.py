@@ -234,6 +234,11 @@ class Renderer(abc.ABC):
         """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye).
         ``progressive``: also return the images after 1, 2, 4, ... samples (renderers that
         refine in passes; others return the final image only)."""
+        view, quality = self._checked(view, quality)
+        return self._render(scene, eye, lens, view, quality, progressive)
+
+    def _checked(self, view, quality) -> tuple:
+        """(view, quality) with the defaults filled in and their types checked."""
         view = View() if view is None else view
         quality = self.quality if quality is None else quality
         if not isinstance(view, View):
@@ -241,7 +246,7 @@ class Renderer(abc.ABC):
         if not isinstance(quality, self.Quality):
             raise TypeError(f"{type(self).__name__} takes a {self.Quality.__name__}, got "
                             f"{type(quality).__name__}")
-        return self._render(scene, eye, lens, view, quality, progressive)
+        return view, quality
 
     @abc.abstractmethod
     def _render(self, scene, eye, lens, view: View, quality, progressive: bool

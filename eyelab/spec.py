@@ -332,6 +332,13 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
 
 def load_spec(path: str | Path | None = None) -> Spec:
     """Load a TOML spec; ``None`` loads the built-in default scene."""
+    data, source, base = read_spec_data(path)
+    return parse_spec(data, source, base)
+
+
+def read_spec_data(path: str | Path | None = None) -> tuple:
+    """(table, source, base folder) of a TOML spec file, unvalidated (:func:`parse_spec`
+    checks it); ``None``: the built-in default."""
     if path is None:
         text = resources.files("eyelab").joinpath("data/default.toml").read_text()
         source = "<built-in default>"
@@ -347,4 +354,57 @@ def load_spec(path: str | Path | None = None) -> Spec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SpecError("spec", f"{source} is not valid TOML: {e}") from None
-    return parse_spec(data, source, base)
+    return data, source, base
+
+
+def dump_spec(data: dict) -> str:
+    """A spec table as TOML text that :func:`tomllib.loads` reads back equal: tables of
+    scalars, strings, lists of scalars, nested tables ([lens.front]) and arrays of tables
+    ([[points]]); floats written exactly (``repr``), infinities as ``inf``.
+
+    >>> import tomllib
+    >>> d = {"eye": {"rx": "-2.00 DS", "age": 40}, "points": [{"distance_m": "inf"}]}
+    >>> tomllib.loads(dump_spec(d)) == d
+    True
+    """
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, float):
+            return ("inf" if v > 0 else "-inf") if math.isinf(v) else \
+                ("nan" if math.isnan(v) else repr(v))
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        raise SpecError("spec", f"cannot write {v!r} as TOML")
+
+    def table(name, t, lines):
+        scalars = {k: v for k, v in t.items() if not isinstance(v, dict)
+                   and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))}
+        lines.append(f"[{name}]")
+        lines.extend(f"{k} = {value(v)}" for k, v in scalars.items())
+        lines.append("")
+        for k, v in t.items():
+            if isinstance(v, dict):
+                table(f"{name}.{k}", v, lines)
+            elif k not in scalars:
+                for item in v:
+                    lines.append(f"[[{name}.{k}]]")
+                    lines.extend(f"{kk} = {value(vv)}" for kk, vv in item.items())
+                    lines.append("")
+
+    lines = []
+    for name, t in data.items():
+        if isinstance(t, dict):
+            table(name, t, lines)
+        elif isinstance(t, list):
+            for item in t:
+                lines.append(f"[[{name}]]")
+                lines.extend(f"{k} = {value(v)}" for k, v in item.items())
+                lines.append("")
+        else:
+            raise SpecError(f"spec.{name}", "top-level entries must be tables")
+    return "\n".join(lines)

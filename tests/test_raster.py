@@ -361,3 +361,19 @@ def test_a_lens_covering_the_view_skips_the_naked_view_and_changes_nothing():
     assert imgs[False].report["samples"]["done"]["naked"] == 4
     assert imgs[True].layers["lens_mask"].all()
     np.testing.assert_array_equal(imgs[True].srgb, imgs[False].srgb)
+
+
+def test_frames_yield_every_pass_and_end_at_the_render(chart):
+    """The progressive generator: one image per pass (``every`` = 1), the last equal to
+    :meth:`render`'s, and closing it early leaves the renderer usable."""
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.0)
+    view = View(width=96, height=72, fov_y_deg=8)
+    with RasterRenderer(RasterQuality(samples=5)) as r:
+        frames = list(r.frames(chart, eye, None, view))
+        assert [f.report["samples"]["done_passes"] for f in frames] == [1, 2, 3, 4, 5]
+        np.testing.assert_array_equal(frames[-1].image, r.render(chart, eye, None, view).image)
+        gen = r.frames(chart, eye, None, view, every=2)
+        assert next(gen).report["samples"]["done_passes"] == 1
+        gen.close()
+        again = r.render(chart, eye, None, view)
+        np.testing.assert_array_equal(frames[-1].image, again.image)

@@ -23,6 +23,7 @@ cached by content (eye, lens, view, scene geometry) in bounded LRU caches.
 
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -112,6 +113,27 @@ class RasterRenderer(Renderer):
     # ------------------------------------------------------------------ render
     def _render(self, scene, eye, lens, view: View, q: RasterQuality, progressive: bool
                 ) -> RenderResult:
+        checkpoints = _checkpoints(q.samples) if progressive else [q.samples]
+        results = list(self._run(scene, eye, lens, view, q, checkpoints))
+        final = results[-1]
+        if progressive:
+            final.progressive = [(r.report["samples"]["done_passes"], r.srgb) for r in results]
+        return final
+
+    def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
+               every: int = 1):
+        """Render progressively: yield a :class:`RenderResult` after pass 1, 1 + ``every``,
+        ... and the last (S) — each the complete image of the passes so far, its report's
+        ``samples.done_passes`` saying how many. Set-up (fields, refinement, lens
+        coordinates) happens before the first yield; between two yields only ``every``
+        passes run, so an interactive viewer stays responsive. The last image equals
+        :meth:`render`'s. Closing the generator early stops the work."""
+        view, quality = self._checked(view, quality)
+        every = max(1, int(every))
+        checkpoints = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
+        yield from self._run(scene, eye, lens, view, quality, checkpoints)
+
+    def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
         report["samples"]["target"] = q.samples
@@ -142,14 +164,16 @@ class RasterRenderer(Renderer):
             t = time.perf_counter()
             env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report)
             timings["setup_lens"] = time.perf_counter() - t
-        image, layers, prog = self._passes(naked, env, view, q, report, progressive)
-        report["samples"]["done"] = {"naked": naked["passes"],
-                                     "environment": 0 if env is None else env["passes"]}
-        gl = sum(w.render_s for w in (naked["win"], env and env["win"]) if w)
-        rb = sum(w.readback_s for w in (naked["win"], env and env["win"]) if w)
-        timings.update(gl_render=gl, readback=rb)
-        return finish(report, view, srgb=image, layers=layers, progressive=prog,
-                      t_start=t_start)
+        for count, image, layers in self._passes(naked, env, view, q, report, checkpoints):
+            report["samples"]["done"] = {
+                "naked": min(count, naked["passes"]),
+                "environment": 0 if env is None else min(count, env["passes"])}
+            report["samples"]["done_passes"] = count
+            gl = sum(w.render_s for w in (naked["win"], env and env["win"]) if w)
+            rb = sum(w.readback_s for w in (naked["win"], env and env["win"]) if w)
+            timings.update(gl_render=gl, readback=rb)
+            yield finish(copy.deepcopy(report), view, srgb=image, layers=layers,
+                         t_start=t_start)
 
     def _lens_covers(self, lens, cam, report) -> bool:
         """Whether every pixel sees through the lens (then the naked view is not drawn)."""
@@ -352,9 +376,9 @@ class RasterRenderer(Renderer):
                 "transmittance": transmittance_map(tcg.transmittance, axes, view)}
 
     # ------------------------------------------------------------------ passes
-    def _passes(self, naked, env, view, q, report, progressive):
-        """Run the passes (checkpoints 1, 2, 4, ... S when ``progressive``); returns the
-        final uint8 image, its layers and the progressive images."""
+    def _passes(self, naked, env, view, q, report, checkpoints):
+        """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
+        (ascending, the last S)."""
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
         for st in stages:
             self._select_channel(st, 0, q.field_route)
@@ -364,26 +388,25 @@ class RasterRenderer(Renderer):
         if any(c > 1 for c in channels):
             report["details"]["channel_renders_per_pass"] = max(channels)
         timings = report["timings_s"]
-        checkpoints = _checkpoints(q.samples) if progressive else [q.samples]
-        done, prog = 0, []
-        for cp in checkpoints:
-            for k in range(done, cp):
-                for st in stages:
-                    if k >= st["passes"]:
-                        continue
-                    t = time.perf_counter()
-                    st["acc"].add(self._pass(st, k, q.field_route))
-                    if k == 0 and st["passes"] > 1 and q.reconstruct:
-                        st["zbuf"] = st["win"].depth()
-                    name = "naked_passes" if st is naked else "env_passes"
-                    timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
-            done = cp
-            image, layers = self._image(naked, env, view, q, report)
-            if progressive:
-                prog.append((cp, image.copy()))
-        for st in stages:
-            st["win"].set_seed((0.0, 0.0))
-        return image, layers, prog
+        done = 0
+        try:
+            for cp in checkpoints:
+                for k in range(done, cp):
+                    for st in stages:
+                        if k >= st["passes"]:
+                            continue
+                        t = time.perf_counter()
+                        st["acc"].add(self._pass(st, k, q.field_route))
+                        if k == 0 and st["passes"] > 1 and q.reconstruct:
+                            st["zbuf"] = st["win"].depth()
+                        name = "naked_passes" if st is naked else "env_passes"
+                        timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
+                done = cp
+                image, layers = self._image(naked, env, view, q, report)
+                yield cp, image.copy(), layers
+        finally:
+            for st in stages:
+                st["win"].set_seed((0.0, 0.0))
 
     def _pass(self, st, k, route) -> np.ndarray:
         """Pass ``k`` of a stage as GL-ordered RGBA uint8: one render, or with per-channel

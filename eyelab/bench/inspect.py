@@ -1,0 +1,74 @@
+"""``eyelab bench inspect``: how fast the inspector answers a change (offscreen).
+
+The built-in default spec at 800 x 600 (the room, a -3.00 / -1.00 x 180 myope of 45 with
+their CR-39 lens), target S = 16. For each change — the eye's sphere with the lens off and
+through the lens, the pupil, the gaze, S, the colour-vision deficiency — the time from the
+change to the first updated frame (a one-pass preview on a coarse field when the change
+needs new blur fields) and to S = 16, with the renderer's stage timings of the frames that
+did the set-up. The model is ticked as the window's timer would tick it, without a window
+(the window adds one texture upload per frame).
+"""
+
+from __future__ import annotations
+
+import time
+
+
+def _measure(model, changes: dict) -> dict:
+    t0 = time.perf_counter()
+    model.apply(changes)
+    first = None
+    stages = {}
+    while True:
+        changed = model.tick()
+        if model.result is not None and changed and first is None:
+            first = time.perf_counter() - t0
+        if model.result is not None:
+            for k, v in model.result.report["timings_s"].items():
+                if k in ("fields", "refine", "setup_naked", "setup_lens", "lens_composite"):
+                    stages[k] = max(stages.get(k, 0.0), v)
+        if model.done:
+            break
+    total = time.perf_counter() - t0
+    done = 0 if model.result is None else model.result.report["samples"]["done_passes"]
+    return {"change": ", ".join(f"{k}={v}" for k, v in changes.items()),
+            "first_frame_s": first if first is not None else total,
+            "to_target_s": total, "passes_done": done,
+            "recomputed": model.recomputed(), "stages_s": stages}
+
+
+def run_inspect_bench(width: int = 800, height: int = 600, samples: int = 16) -> dict:
+    from eyelab.inspect import InspectorModel
+
+    model = InspectorModel(None, size=(width, height), samples=samples)
+    try:
+        t = time.perf_counter()
+        model.run_to_target()
+        cold = time.perf_counter() - t
+        rows = []
+        plan = [
+            ("eye, no lens in view", {"lens": False}),
+            ("eye, no lens in view", {"sphere": -3.5}),
+            ("eye, no lens in view", {"pupil_mm": 5.0}),
+            ("lens on", {"lens": True}),
+            ("eye, through the lens", {"sphere": -3.0}),
+            ("eye, through the lens", {"pupil_mm": 4.0}),
+            ("gaze, through the lens", {"gaze": (0.0, -10.0)}),
+            ("samples", {"samples": samples // 2}),
+            ("samples", {"samples": samples}),
+            ("colour vision", {"cvd": "deutan"}),
+        ]
+        for label, change in plan:
+            row = _measure(model, change)
+            row["kind"] = label
+            rows.append(row)
+    finally:
+        model.close()
+    summary = [f"inspect bench, {width}x{height}, target S = {samples}, default spec "
+               f"(cold start to S = {samples}: {cold:.2f} s)"]
+    for r in rows:
+        summary.append(f"  {r['kind']:<24} {r['change']:<22} first frame "
+                       f"{r['first_frame_s']:6.3f} s, to S={r['passes_done']} "
+                       f"{r['to_target_s']:6.3f} s ({r['recomputed']})")
+    return {"benchmark": "inspect", "size": [width, height], "samples": samples,
+            "cold_start_s": cold, "rows": rows, "summary": summary}

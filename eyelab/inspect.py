@@ -1,0 +1,472 @@
+"""The inspector's model, without any GL: the spec being inspected as an editable TOML
+table, the controls that change it, and the progressive frame loop over one reused raster
+renderer. The window (PyVista widgets, viewports, timer) is :mod:`eyelab.render.inspector`.
+
+Every change edits the table and is validated by the spec parser (a refused value leaves
+the state as it was and returns the parser's one-line message), so the window's state is
+always a spec that :func:`dump` writes and ``eyelab render`` reproduces. Changes arriving
+between two timer ticks are coalesced (:meth:`InspectorModel.request`): a slider dragged
+continuously costs one restart per tick, not one per event. What a restart recomputes is
+decided by the renderer's content-keyed caches: a change of S re-runs passes only, a lens
+change keeps the naked-eye field, and so on (the report's cache misses say what was
+recomputed). The colour-vision deficiency is applied here, to the finished linear image,
+so changing it re-runs nothing.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from eyelab.color import CVD_KINDS, cvd_linear, encode_srgb
+from eyelab.errors import SpecError
+from eyelab.optics.prescription import Prescription
+from eyelab.spec import dump_spec, parse_spec, read_spec_data
+
+#: CVD types the inspector cycles through (None: normal colour vision).
+CVD_CYCLE = (None, *CVD_KINDS)
+
+#: Eye keys an Rx control replaces (the explicit powers and the Rx exclude each other).
+_EXPLICIT_EYE = ("power_min_d", "astigmatism_d", "astigmatism_axis_deg")
+
+
+@dataclass(frozen=True)
+class Control:
+    """A slider: its label, range, step and default formatting."""
+
+    name: str
+    label: str
+    lo: float
+    hi: float
+    step: float
+    fmt: str
+
+
+#: The sliders, in display order. "focus_d" below 0 means best effort per point (Eq. 13).
+CONTROLS = (
+    Control("sphere", "eye sphere (D)", -10.0, 6.0, 0.25, "%+.2f"),
+    Control("cylinder", "eye cylinder (D)", -4.0, 0.0, 0.25, "%+.2f"),
+    Control("axis", "eye axis (deg)", 1.0, 180.0, 1.0, "%.0f"),
+    Control("pupil_mm", "pupil (mm)", 1.0, 8.0, 0.1, "%.1f"),
+    Control("age", "age (years)", 10.0, 70.0, 1.0, "%.0f"),
+    Control("focus_d", "focus (D, <0 auto)", -0.5, 10.0, 0.25, "%.2f"),
+    Control("samples", "samples S", 1.0, 64.0, 1.0, "%.0f"),
+    Control("cvd_severity", "CVD severity", 0.0, 1.0, 0.05, "%.2f"),
+)
+CONTROL_NAMES = tuple(c.name for c in CONTROLS)
+#: The toggles.
+TOGGLES = ("lens", "chromatic", "reconstruct")
+#: Changes that need new blur fields: the first frame after one is a preview (one pass on
+#: a coarse field without refinement), then the full frames follow.
+PREVIEW_AFTER = {"sphere", "cylinder", "axis", "pupil_mm", "age", "focus_d", "gaze", "lens",
+                 "lens_rx", "loaded", "reset"}
+#: The preview's blur-field grid (nz, ny, nx).
+PREVIEW_FIELD = (32, 16, 16)
+
+
+def _snap(value, step):
+    return round(float(value) / step) * step
+
+
+class InspectorModel:
+    """The inspected spec and its frames.
+
+    Parameters
+    ----------
+    path : a spec file, or None for the built-in default
+    size : (width, height) px of the simulated view, overriding the spec's
+    samples : the target S, overriding the spec's
+    scene : a built-in scene name or mesh file, overriding the spec's
+    every : passes run per :meth:`tick` once the first frame is shown
+    """
+
+    controls = CONTROLS
+    toggles = TOGGLES
+    cvd_cycle = CVD_CYCLE
+
+    def __init__(self, path=None, *, size=None, samples=None, scene=None, every: int = 1):
+        from eyelab.render.raster import RasterRenderer
+
+        self.path = None if path is None else str(path)
+        self.every = max(1, int(every))
+        self._overrides = {"size": size, "samples": samples, "scene": scene}
+        self.renderer = RasterRenderer()
+        self._scenes = {}
+        self._pending = {}
+        self._frames = None
+        self.result = None          # the last RenderResult (no CVD: applied in display())
+        self.last_change = "loaded"
+        self.message = ""
+        self.timings = {}
+        self.gaze_distance_m = None
+        self.load()
+
+    # ------------------------------------------------------------------ state
+    def load(self) -> None:
+        """(Re)read the spec file (or the built-in default) and restart."""
+        data, self.source, self.base = read_spec_data(self.path)
+        data = copy.deepcopy(data)
+        r = data.setdefault("render", {})
+        if r.get("renderer", "raster") != "raster":
+            # the inspector is the raster renderer's; the reference's own keys are dropped
+            from eyelab.spec import renderer_keys
+
+            keep = set(renderer_keys("raster"))
+            data["render"] = {k: v for k, v in r.items() if k in keep}
+            data["render"]["renderer"] = "raster"
+            self.message = "the inspector renders with the raster renderer"
+        size, samples = self._overrides["size"], self._overrides["samples"]
+        if size is not None:
+            data["render"]["width"], data["render"]["height"] = (int(v) for v in size)
+        if samples is not None:
+            data["render"]["samples"] = int(samples)
+        if self._overrides["scene"] is not None:
+            data["render"]["scene"] = str(Path(self._overrides["scene"]).resolve())
+        if "lens" in data and "rx" not in data["lens"] and "front" not in data["lens"] \
+                and "rx" in data.get("eye", {}):
+            # the lens keeps its own prescription while the eye's controls move
+            data["lens"]["rx"] = data["eye"]["rx"]
+        self.spec = parse_spec(data, self.source, self.base)
+        self.loaded = copy.deepcopy(data)
+        self.data = data
+        self.lens_on = "lens" in data
+        self.cvd = self.spec.render.view.cvd
+        self.cvd_severity = self.spec.render.view.cvd_severity
+        self.restart("loaded")
+
+    def reset(self) -> None:
+        """Back to the spec as loaded."""
+        self.data = copy.deepcopy(self.loaded)
+        self.spec = parse_spec(self.data, self.source, self.base)
+        self.lens_on = "lens" in self.data
+        self.cvd = self.spec.render.view.cvd
+        self.cvd_severity = self.spec.render.view.cvd_severity
+        self.restart("reset")
+
+    @property
+    def view(self):
+        """The simulated view (no CVD: the model applies it)."""
+        return self.spec.render.view.replace(cvd=None)
+
+    @property
+    def size(self) -> tuple:
+        return self.view.width, self.view.height
+
+    @property
+    def samples(self) -> int:
+        return self.spec.render.quality.samples
+
+    def eye_rx(self) -> Prescription:
+        """The eye's refraction as an Rx (plano when the spec gives explicit powers)."""
+        rx = self.data.get("eye", {}).get("rx")
+        return Prescription() if rx is None else Prescription.parse(rx, field="eye.rx")
+
+    def value(self, name: str):
+        """The current value of a control or toggle."""
+        eye, render = self.data.get("eye", {}), self.data.get("render", {})
+        if name in ("sphere", "cylinder", "axis"):
+            rx = self.eye_rx()
+            return {"sphere": rx.sphere, "cylinder": rx.cylinder, "axis": rx.axis}[name]
+        if name == "pupil_mm":
+            return self.spec.eye.pupil_diameter * 1e3
+        if name == "age":
+            return float(eye.get("age", 45.0))
+        if name == "focus_d":
+            f = self.spec.render.view.focus_d
+            return -0.5 if f is None else f
+        if name == "samples":
+            return self.samples
+        if name == "cvd_severity":
+            return self.cvd_severity
+        if name == "lens":
+            return self.lens_on
+        if name in ("chromatic", "reconstruct"):
+            return bool(getattr(self.spec.render.quality, name))
+        if name == "gaze":
+            return tuple(render.get("gaze_deg", (0.0, 0.0)))
+        if name == "cvd":
+            return self.cvd
+        raise KeyError(name)
+
+    def request(self, name: str, value) -> None:
+        """Queue a change; :meth:`tick` applies every queued change at once (the last value
+        of each control wins)."""
+        self._pending[name] = value
+
+    def apply(self, changes: dict) -> str | None:
+        """Apply changes {control: value} now; returns None, or the one-line error of the
+        first refused value (then nothing changes)."""
+        display_only = {"cvd", "cvd_severity"}
+        changes = {k: v for k, v in changes.items() if not self._same(k, v)}
+        if not changes:
+            return None
+        data = copy.deepcopy(self.data)
+        lens_on, cvd, sev = self.lens_on, self.cvd, self.cvd_severity
+        try:
+            for name, v in changes.items():
+                if name == "lens":
+                    lens_on = bool(v)
+                elif name == "cvd":
+                    cvd = v
+                    if cvd is not None and cvd not in CVD_KINDS:
+                        raise SpecError("render.cvd", f"must be one of {CVD_KINDS}")
+                elif name == "cvd_severity":
+                    sev = min(max(float(v), 0.0), 1.0)
+                else:
+                    _edit(data, name, v, self)
+            spec = parse_spec(data, self.source, self.base)
+        except SpecError as e:
+            self.message = str(e)
+            return self.message
+        self.lens_on, self.cvd, self.cvd_severity = lens_on, cvd, sev
+        changed = set(changes)
+        self.message = ""
+        if changed <= display_only:
+            self.last_change = ", ".join(sorted(changed)) + ": display only"
+            return None
+        self.data, self.spec = data, spec
+        self.restart(", ".join(sorted(changed)), preview=bool(changed & PREVIEW_AFTER))
+        return None
+
+    def _same(self, name, v) -> bool:
+        """Whether ``v`` leaves control ``name`` as it is (after the control's snapping)."""
+        if name == "lens_rx":
+            return False
+        try:
+            cur = self.value(name)
+        except KeyError:
+            return False
+        if name in ("sphere", "cylinder", "focus_d"):
+            if name == "focus_d" and float(v) < 0:
+                return cur < 0
+            return _snap(v, 0.25) == cur
+        if name == "axis":
+            return _snap(v, 1.0) == cur
+        if name in ("samples", "age"):
+            return int(round(float(v))) == int(cur)
+        if name in ("pupil_mm", "cvd_severity"):
+            return abs(float(v) - float(cur)) < 1e-9 or round(float(v), 2) == round(cur, 2)
+        if name == "gaze":
+            return tuple(map(float, v)) == tuple(map(float, cur))
+        return v == cur
+
+    def copy_eye_rx_to_lens(self) -> str | None:
+        """The lens made for the eye's current refraction (a full correction)."""
+        if "lens" not in self.data or "front" in self.data["lens"]:
+            self.message = "no lens designed from an Rx to change"
+            return self.message
+        rx = self.data.get("eye", {}).get("rx", "plano")
+        return self.apply({"lens_rx": rx})
+
+    def dump(self) -> str:
+        """The spec that reproduces the current state (TOML)."""
+        data = copy.deepcopy(self.data)
+        if not self.lens_on:
+            data.pop("lens", None)
+        r = data.setdefault("render", {})
+        r.pop("cvd", None)
+        r.pop("cvd_severity", None)
+        if self.cvd is not None:
+            r["cvd"], r["cvd_severity"] = self.cvd, float(self.cvd_severity)
+        return dump_spec(data)
+
+    # ----------------------------------------------------------------- frames
+    def scene(self):
+        from eyelab.jobs import build_scene
+
+        name = self.spec.render.scene
+        if name not in self._scenes:
+            self._scenes[name] = build_scene(name)
+        return self._scenes[name]
+
+    @property
+    def lens(self):
+        return self.spec.lens if self.lens_on else None
+
+    def restart(self, why: str, *, preview: bool = True) -> None:
+        """Start the progressive frames of the current state (set-up runs at the next
+        :meth:`tick`); with ``preview``, one pass on a coarse field comes first."""
+        if self._frames is not None:
+            self._frames.close()
+        self._frames = self._sequence(preview)
+        self.last_change = why
+        self._t_change = time.perf_counter()
+        self.timings = {}
+
+    def _sequence(self, preview: bool):
+        """The preview frame (if asked), then the full progressive frames."""
+        q = self.spec.render.quality
+        args = (self.scene(), self.spec.eye, self.lens, self.view)
+        if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
+            coarse = dataclasses.replace(q, samples=1, refine=False,
+                                         field_shape=PREVIEW_FIELD)
+            for res in self.renderer.frames(*args, coarse):
+                res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
+                yield res
+        yield from self.renderer.frames(*args, q, every=self.every)
+
+    @property
+    def done(self) -> bool:
+        return self._frames is None
+
+    def tick(self) -> bool:
+        """Apply the queued changes, then advance the frames by one step (the first frame
+        after a change, or ``every`` more passes). Returns whether the image changed."""
+        if self._pending:
+            changes, self._pending = self._pending, {}
+            self.apply(changes)
+            if self.last_change.endswith("display only"):
+                return True
+        if self._frames is None:
+            return False
+        try:
+            self.result = next(self._frames)
+        except StopIteration:
+            self._frames = None
+            return False
+        done = self.result.report["samples"]["done_passes"]
+        elapsed = time.perf_counter() - self._t_change
+        self.timings.setdefault("first_frame_s", elapsed)
+        self.timings["to_now_s"] = elapsed
+        if done:
+            self.timings[f"to_S{done}_s"] = elapsed
+        if done >= self.samples:
+            self._frames.close()
+            self._frames = None
+        return True
+
+    def run_to_target(self) -> None:
+        """Tick until the target S is reached."""
+        while self.tick() or self._pending:
+            pass
+
+    def display(self) -> np.ndarray:
+        """(h, w, 3) uint8 sRGB of the current frame as the observer sees it (CVD)."""
+        if self.result is None:
+            return np.zeros((self.view.height, self.view.width, 3), np.uint8)
+        if self.cvd is None:
+            return self.result.srgb
+        return encode_srgb(cvd_linear(self.result.linear, self.cvd, self.cvd_severity))
+
+    def recomputed(self) -> str:
+        """What the last change recomputed (the report's cache misses) or 'passes only'."""
+        if self.result is None:
+            return ""
+        import re
+        from collections import Counter
+
+        misses = Counter(re.sub(r"_[\d.]+nm$", "", m)
+                         for m in self.result.report["cache"]["misses"])
+        if not misses:
+            return "passes only"
+        return ", ".join(k if n == 1 else f"{k} x{n}" for k, n in sorted(misses.items()))
+
+    def status(self) -> str:
+        """The status line: Rx, lens, passes, the last change and what it recomputed."""
+        lens = self.spec.lens
+        lens_s = "no lens" if lens is None else (
+            ("lens " + (lens.rx.format() if lens.rx is not None else "(surfaces)")
+             + f" {lens.material.name}") if self.lens_on else "lens off")
+        done = 0 if self.result is None else self.result.report["samples"]["done_passes"]
+        first = self.timings.get("first_frame_s")
+        t = "" if first is None else f"  first frame {first:.2f} s"
+        cvd = "" if self.cvd is None else f"  CVD {self.cvd} {self.cvd_severity:.2f}"
+        gz = self.value("gaze")
+        return (f"eye {self.eye_rx().format()};  {lens_s};  S {done}/{self.samples}"
+                f"  gaze [{gz[0]:+.0f}, {gz[1]:+.0f}]{cvd}\nchanged: {self.last_change}"
+                f" -> recomputed: {self.recomputed()}{t}"
+                + (f"\n{self.message}" if self.message else ""))
+
+    def readout(self) -> str:
+        """``analyze`` at the gaze point: the scene point on the line of sight, its
+        accommodation and blur (arcmin) for the eye turning about its centre of
+        rotation (the as-worn model)."""
+        from eyelab.optics.analysis import analyze_points
+        from eyelab.optics.paths import ObjectPoints
+        from eyelab.optics.trace import FATAL
+        from eyelab.scene.raycast import EmbreeIntersector
+
+        cam = self.view.camera(self.spec.eye.rotation_centre)
+        o = np.asarray(cam.position, float)[None]
+        d = np.asarray(cam.basis[2], float)[None]
+        if self.lens is not None:
+            res = self.lens.trace(o, d, 587.56, reverse=True)
+            if (res["status"][0] & np.uint8(FATAL)) == 0:
+                o, d = res["out_points"], res["out_dirs"]
+        hit = EmbreeIntersector(self.scene()).intersect(o + 1e-7 * d, d)
+        self.gaze_distance_m = None
+        if not hit.hit[0]:
+            return "gaze point: nothing on the line of sight"
+        p = o[0] + hit.t[0] * d[0]
+        self.gaze_distance_m = float(np.linalg.norm(p - np.asarray(cam.position)))
+        pa = analyze_points(self.spec.eye, self.lens, ObjectPoints.from_positions(p[None]),
+                            fixation="rotating", accommodation=self.view.focus_d)
+        if not pa.ok[0]:
+            return "gaze point: no light path through the lens"
+        maj, mnr, _ = pa.blur_axes()
+        return (f"gaze point {np.linalg.norm(p):.2f} m: accommodation "
+                f"{pa.accommodation[0]:.2f} D, blur {pa.to_arcmin(maj)[0]:.2f}' x "
+                f"{pa.to_arcmin(mnr)[0]:.2f}' (semi-axes, d line)")
+
+    def save(self, image_path, *, image=None) -> tuple:
+        """Write the displayed view and the spec that reproduces it (:func:`write_state`)."""
+        return write_state(self, image_path, image=image)
+
+    def close(self) -> None:
+        if self._frames is not None:
+            self._frames.close()
+            self._frames = None
+        self.renderer.close()
+
+
+def _edit(data: dict, name: str, v, model: InspectorModel) -> None:
+    """Apply one control's value to the spec table ``data`` (in place)."""
+    eye = data.setdefault("eye", {})
+    render = data.setdefault("render", {})
+    if name in ("sphere", "cylinder", "axis"):
+        rx = model.eye_rx() if "rx" in eye else Prescription()
+        rx = dataclasses.replace(rx, **{name: _snap(v, 1.0 if name == "axis" else 0.25)})
+        for k in _EXPLICIT_EYE:
+            eye.pop(k, None)
+        eye["rx"] = rx.format()
+    elif name == "lens_rx":
+        data.setdefault("lens", {})["rx"] = str(v)
+    elif name == "pupil_mm":
+        eye.pop("luminance_cd_m2", None)
+        eye["pupil_diameter_mm"] = round(float(v), 2)
+    elif name == "age":
+        eye.pop("accommodation_max_d", None)
+        eye["age"] = int(round(float(v)))
+    elif name == "focus_d":
+        if float(v) < 0:
+            render.pop("focus_d", None)
+        else:
+            render["focus_d"] = _snap(v, 0.25)
+    elif name == "samples":
+        render["samples"] = int(round(float(v)))
+    elif name in ("chromatic", "reconstruct"):
+        render[name] = bool(v)
+    elif name == "gaze":
+        render["gaze_deg"] = [float(v[0]), float(v[1])]
+    else:
+        raise SpecError("inspector", f"unknown control {name!r}; controls: "
+                                     f"{', '.join(CONTROL_NAMES + TOGGLES)}")
+
+
+def write_state(model: InspectorModel, image_path, *, image=None) -> tuple:
+    """Write the displayed view (PNG) and, beside it, the spec that reproduces it
+    (``<stem>.toml``), each atomically. Returns the two paths."""
+    from eyelab.fileio import atomic_path
+    from eyelab.jobs import write_png
+
+    image_path = Path(image_path)
+    spec_path = image_path.with_suffix(".toml")
+    write_png(image_path, model.display() if image is None else image)
+    with atomic_path(spec_path, suffix=".toml") as tmp:
+        Path(tmp).write_text(model.dump())
+    return image_path, spec_path

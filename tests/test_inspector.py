@@ -1,0 +1,238 @@
+"""The inspector: its model driven through its controls, its window offscreen, the
+``eyelab inspect --screenshot`` command, and a real window under Xvfb."""
+
+import os
+import shutil
+import subprocess
+import sys
+import tomllib
+
+import numpy as np
+import pytest
+from skimage.metrics import structural_similarity
+
+from eyelab.inspect import InspectorModel
+from eyelab.jobs import render_spec
+from eyelab.spec import load_spec, parse_spec
+
+SPEC = """
+[eye]
+rx = "-2.00 DS"
+age = 45
+pupil_diameter_mm = 4.0
+
+[lens]
+rx = "-2.00 DS"
+material = "cr39"
+
+[render]
+scene = "chart"
+width = 128
+height = 96
+fov_y_deg = 12.0
+near_m = 0.5
+far_m = 20.0
+samples = 6
+"""
+
+
+@pytest.fixture
+def spec_file(tmp_path):
+    p = tmp_path / "spec.toml"
+    p.write_text(SPEC)
+    return p
+
+
+def _ssim(a, b):
+    return structural_similarity(a, b, channel_axis=2, data_range=255)
+
+
+def _library_render(model):
+    """The library's offscreen render of the spec the model would save."""
+    spec = parse_spec(tomllib.loads(model.dump()), "<dump>")
+    return render_spec(spec).srgb
+
+
+def _sharpness(img):
+    g = img.astype(float).mean(axis=2)
+    return float(np.mean(np.abs(np.diff(g, axis=0))) + np.mean(np.abs(np.diff(g, axis=1))))
+
+
+def test_controls_change_the_view_as_the_library_renders_it(spec_file):
+    """Raising the myopia blurs the chart (lens off: more than with the lens), toggling the
+    lens and every state's image equals the library's render of the spec it would save."""
+    m = InspectorModel(spec_file)
+    try:
+        m.run_to_target()
+        assert _ssim(m.display(), _library_render(m)) >= 0.99
+        corrected = _sharpness(m.display())
+        m.apply({"lens": False})
+        m.run_to_target()
+        uncorrected = _sharpness(m.display())
+        assert "lens" not in tomllib.loads(m.dump())
+        assert _ssim(m.display(), _library_render(m)) >= 0.99
+        m.apply({"sphere": -4.0})
+        m.run_to_target()
+        assert tomllib.loads(m.dump())["eye"]["rx"].startswith("-4.00")
+        more = _sharpness(m.display())
+        assert corrected > uncorrected > more
+        assert _ssim(m.display(), _library_render(m)) >= 0.99
+    finally:
+        m.close()
+
+
+def test_blur_at_the_chart_follows_analyze(spec_file):
+    """After raising the myopia (lens off, one wavelength) the blur field the view was
+    rendered with gives, at the chart's centre, the blur analyze computes there (same
+    eye model: pupil fixed at the origin), to the field's interpolation (2 %)."""
+    from eyelab.optics.analysis import analyze_points
+    from eyelab.optics.paths import ObjectPoints
+
+    m = InspectorModel(spec_file)
+    try:
+        for sph in (-3.0, -5.0):
+            m.apply({"lens": False, "chromatic": False, "sphere": sph})
+            m.run_to_target()
+            cache = m.renderer.caches["fields"]
+            field = cache.get(list(cache.keys())[-1])
+            p = np.array([[0.0, 0.0, -6.0]])              # the chart's centre (6 m)
+            got = float(field.sample(field.major_arcmin[..., None], p)[0, 0])
+            pa = analyze_points(m.spec.eye, None, ObjectPoints.from_positions(p))
+            want = float(pa.to_arcmin(pa.blur_axes()[0])[0])
+            assert got == pytest.approx(want, rel=0.02), (sph, got, want)
+    finally:
+        m.close()
+
+
+def test_samples_change_reruns_passes_only_and_cvd_is_display_only(spec_file):
+    m = InspectorModel(spec_file)
+    try:
+        m.run_to_target()
+        m.apply({"samples": 12})
+        m.run_to_target()
+        misses = m.result.report["cache"]["misses"]
+        assert not [k for k in misses if k.startswith(("field", "lens_", "refined",
+                                                       "virtual"))], misses
+        assert m.result.report["samples"]["done_passes"] == 12
+        before = m.display().copy()
+        m.request("cvd", "deutan")
+        assert m.tick() is True and m.done            # nothing restarted
+        assert m.last_change.endswith("display only")
+        assert not np.array_equal(before, m.display())
+        assert tomllib.loads(m.dump())["render"]["cvd"] == "deutan"
+    finally:
+        m.close()
+
+
+def test_coalesced_requests_and_refused_values(spec_file):
+    m = InspectorModel(spec_file)
+    try:
+        m.run_to_target()
+        for v in np.linspace(-2.0, -3.5, 25):          # a dragged slider: one restart
+            m.request("sphere", v)
+        m.tick()
+        assert m.last_change == "sphere"
+        assert m.eye_rx().sphere == -3.5
+        m.run_to_target()
+        rx = m.eye_rx()
+        assert m.apply({"pupil_mm": 42.0}) is not None
+        assert "eye.pupil_diameter_mm" in m.message
+        assert m.eye_rx() == rx and m.value("pupil_mm") == pytest.approx(4.0)
+    finally:
+        m.close()
+
+
+def test_gaze_and_save_reproduce_the_view(spec_file, tmp_path):
+    """The gaze control reaches the view (the saved spec has it) and the saved pair (PNG,
+    TOML) renders back to the same image."""
+    m = InspectorModel(spec_file)
+    try:
+        m.apply({"gaze": (0.0, -4.0)})
+        m.run_to_target()
+        png, toml = m.save(tmp_path / "shot.png")
+        data = tomllib.loads(toml.read_text())
+        assert data["render"]["gaze_deg"] == [0.0, -4.0]
+        import matplotlib.image as mpimg
+
+        saved = (mpimg.imread(png)[..., :3] * 255).round().astype(np.uint8)
+        again = render_spec(load_spec(toml)).srgb
+        assert _ssim(saved, again) >= 0.99
+        m.apply({"gaze": (0.0, 0.0)})
+        m.run_to_target()
+        assert _ssim(saved, m.display()) < 0.99          # the view did move
+    finally:
+        m.close()
+
+
+def test_window_offscreen_shows_the_model_image(spec_file):
+    """The window's simulated view (read back from its framebuffer) is the model's image;
+    arrow keys turn the gaze."""
+    from eyelab.render.inspector import InspectorWindow
+
+    win = InspectorWindow(InspectorModel(spec_file), off_screen=True)
+    try:
+        win.run_to_target()
+        shown = win.grab_view()
+        assert shown.shape == win.model.display().shape
+        assert _ssim(shown, win.model.display()) >= 0.99
+        win._turn(2.0, 0.0)
+        win.run_to_target()
+        assert win.model.value("gaze") == (2.0, 0.0)
+        assert _ssim(win.grab_view(), _library_render(win.model)) >= 0.99
+    finally:
+        win.close()
+
+
+def test_cli_screenshot_and_errors(spec_file, tmp_path, capsys):
+    from eyelab.apps.cli import main
+
+    out = tmp_path / "v.png"
+    assert main(["inspect", str(spec_file), "--screenshot", str(out), "--samples", "2"]) == 0
+    assert out.is_file() and out.with_suffix(".toml").is_file()
+    assert main(["inspect", str(spec_file), "--screenshot", str(tmp_path / "w.png"),
+                 "--size", "9x9"]) == 2
+    assert "--size" in capsys.readouterr().err
+    assert not (tmp_path / "w.png").exists()
+
+
+def test_bench_inspect_small():
+    from eyelab.bench.inspect import run_inspect_bench
+
+    res = run_inspect_bench(160, 120, 2)
+    kinds = {r["kind"] for r in res["rows"]}
+    assert {"eye, no lens in view", "eye, through the lens", "samples"} <= kinds
+    for r in res["rows"]:
+        assert 0 < r["first_frame_s"] <= r["to_target_s"]
+    assert [r for r in res["rows"] if r["kind"] == "samples"][0]["recomputed"] == \
+        "passes only"
+
+
+XVFB = shutil.which("xvfb-run")
+
+
+@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                    reason="xvfb-run is not installed (CI installs it and sets "
+                           "EYELAB_REQUIRE_XVFB)")
+def test_real_window_under_xvfb(tmp_path):
+    """``eyelab inspect SPEC --screenshot`` with a display (Xvfb): a real window for an
+    uncorrected and a corrected myope; the images are not blank, differ as the renders
+    do, and equal the offscreen renders of the same specs."""
+    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but xvfb-run is missing"
+    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
+    shots = {}
+    for name, lens in (("uncorrected", ""), ("corrected", '[lens]\nrx = "-2.00 DS"\n')):
+        spec = tmp_path / f"{name}.toml"
+        spec.write_text(SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n', lens))
+        png = tmp_path / f"{name}.png"
+        r = subprocess.run([XVFB, "-a", "-s", "-screen 0 1280x1024x24", sys.executable,
+                            "-P", "-m", "eyelab.apps.cli", "inspect", str(spec),
+                            "--screenshot", str(png)], env=env, capture_output=True,
+                           text=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-2000:]
+        import matplotlib.image as mpimg
+
+        shots[name] = (mpimg.imread(png)[..., :3] * 255).round().astype(np.uint8)
+        assert shots[name].std() > 10                        # not blank
+        ref = render_spec(load_spec(spec)).srgb
+        assert _ssim(shots[name], ref) >= 0.99
+    assert _sharpness(shots["corrected"]) > 1.2 * _sharpness(shots["uncorrected"])
