@@ -62,7 +62,7 @@ CONTROL_NAMES = tuple(c.name for c in CONTROLS)
 #: The toggles.
 TOGGLES = ("lens", "chromatic", "reconstruct")
 #: Changes that need new blur fields: the first frame after one is a preview (one pass on
-#: a coarse field without refinement), then the full frames follow.
+#: a coarse field, one wavelength, no refinement), then the full frames follow.
 PREVIEW_AFTER = {"sphere", "cylinder", "axis", "pupil_mm", "age", "focus_d", "gaze", "lens",
                  "lens_rx", "loaded", "reset"}
 #: The preview's blur-field grid (nz, ny, nx).
@@ -299,16 +299,40 @@ class InspectorModel:
         self.timings = {}
 
     def _sequence(self, preview: bool):
-        """The preview frame (if asked), then the full progressive frames."""
+        """The preview frame (if asked); the full set-up on a worker thread (fields and
+        refinement need no GL: the window stays responsive, showing the preview); then the
+        full progressive frames. Yields RenderResults, or None while waiting or between
+        shown images."""
+        import threading
+
+        self._prepared = None
         q = self.spec.render.quality
         args = (self.scene(), self.spec.eye, self.lens, self.view)
         if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
-            coarse = dataclasses.replace(q, samples=1, refine=False,
+            coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
                                          field_shape=PREVIEW_FIELD)
             for res in self.renderer.frames(*args, coarse):
                 res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
                 yield res
-        yield from self.renderer.frames(*args, q, every=self.every)
+            failed = []
+
+            def work():
+                try:
+                    self._prepared = self.renderer.prepare(*args, q)
+                except Exception as e:          # re-raised on the GL thread below
+                    failed.append(e)
+
+            worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
+            worker.start()
+            try:
+                while worker.is_alive():
+                    worker.join(timeout=0.02)
+                    yield None
+            finally:
+                worker.join()
+            if failed:
+                raise failed[0]
+        yield from self.renderer.frames(*args, q, every=self.every, images="doubling")
 
     @property
     def done(self) -> bool:
@@ -325,10 +349,13 @@ class InspectorModel:
         if self._frames is None:
             return False
         try:
-            self.result = next(self._frames)
+            res = next(self._frames)
         except StopIteration:
             self._frames = None
             return False
+        if res is None:            # passes ran; the next image comes at 2, 4, 8, ... S
+            return False
+        self.result = res
         done = self.result.report["samples"]["done_passes"]
         elapsed = time.perf_counter() - self._t_change
         self.timings.setdefault("first_frame_s", elapsed)
@@ -342,8 +369,8 @@ class InspectorModel:
 
     def run_to_target(self) -> None:
         """Tick until the target S is reached."""
-        while self.tick() or self._pending:
-            pass
+        while not self.done or self._pending:
+            self.tick()
 
     def display(self) -> np.ndarray:
         """(h, w, 3) uint8 sRGB of the current frame as the observer sees it (CVD)."""
@@ -360,8 +387,10 @@ class InspectorModel:
         import re
         from collections import Counter
 
-        misses = Counter(re.sub(r"_[\d.]+nm$", "", m)
-                         for m in self.result.report["cache"]["misses"])
+        prepared = getattr(self, "_prepared", None)
+        names = self.result.report["cache"]["misses"] + (
+            prepared["cache"]["misses"] if prepared else [])
+        misses = Counter(re.sub(r"_[\d.]+nm$", "", m) for m in names)
         if not misses:
             return "passes only"
         return ", ".join(k if n == 1 else f"{k} x{n}" for k, n in sorted(misses.items()))

@@ -4,8 +4,9 @@ The built-in default spec at 800 x 600 (the room, a -3.00 / -1.00 x 180 myope of
 their CR-39 lens), target S = 16. For each change — the eye's sphere with the lens off and
 through the lens, the pupil, the gaze, S, the colour-vision deficiency — the time from the
 change to the first updated frame (a one-pass preview on a coarse field when the change
-needs new blur fields) and to S = 16, with the renderer's stage timings of the frames that
-did the set-up. The model is ticked as the window's timer would tick it, without a window
+needs new blur fields) and to S = 16, the longest single tick (how long the window is
+unresponsive at most), and the renderer's stage timings of the frames that did the
+set-up. The model is ticked as the window's timer would tick it, without a window
 (the window adds one texture upload per frame).
 """
 
@@ -19,8 +20,11 @@ def _measure(model, changes: dict) -> dict:
     model.apply(changes)
     first = None
     stages = {}
+    longest = 0.0
     while True:
+        t = time.perf_counter()
         changed = model.tick()
+        longest = max(longest, time.perf_counter() - t)
         if model.result is not None and changed and first is None:
             first = time.perf_counter() - t0
         if model.result is not None:
@@ -33,7 +37,7 @@ def _measure(model, changes: dict) -> dict:
     done = 0 if model.result is None else model.result.report["samples"]["done_passes"]
     return {"change": ", ".join(f"{k}={v}" for k, v in changes.items()),
             "first_frame_s": first if first is not None else total,
-            "to_target_s": total, "passes_done": done,
+            "to_target_s": total, "passes_done": done, "longest_tick_s": longest,
             "recomputed": model.recomputed(), "stages_s": stages}
 
 
@@ -69,6 +73,7 @@ def run_inspect_bench(width: int = 800, height: int = 600, samples: int = 16) ->
     for r in rows:
         summary.append(f"  {r['kind']:<24} {r['change']:<22} first frame "
                        f"{r['first_frame_s']:6.3f} s, to S={r['passes_done']} "
-                       f"{r['to_target_s']:6.3f} s ({r['recomputed']})")
+                       f"{r['to_target_s']:6.3f} s, longest tick {r['longest_tick_s']:.3f} s "
+                       f"({r['recomputed']})")
     return {"benchmark": "inspect", "size": [width, height], "samples": samples,
             "cold_start_s": cold, "rows": rows, "summary": summary}

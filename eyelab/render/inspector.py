@@ -343,8 +343,8 @@ class InspectorWindow:
         if not self.plotter.off_screen and not self._opened:
             self.plotter.show(interactive=False, auto_close=False)
             self._opened = True
-        while self.step() or self.model._pending:
-            pass
+        while not self.model.done or self.model._pending:
+            self.step()
         self.refresh()
 
     def show(self) -> None:

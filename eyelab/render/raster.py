@@ -121,24 +121,75 @@ class RasterRenderer(Renderer):
         return final
 
     def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
-               every: int = 1):
-        """Render progressively: yield a :class:`RenderResult` after pass 1, 1 + ``every``,
-        ... and the last (S) — each the complete image of the passes so far, its report's
-        ``samples.done_passes`` saying how many. Set-up (fields, refinement, lens
-        coordinates) happens before the first yield; between two yields only ``every``
-        passes run, so an interactive viewer stays responsive. The last image equals
-        :meth:`render`'s. Closing the generator early stops the work."""
+               every: int = 1, images: str = "every"):
+        """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
+        :class:`RenderResult` — the complete image of the passes so far, its report's
+        ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
+        image only after passes 1, 2, 4, 8, ... and S and None after the others (building
+        an image composites the lens view: ~0.1 s at 800 x 600). Set-up (fields,
+        refinement, lens coordinates) happens before the first yield; between two yields
+        only ``every`` passes run, so an interactive viewer stays responsive. The last
+        image equals :meth:`render`'s. Closing the generator early stops the work."""
         view, quality = self._checked(view, quality)
         every = max(1, int(every))
-        checkpoints = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
-        yield from self._run(scene, eye, lens, view, quality, checkpoints)
+        if images not in ("every", "doubling"):
+            raise ValueError(f"images must be 'every' or 'doubling', got {images!r}")
+        steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
+        shown = set(steps) if images == "every" else set(_checkpoints(quality.samples))
+        yield from self._run(scene, eye, lens, view, quality, steps, shown)
 
-    def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints):
+    def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
+             shown=None):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
         report["samples"]["target"] = q.samples
         details = report["details"]
         details.update(fields={}, refinement=[])
+        timings = report["timings_s"]
+        cam, lens_in_view, f_naked, vcam, f_lens, meshes = self._geometry(
+            scene, eye, lens, view, q, report)
+        t = time.perf_counter()
+        naked = self._naked_stage(scene, meshes, cam, f_naked, view, q, report)
+        timings["setup_naked"] = time.perf_counter() - t
+        env = None
+        if lens_in_view:
+            t = time.perf_counter()
+            env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report)
+            timings["setup_lens"] = time.perf_counter() - t
+        for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
+                                                 shown):
+            if image is None:
+                yield None
+                continue
+            report["samples"]["done"] = {
+                "naked": min(count, naked["passes"]),
+                "environment": 0 if env is None else min(count, env["passes"])}
+            report["samples"]["done_passes"] = count
+            gl = sum(w.render_s for w in (naked["win"], env and env["win"]) if w)
+            rb = sum(w.readback_s for w in (naked["win"], env and env["win"]) if w)
+            timings.update(gl_render=gl, readback=rb)
+            yield finish(copy.deepcopy(report), view, srgb=image, layers=layers,
+                         t_start=t_start)
+
+    def prepare(self, scene, eye, lens=None, view: View | None = None, quality=None) -> None:
+        """Compute and cache the blur fields and the virtual camera a frame needs — numpy
+        and embree only, no GL — so that it may run on a worker thread while the GL thread
+        shows something else (the inspector does); the next :meth:`render` or
+        :meth:`frames` of the same inputs finds them cached. Refinement is left to the
+        frame: pymeshlab used from a worker thread corrupted the heap at exit (measured:
+        `eyelab bench inspect` aborted in 2 of 2 runs). Not to be run concurrently with a
+        render on this renderer. Returns the report of what it computed."""
+        view, quality = self._checked(view, quality)
+        report = new_report(self.name, view, quality)
+        self._geometry(scene, eye, lens, view, quality, report, refine=False)
+        return report
+
+    def _geometry(self, scene, eye, lens, view, q, report, *, refine=True) -> tuple:
+        """The GL-free part of a frame: (eye camera, lens in view, naked fields or None,
+        virtual camera, lens fields or None, meshes refined for them (unless not
+        ``refine``: None))."""
+        report["details"].setdefault("fields", {})
+        report["details"].setdefault("refinement", [])
         timings = report["timings_s"]
         cam = view.camera(eye.rotation_centre)
         bounds = scene.bounds()
@@ -153,27 +204,12 @@ class RasterRenderer(Renderer):
             f_lens = self._fields(eye, lens, vcam, bounds, view, q, report, "through_lens",
                                   pupil=cam.position)
         timings["fields"] = time.perf_counter() - t
-        t = time.perf_counter()
-        meshes = self._refined(scene, f_naked or [], f_lens or [], view, q, report)
-        timings["refine"] = time.perf_counter() - t
-        t = time.perf_counter()
-        naked = self._naked_stage(scene, meshes, cam, f_naked, view, q, report)
-        timings["setup_naked"] = time.perf_counter() - t
-        env = None
-        if lens_in_view:
+        meshes = None
+        if refine:
             t = time.perf_counter()
-            env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report)
-            timings["setup_lens"] = time.perf_counter() - t
-        for count, image, layers in self._passes(naked, env, view, q, report, checkpoints):
-            report["samples"]["done"] = {
-                "naked": min(count, naked["passes"]),
-                "environment": 0 if env is None else min(count, env["passes"])}
-            report["samples"]["done_passes"] = count
-            gl = sum(w.render_s for w in (naked["win"], env and env["win"]) if w)
-            rb = sum(w.readback_s for w in (naked["win"], env and env["win"]) if w)
-            timings.update(gl_render=gl, readback=rb)
-            yield finish(copy.deepcopy(report), view, srgb=image, layers=layers,
-                         t_start=t_start)
+            meshes = self._refined(scene, f_naked or [], f_lens or [], view, q, report)
+            timings["refine"] = time.perf_counter() - t
+        return cam, lens_in_view, f_naked, vcam, f_lens, meshes
 
     def _lens_covers(self, lens, cam, report) -> bool:
         """Whether every pixel sees through the lens (then the naked view is not drawn)."""
@@ -376,9 +412,10 @@ class RasterRenderer(Renderer):
                 "transmittance": transmittance_map(tcg.transmittance, axes, view)}
 
     # ------------------------------------------------------------------ passes
-    def _passes(self, naked, env, view, q, report, checkpoints):
+    def _passes(self, naked, env, view, q, report, checkpoints, shown=None):
         """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
-        (ascending, the last S)."""
+        (ascending, the last S); at checkpoints not in ``shown`` (None: all are) no image
+        is built and (passes done, None, None) is yielded."""
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
         for st in stages:
             self._select_channel(st, 0, q.field_route)
@@ -402,6 +439,9 @@ class RasterRenderer(Renderer):
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
                 done = cp
+                if shown is not None and cp not in shown:
+                    yield cp, None, None
+                    continue
                 image, layers = self._image(naked, env, view, q, report)
                 yield cp, image.copy(), layers
         finally:
