@@ -236,3 +236,31 @@ def test_real_window_under_xvfb(tmp_path):
         ref = render_spec(load_spec(spec)).srgb
         assert _ssim(shots[name], ref) >= 0.99
     assert _sharpness(shots["corrected"]) > 1.2 * _sharpness(shots["uncorrected"])
+
+
+def test_a_mesh_file_and_a_click_in_the_view(tmp_path, spec_file):
+    """``--mesh`` puts a mesh file in the scene (the saved spec names it); a left click in
+    the simulated view turns the gaze toward the clicked pixel (right of centre: right)."""
+    import trimesh
+
+    from eyelab.render.inspector import InspectorWindow
+
+    mesh = tmp_path / "box.ply"
+    box = trimesh.creation.box(extents=(0.5, 0.5, 0.5))
+    box.apply_translation((0.0, 0.0, -3.0))
+    box.export(mesh)
+    win = InspectorWindow(InspectorModel(spec_file, scene=mesh, samples=1), off_screen=True)
+    try:
+        win.run_to_target()
+        assert tomllib.loads(win.model.dump())["render"]["scene"] == str(mesh.resolve())
+        assert win.model.display().std() > 5                      # the box is seen
+        vx, vy = win._view_renderer.GetOrigin()
+        vw, vh = win._view_renderer.GetSize()
+        win.plotter.iren.get_event_position = lambda: (vx + 3 * vw // 4, vy + vh // 2)
+        win._on_click(None, "LeftButtonPressEvent")
+        win.run_to_target()
+        right, up = win.model.value("gaze")
+        fov = win.model.view.fov_y_deg
+        assert 0 < right < fov and abs(up) < 0.5
+    finally:
+        win.close()
