@@ -1,4 +1,5 @@
-"""The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``inspect``, ``bench``.
+"""The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``inspect``, ``batch``,
+``bench``.
 
 Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
 print one line naming the field and exit with status 2; no partial output file is left.
@@ -42,12 +43,13 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
                     "report is written beside it, .json)")
     _render_overrides(dm)
-    from eyelab.apps.inspector import add_parser
+    from eyelab.apps import batch, inspector
 
-    add_parser(sub)
+    inspector.add_parser(sub)
+    batch.add_parser(sub)
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
     be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
-                                     "memory", "inspect"))
+                                     "memory", "inspect", "batch"))
     pre = be.add_mutually_exclusive_group()
     pre.add_argument("--quick", action="store_true",
                      help="quality: 160x120, two configurations (the default; CI runs it); "
@@ -101,6 +103,10 @@ def main(argv=None) -> int:
             return _render(args)
         if args.command == "inspect":
             from eyelab.apps.inspector import run
+
+            return run(args)
+        if args.command == "batch":
+            from eyelab.apps.batch import run
 
             return run(args)
     except SpecError as e:
@@ -200,6 +206,10 @@ def _bench(args) -> int:
         from eyelab.bench.inspect import run_inspect_bench
 
         res = run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
+    elif args.what == "batch":
+        from eyelab.bench.batch import run_batch_bench
+
+        res = run_batch_bench(10 if args.quick else 100)
     elif args.what == "memory":
         from eyelab.bench.memory import run_memory_bench
 

@@ -1,0 +1,42 @@
+"""``eyelab batch JOBSPEC [-o DIR] [--workers N] [--scheduler ADDRESS]``: render a job grid
+(:mod:`eyelab.batch`), resumable; exit status 0 when every job succeeded, 1 when some were
+invalid or failed (listed), 2 for a bad job spec or option."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+
+def add_parser(sub) -> None:
+    b = sub.add_parser("batch", help="render a job grid (scenes x eyes x lenses x views), "
+                       "resumable, serially or on Dask")
+    b.add_argument("jobspec", help="job spec (TOML): base spec, [output], [sweep], [[cases]]")
+    b.add_argument("-o", "--output", help="output folder (overrides output.dir)")
+    b.add_argument("--workers", type=int, default=1,
+                   help="worker processes of a local Dask cluster (1: in this process)")
+    b.add_argument("--scheduler", help="address of a running Dask scheduler "
+                   "(tcp://host:port) to send the jobs to instead")
+    b.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def run(args) -> int:
+    from eyelab.batch import load_job_spec, run_batch
+    from eyelab.errors import SpecError
+
+    if not 1 <= args.workers <= 256:
+        raise SpecError("--workers", f"must be in [1, 256], got {args.workers}")
+    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://",
+                                                                      "inproc://")):
+        raise SpecError("--scheduler", f"must be an address like tcp://host:8786, got "
+                                       f"{args.scheduler!r}")
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+    js = load_job_spec(args.jobspec, out_dir=args.output)
+    res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
+                    progress=not args.quiet and sys.stderr.isatty())
+    print(f"{res['jobs']} jobs: {res['run']} run, {res['skipped_done']} already done, "
+          f"{len(res['errors'])} not ok ({res['wall_s']:.1f} s); "
+          f"{js.out_dir}/summary.csv, {js.out_dir}/index.html")
+    for idx, err in res["errors"]:
+        print(f"  job {idx}: {err}")
+    return 1 if res["errors"] else 0

@@ -1,0 +1,462 @@
+"""Batch image generation: a job spec (a base spec plus axes to sweep) expanded into jobs,
+each rendered to an image and a JSON sidecar, resumable and atomic, serially or on Dask.
+
+Job spec (TOML)::
+
+    spec = "base.toml"            # optional: a spec file the jobs start from (else built-in)
+    [base]                        # optional: spec tables merged over it ([eye], [render], ...)
+    render = {width = 320, height = 240, samples = 8}
+    [output]
+    dir = "batch-out"             # where images, sidecars and the summary go
+    formats = ["png"]             # "png" (sRGB 8-bit) and/or "png16" (linear light, 16-bit)
+    [sweep]                       # axes: dotted spec keys -> lists of values
+    mode = "product"              # every combination, or "zip" (the lists side by side)
+    "eye.rx" = ["-1.00 DS", "-3.00 DS"]
+    "eye.pupil_diameter_mm" = {start = 2, stop = 6, step = 2}     # a range: 2, 4, 6
+    "lens.material" = ["cr39", "polycarbonate"]
+    [[cases]]                     # extra jobs, each a set of dotted keys over the base
+    "eye.rx" = "-6.00 DS"
+    "lens" = false                # false removes a table (here: the naked eye)
+
+A job is done when its sidecar exists, names the job's content key (a digest of the job's
+resolved spec and eyelab's version) and records the SHA-256 of each image present; the
+images are written first and the sidecar last, each atomically (a temporary beside the
+final name, then a rename), so a run killed at any moment leaves finished jobs and no
+partial file under a final name; the next run sweeps the temporaries and redoes only
+unfinished jobs. Renders are deterministic: the same job gives byte-identical images in
+any process.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import hashlib
+import html
+import itertools
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from eyelab.cache import content_key
+from eyelab.errors import SpecError
+
+FORMATS = ("png", "png16")
+JOB_KEYS = {"spec", "base", "output", "sweep", "cases"}
+OUTPUT_KEYS = {"dir", "formats"}
+
+
+@dataclass(frozen=True)
+class Job:
+    """One job: its index, the spec table it renders, and the dotted keys that made it."""
+
+    index: int
+    data: dict
+    params: dict
+
+    @property
+    def key(self) -> str:
+        from eyelab import __version__
+
+        return content_key(spec=json.dumps(self.data, sort_keys=True, default=str),
+                           version=__version__)
+
+    @property
+    def stem(self) -> str:
+        return f"job-{self.index:05d}-{self.key[:10]}"
+
+
+@dataclass(frozen=True)
+class JobSpec:
+    jobs: tuple
+    out_dir: Path
+    formats: tuple
+    source: str
+
+
+def _set(data: dict, dotted: str, value, where: str) -> None:
+    parts = dotted.split(".")
+    if not all(parts):
+        raise SpecError(where, f"{dotted!r} is not a dotted spec key like 'eye.rx'")
+    t = data
+    for p in parts[:-1]:
+        nxt = t.setdefault(p, {})
+        if not isinstance(nxt, dict):
+            raise SpecError(where, f"{dotted!r}: {p!r} is not a table")
+        t = nxt
+    if value is False and len(parts) == 1:
+        t.pop(parts[0], None)                 # "lens" = false: no lens
+    else:
+        t[parts[-1]] = copy.deepcopy(value)
+
+
+def _merge(into: dict, over: dict) -> None:
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(into.get(k), dict):
+            _merge(into[k], v)
+        else:
+            into[k] = copy.deepcopy(v)
+
+
+def load_job_spec(path, *, out_dir=None) -> JobSpec:
+    """Read and expand a job spec file (every field checked, errors name it)."""
+    import tomllib
+
+    from eyelab.spec import read_spec_data
+
+    p = Path(path)
+    if not p.is_file():
+        raise SpecError("jobspec", f"file not found: {str(p)!r}")
+    try:
+        js = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise SpecError("jobspec", f"{p} is not valid TOML: {e}") from None
+    unknown = sorted(set(js) - JOB_KEYS)
+    if unknown:
+        raise SpecError(f"jobspec.{unknown[0]}", f"unknown key; allowed: {sorted(JOB_KEYS)}")
+    base_path = js.get("spec")
+    if base_path is not None:
+        if not isinstance(base_path, str):
+            raise SpecError("jobspec.spec", "must be a spec file path")
+        bp = Path(base_path) if Path(base_path).is_absolute() else p.parent / base_path
+        base, _, _ = read_spec_data(bp)
+    else:
+        base, _, _ = read_spec_data(None)
+    base = copy.deepcopy(base)
+    extra = js.get("base", {})
+    if not isinstance(extra, dict):
+        raise SpecError("jobspec.base", "must be a table of spec tables")
+    _merge(base, extra)
+    scene = base.get("render", {}).get("scene")
+    if isinstance(scene, str) and not Path(scene).is_absolute() and (p.parent / scene).is_file():
+        base["render"]["scene"] = str((p.parent / scene).resolve())
+    out = js.get("output", {})
+    if not isinstance(out, dict):
+        raise SpecError("jobspec.output", "must be a table")
+    bad = sorted(set(out) - OUTPUT_KEYS)
+    if bad:
+        raise SpecError(f"jobspec.output.{bad[0]}", f"unknown key; allowed: {sorted(OUTPUT_KEYS)}")
+    formats = out.get("formats", ["png"])
+    if not isinstance(formats, list) or not formats or any(f not in FORMATS for f in formats):
+        raise SpecError("jobspec.output.formats", f"must be a non-empty list of {FORMATS}, "
+                                                  f"got {formats!r}")
+    folder = out_dir or out.get("dir", "batch-out")
+    if not isinstance(folder, (str, Path)):
+        raise SpecError("jobspec.output.dir", "must be a folder path")
+    folder = Path(folder) if Path(folder).is_absolute() or out_dir else p.parent / folder
+    combos = _sweep(js.get("sweep", {}))
+    cases = js.get("cases", [])
+    if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
+        raise SpecError("jobspec.cases", "must be an array of tables ([[cases]])")
+    combos += [dict(c) for c in cases]
+    if not combos:
+        combos = [{}]
+    jobs = []
+    for i, params in enumerate(combos):
+        data = copy.deepcopy(base)
+        for k, v in params.items():
+            _set(data, k, v, f"jobspec.job[{i}].{k}")
+        jobs.append(Job(i, data, params))
+    return JobSpec(tuple(jobs), folder, tuple(dict.fromkeys(formats)), str(p))
+
+
+def _sweep(sw) -> list:
+    if not isinstance(sw, dict):
+        raise SpecError("jobspec.sweep", "must be a table of dotted keys -> lists")
+    sw = dict(sw)
+    mode = sw.pop("mode", "product")
+    if mode not in ("product", "zip"):
+        raise SpecError("jobspec.sweep.mode", f"must be 'product' or 'zip', got {mode!r}")
+    for k, v in sw.items():
+        if isinstance(v, dict):
+            sw[k] = v = _range(v, f"jobspec.sweep.{k}")
+        if not isinstance(v, list) or not v:
+            raise SpecError(f"jobspec.sweep.{k}", "must be a non-empty list of values or a "
+                                                  "range {start, stop, step}")
+    if not sw:
+        return []
+    keys = list(sw)
+    if mode == "zip":
+        n = {len(v) for v in sw.values()}
+        if len(n) != 1:
+            raise SpecError("jobspec.sweep", f"zip needs lists of one length, got "
+                                             f"{ {k: len(v) for k, v in sw.items()} }")
+        rows = zip(*sw.values(), strict=True)
+    else:
+        rows = itertools.product(*sw.values())
+    return [dict(zip(keys, r, strict=True)) for r in rows]
+
+
+def _range(t: dict, where: str) -> list:
+    """{start, stop, step} -> the numbers start, start + step, ... up to stop inclusive
+    (within 1e-9 of a step), rounded to 10 decimals; at most 10000."""
+    import math
+
+    if set(t) != {"start", "stop", "step"}:
+        raise SpecError(where, f"a range needs exactly start, stop and step, got {sorted(t)}")
+    vals = []
+    for name in ("start", "stop", "step"):
+        v = t[name]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise SpecError(f"{where}.{name}", f"must be a finite number, got {v!r}")
+        vals.append(float(v))
+    start, stop, step = vals
+    if step == 0 or (stop - start) / step < 0:
+        raise SpecError(f"{where}.step", f"must be non-zero and lead from start to stop, "
+                                         f"got {step:g}")
+    n = int(math.floor((stop - start) / step + 1e-9)) + 1
+    if n > 10000:
+        raise SpecError(where, f"{n} values; at most 10000")
+    return [round(start + i * step, 10) for i in range(n)]
+
+
+# ------------------------------------------------------------------------ one job
+_RENDERERS = {}      # per process: renderers kept warm between jobs, by (name, quality)
+
+
+def _renderer(name, quality):
+    from eyelab.jobs import make_renderer
+
+    key = (name, repr(quality))
+    r = _RENDERERS.get(key)
+    if r is None:
+        if len(_RENDERERS) >= 4:
+            _RENDERERS.pop(next(iter(_RENDERERS))).close()
+        r = _RENDERERS[key] = make_renderer(name, quality)
+    return r
+
+
+_SCENES = {}         # per process: scenes built once, by name or (path, mtime, size)
+
+
+def _scene(name: str):
+    from eyelab.jobs import build_scene
+
+    p = Path(name)
+    key = (name, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (name,)
+    if key not in _SCENES:
+        if len(_SCENES) >= 8:
+            _SCENES.pop(next(iter(_SCENES)))
+        _SCENES[key] = build_scene(name)
+    return _SCENES[key]
+
+
+def _sha(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def job_done(job: Job, out_dir: Path, formats) -> bool:
+    """Whether the job's sidecar exists, names its key and matches its images."""
+    side = out_dir / f"{job.stem}.json"
+    try:
+        meta = json.loads(side.read_text())
+    except (OSError, ValueError):
+        return False
+    if meta.get("key") != job.key or meta.get("status") not in ("ok", "invalid"):
+        return False
+    for fmt in formats if meta["status"] == "ok" else ():
+        img = out_dir / meta["images"].get(fmt, "")
+        if not img.is_file() or _sha(img) != meta["sha256"].get(fmt):
+            return False
+    return True
+
+
+def run_job(job: Job, out_dir, formats) -> dict:
+    """Render one job and write its images and sidecar (atomically, sidecar last); an
+    invalid job (a bad spec value) gets a sidecar with the parser's message and counts as
+    done; a job that fails otherwise (an unreadable mesh) gets one with the error and is
+    retried by the next run. Returns the summary row."""
+    from eyelab import __version__
+    from eyelab.fileio import atomic_path, json_default
+    from eyelab.spec import parse_spec
+
+    out_dir = Path(out_dir)
+    t0 = time.perf_counter()
+    meta = {"key": job.key, "index": job.index, "params": job.params, "spec": job.data,
+            "eyelab_version": __version__, "images": {}, "sha256": {}}
+    try:
+        spec = parse_spec(job.data, f"job {job.index}")
+        rs = spec.render
+        res = _renderer(rs.renderer, rs.quality).render(_scene(rs.scene), spec.eye,
+                                                         spec.lens, rs.view)
+    except SpecError as e:
+        meta.update(status="invalid", error=str(e), time_s=time.perf_counter() - t0)
+    except Exception as e:          # an unreadable mesh, a failure: listed, retried next run
+        meta.update(status="failed", error=f"{type(e).__name__}: {e}",
+                    time_s=time.perf_counter() - t0)
+    else:
+        for fmt in formats:
+            name = f"{job.stem}.png" if fmt == "png" else f"{job.stem}.linear16.png"
+            path = out_dir / name
+            with atomic_path(path, suffix=".png") as tmp:
+                _write_png(tmp, res, fmt)
+            meta["images"][fmt] = name
+            meta["sha256"][fmt] = _sha(path)
+        meta.update(status="ok", time_s=time.perf_counter() - t0, report=res.report)
+    with atomic_path(out_dir / f"{job.stem}.json") as tmp, open(tmp, "w") as f:
+        json.dump(meta, f, indent=1, default=json_default)
+    return _row(meta)
+
+
+def _write_png(path, res, fmt) -> None:
+    """sRGB 8-bit (PIL), or linear light 16-bit (48-bit RGB PNG): deterministic bytes."""
+    import numpy as np
+    from PIL import Image
+
+    if fmt == "png":
+        Image.fromarray(res.srgb).save(path, format="PNG", optimize=False)
+    else:
+        lin = np.clip(np.round(res.linear * 65535.0), 0, 65535).astype(">u2")
+        with open(path, "wb") as f:
+            _png16(f, lin)
+
+
+def _png16(f, rgb16) -> None:
+    """A minimal 48-bit RGB PNG writer (zlib, filter 0): PIL cannot save 16-bit RGB."""
+    import struct
+    import zlib
+
+    h, w = rgb16.shape[:2]
+
+    def chunk(tag, data):
+        f.write(struct.pack(">I", len(data)) + tag + data
+                + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF))
+
+    f.write(b"\x89PNG\r\n\x1a\n")
+    chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 2, 0, 0, 0))
+    raw = b"".join(b"\0" + rgb16[y].tobytes() for y in range(h))
+    chunk(b"IDAT", zlib.compress(raw, 6))
+    chunk(b"IEND", b"")
+
+
+def _row(meta: dict) -> dict:
+    rep = meta.get("report") or {}
+    return {"index": meta["index"], "key": meta["key"], "status": meta["status"],
+            "error": meta.get("error", ""), "time_s": round(meta.get("time_s", 0.0), 4),
+            "render_s": round(rep.get("timings_s", {}).get("total", 0.0), 4),
+            "image": meta["images"].get("png") or next(iter(meta["images"].values()), ""),
+            **{f"param:{k}": json.dumps(v) if not isinstance(v, str) else v
+               for k, v in meta["params"].items()}}
+
+
+# ------------------------------------------------------------------------- a run
+def sweep_temporaries(out_dir: Path) -> int:
+    """Remove temporaries a killed run left (``.job-*`` files beside the outputs)."""
+    n = 0
+    for p in out_dir.glob(".job-*"):
+        try:
+            p.unlink()
+            n += 1
+        except OSError:
+            pass
+    for pattern in (".summary.csv.*", ".index.html.*"):
+        for p in out_dir.glob(pattern):
+            p.unlink(missing_ok=True)
+    return n
+
+
+def run_batch(js: JobSpec, *, workers: int = 1, scheduler: str | None = None,
+              progress: bool = True) -> dict:
+    """Run every job not yet done; serially in this process (``workers`` 1), on a Dask
+    ``LocalCluster`` of ``workers`` processes, or on the cluster at ``scheduler``. Writes
+    the summary (CSV) and contact sheet (HTML). Returns counts and the error list."""
+    out = js.out_dir
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK):
+        raise SpecError("jobspec.output.dir", f"{out} is not writable")
+    swept = sweep_temporaries(out)
+    todo = [j for j in js.jobs if not job_done(j, out, js.formats)]
+    skipped = len(js.jobs) - len(todo)
+    t0 = time.perf_counter()
+    if todo:
+        if scheduler is None and workers <= 1:
+            _run_serial(todo, out, js.formats, progress)
+        else:
+            _run_dask(todo, out, js.formats, workers, scheduler, progress)
+    rows = []
+    for j in js.jobs:
+        try:
+            rows.append(_row(json.loads((out / f"{j.stem}.json").read_text())))
+        except (OSError, ValueError, KeyError):
+            rows.append({"index": j.index, "key": j.key, "status": "failed",
+                         "error": "no sidecar: the job did not finish", "time_s": 0.0,
+                         "render_s": 0.0, "image": ""})
+    write_summary(out, rows)
+    errors = [(r["index"], r["error"]) for r in rows if r["status"] != "ok"]
+    return {"jobs": len(js.jobs), "run": len(todo), "skipped_done": skipped,
+            "temporaries_swept": swept, "errors": errors, "wall_s": time.perf_counter() - t0}
+
+
+def _run_serial(todo, out, formats, progress):
+    bar = _bar(len(todo), progress)
+    for j in todo:
+        run_job(j, out, formats)
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+
+
+def _run_dask(todo, out, formats, workers, scheduler, progress):
+    from distributed import Client, LocalCluster, as_completed
+
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+    client = Client(scheduler if cluster is None else cluster)
+    try:
+        futs = [client.submit(run_job, j, str(out), formats, key=f"eyelab-{j.stem}",
+                              pure=False) for j in todo]
+        bar = _bar(len(futs), progress)
+        for f in as_completed(futs):
+            f.result()
+            if bar is not None:
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _bar(total, progress):
+    if not progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="batch", unit="job")
+
+
+def write_summary(out: Path, rows: list) -> None:
+    """``summary.csv`` (one row per job) and ``index.html`` (a contact sheet: each image
+    with its parameters), both atomic; viewable offline."""
+    from eyelab.fileio import atomic_path
+
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    with atomic_path(out / "summary.csv", suffix=".csv") as tmp, \
+            open(tmp, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=cols)
+        w.writeheader()
+        w.writerows(rows)
+    cells = []
+    for r in rows:
+        params = "<br>".join(html.escape(f"{k[6:]} = {v}") for k, v in r.items()
+                             if k.startswith("param:"))
+        img = (f'<img src="{html.escape(r["image"])}" width="240">' if r["image"] else
+               f'<div class="err">{html.escape(r["error"])}</div>')
+        cells.append(f'<figure>{img}<figcaption>job {r["index"]} · {r["status"]} · '
+                     f'{r["render_s"]} s<br>{params}</figcaption></figure>')
+    page = ("<!doctype html><meta charset=utf-8><title>eyelab batch</title><style>"
+            "body{font:12px sans-serif}figure{display:inline-block;margin:6px;"
+            "vertical-align:top;width:240px}.err{color:#b00}</style>"
+            f"<h1>eyelab batch: {len(rows)} jobs</h1>" + "".join(cells))
+    with atomic_path(out / "index.html", suffix=".html") as tmp:
+        Path(tmp).write_text(page)

@@ -1,0 +1,225 @@
+"""Batch generation: job specs, resumable atomic runs, and the same bytes serially, on a
+local Dask cluster and on a real scheduler with workers."""
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from eyelab.batch import job_done, load_job_spec, run_batch
+from eyelab.errors import SpecError
+
+JOBS = """
+[base]
+render = {{scene = "chart", width = 64, height = 48, samples = 2, fov_y_deg = 10.0}}
+
+[output]
+dir = "out"
+formats = {formats}
+
+[sweep]
+"eye.rx" = {rxs}
+"lens.material" = ["cr39", "polycarbonate"]
+"""
+
+
+def _jobspec(tmp_path, n_rx=2, formats='["png"]', extra=""):
+    rxs = json.dumps([f"-{1 + 0.25 * i:.2f} DS" for i in range(n_rx)])
+    p = tmp_path / "jobs.toml"
+    p.write_text(JOBS.format(rxs=rxs, formats=formats) + extra)
+    return p
+
+
+def _images(out: Path) -> dict:
+    return {p.name: p.read_bytes() for p in sorted(out.glob("job-*.png"))}
+
+
+def test_expansion_outputs_resume_and_invalid_jobs(tmp_path):
+    extra = '\n[[cases]]\n"eye.rx" = "-6.00 DS"\n"lens" = false\n' \
+            '\n[[cases]]\n"eye.pupil_diameter_mm" = 42\n'
+    js = load_job_spec(_jobspec(tmp_path, formats='["png", "png16"]', extra=extra))
+    assert len(js.jobs) == 6
+    assert "lens" not in js.jobs[4].data
+    res = run_batch(js, progress=False)
+    assert res["run"] == 6 and [i for i, _ in res["errors"]] == [5]
+    assert "eye.pupil_diameter_mm" in res["errors"][0][1]
+    out = js.out_dir
+    side = json.loads((out / f"{js.jobs[0].stem}.json").read_text())
+    assert side["status"] == "ok" and side["params"]["eye.rx"] == "-1.00 DS"
+    assert side["report"]["renderer"] == "raster" and side["eyelab_version"]
+    # the 16-bit linear image is a valid PNG (PIL reads it) holding the render's light
+    with Image.open(out / side["images"]["png16"]) as img16:
+        img16.load()
+        assert img16.size == (64, 48)
+    with Image.open(out / side["images"]["png"]) as im:
+        srgb = np.asarray(im)
+    lin = np.frombuffer(_idat(out / side["images"]["png16"]), ">u2").reshape(48, 64, 3)
+    from eyelab.color import encode_srgb
+
+    again = encode_srgb(lin / 65535.0)
+    assert np.abs(again.astype(int) - srgb.astype(int)).max() <= 1
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert len(rows) == 7 and "param:eye.rx" in rows[0]
+    assert "<img" in (out / "index.html").read_text()
+    # a second run redoes nothing; a damaged image redoes its job only
+    mtimes = {p: p.stat().st_mtime_ns for p in out.glob("job-*.json")}
+    assert run_batch(js, progress=False)["run"] == 0
+    (out / side["images"]["png"]).write_bytes(b"broken")
+    assert not job_done(js.jobs[0], out, js.formats)
+    res = run_batch(js, progress=False)
+    assert res["run"] == 1
+    changed = [p for p in out.glob("job-*.json") if p.stat().st_mtime_ns != mtimes[p]]
+    assert [p.name for p in changed] == [f"{js.jobs[0].stem}.json"]
+
+
+def _idat(path) -> bytes:
+    """The raw scanlines of a filter-0 PNG (what eyelab writes), filters removed."""
+    import struct
+    import zlib
+
+    data = Path(path).read_bytes()[8:]
+    idat, w = b"", None
+    while data:
+        n, tag = struct.unpack(">I4s", data[:8])
+        body = data[8:8 + n]
+        if tag == b"IHDR":
+            w = struct.unpack(">I", body[:4])[0]
+        if tag == b"IDAT":
+            idat += body
+        data = data[12 + n:]
+    raw = zlib.decompress(idat)
+    stride = 1 + 6 * w
+    assert all(raw[i] == 0 for i in range(0, len(raw), stride))
+    return b"".join(raw[i + 1:i + stride] for i in range(0, len(raw), stride))
+
+
+@pytest.mark.parametrize("text, field", [
+    ('[sweep]\n"eye.rx" = "-1.00"\n', "jobspec.sweep.eye.rx"),
+    ('[sweep]\nmode = "cross"\n"eye.rx" = ["-1.00"]\n', "jobspec.sweep.mode"),
+    ('[sweep]\nmode = "zip"\n"eye.rx" = ["-1.00"]\n"eye.age" = [1, 2]\n', "jobspec.sweep"),
+    ('[output]\nformats = ["tiff"]\n', "jobspec.output.formats"),
+    ('[outputs]\ndir = "x"\n', "jobspec.outputs"),
+    ('spec = "missing.toml"\n', "spec"),
+    ('[sweep]\n"eye.age" = {start = 10, stop = 1, step = 1}\n', "jobspec.sweep.eye.age.step"),
+    ('[sweep]\n"eye.age" = {start = 10, stop = 20}\n', "jobspec.sweep.eye.age"),
+])
+def test_bad_job_specs_name_the_field(tmp_path, text, field):
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    with pytest.raises(SpecError) as e:
+        load_job_spec(p)
+    assert e.value.field == field
+
+
+def test_ranges_and_zip(tmp_path):
+    p = tmp_path / "r.toml"
+    p.write_text('[sweep]\nmode = "zip"\n"eye.pupil_diameter_mm" = {start = 2, stop = 3, '
+                 'step = 0.5}\n"eye.age" = [20, 30, 40]\n')
+    js = load_job_spec(p)
+    assert [(j.data["eye"]["pupil_diameter_mm"], j.data["eye"]["age"]) for j in js.jobs] \
+        == [(2.0, 20), (2.5, 30), (3.0, 40)]
+
+
+def test_cli_exit_codes(tmp_path, capsys):
+    from eyelab.apps.cli import main
+
+    spec = _jobspec(tmp_path)
+    assert main(["batch", str(spec), "--quiet"]) == 0
+    assert "4 jobs: 4 run" in capsys.readouterr().out
+    assert main(["batch", str(spec), "--workers", "0"]) == 2
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[cases]]\n"eye.rx" = "banana"\n')
+    assert main(["batch", str(bad), "--quiet", "-o", str(tmp_path / "o2")]) == 1
+    assert "job 0: eye.rx" in capsys.readouterr().out
+    junk = tmp_path / "junk.ply"
+    junk.write_bytes(b"not a mesh at all")
+    bad.write_text(f'[[cases]]\n"render.scene" = "{junk}"\n[[cases]]\n"eye.age" = 30\n')
+    assert main(["batch", str(bad), "--quiet", "-o", str(tmp_path / "o3")]) == 1
+    text = capsys.readouterr().out
+    assert "1 not ok" in text and "job 0:" in text           # job 1 still ran
+    assert (tmp_path / "o3" / "summary.csv").read_text().count(",ok,") == 1
+
+
+@pytest.mark.slow
+def test_killed_runs_resume_to_valid_outputs(tmp_path):
+    """A 50-job batch killed (SIGKILL) at 10 random moments and restarted each time: in the
+    end every job is done and valid, no temporary is left, and no job that had finished
+    was ever redone (its sidecar's bytes never change once written)."""
+    spec = _jobspec(tmp_path, n_rx=25)
+    out = tmp_path / "out"
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    cmd = [sys.executable, "-P", "-m", "eyelab.apps.cli", "batch", str(spec), "--quiet"]
+    rng = random.Random(1)
+    finished = {}
+    for _ in range(10):
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        time.sleep(rng.uniform(1.5, 6.0))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        for p in out.glob("job-*.json"):
+            b = p.read_bytes()
+            assert finished.setdefault(p.name, b) == b, f"{p.name} was redone"
+    r = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout + r.stderr
+    js = load_job_spec(spec)
+    assert all(job_done(j, out, js.formats) for j in js.jobs)
+    for name, b in finished.items():
+        assert (out / name).read_bytes() == b
+    assert not list(out.glob(".*"))
+
+
+def test_same_bytes_serial_local_cluster_and_real_scheduler(tmp_path):
+    """20 jobs serially, on a LocalCluster of 2 worker processes, and on a `dask
+    scheduler` with two `dask worker` processes started here on loopback: byte-identical
+    images."""
+    spec = _jobspec(tmp_path, n_rx=10)
+    js = load_job_spec(spec, out_dir=tmp_path / "serial")
+    assert run_batch(js, progress=False)["errors"] == []
+    ref = _images(js.out_dir)
+    assert len(ref) == 20
+    js2 = load_job_spec(spec, out_dir=tmp_path / "local")
+    assert run_batch(js2, workers=2, progress=False)["errors"] == []
+    assert _images(js2.out_dir) == ref
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    sched_file = tmp_path / "scheduler.json"
+    bindir = Path(sys.executable).parent
+    dask = str(bindir / "dask") if (bindir / "dask").exists() else "dask"
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(sched_file)],
+                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(300):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        for _ in range(2):
+            procs.append(subprocess.Popen(
+                [dask, "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        js3 = load_job_spec(spec, out_dir=tmp_path / "cluster")
+        assert run_batch(js3, scheduler=address, progress=False)["errors"] == []
+        assert _images(js3.out_dir) == ref
+    finally:
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=30)
+
+
+def test_bench_batch_small():
+    from eyelab.bench.batch import run_batch_bench
+
+    res = run_batch_bench(2)
+    assert set(res["times_s"]) == {"batch_1_worker", "batch_2_workers", "separate_processes"}
+    assert res["same_bytes_1_vs_2_workers"] is True
+    assert all(v > 0 for v in res["times_s"].values())
