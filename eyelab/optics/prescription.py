@@ -24,19 +24,98 @@ SPHERE_RANGE = (-30.0, 30.0)
 CYLINDER_RANGE = (-12.0, 12.0)
 ADD_RANGE = (0.0, 4.0)
 
-_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)"
-_RX_RE = re.compile(
-    rf"""^\s*
-    (?P<sph>{_NUM}|pl(?:ano)?|plan|∞)\s*(?:D?S(?:PH)?\b)?\s*
-    (?:/?\s*(?P<cyl>{_NUM})\s*(?:D?C(?:YL)?\b)?\s*
-       (?:[x×X@]|AX(?:IS)?)\s*(?P<axis>\d+(?:\.\d*)?)\s*°?)?\s*
-    (?:,?\s*ADD\s*(?P<add>{_NUM}))?\s*$""",
-    re.IGNORECASE | re.VERBOSE,
-)
+#: Tokens of the clinical grammar, tried in this order at each position (a scanner: linear
+#: time whatever the input). Numbers may carry a sign separated by spaces ("Pl + 2.00").
+_TOKEN = re.compile(r"""
+    (?P<ws>\s+)
+  | (?P<num>[+-]?[ ]*(?:\d+(?:\.\d*)?|\.\d+))
+  | (?P<kw>ADD:?|AXIS|AX|PLANO|PLAN|PL|SPH|CYL|D\.S\.?|DS\.?|D\.C\.?|DC\.?|D
+          |OU|OD|OS|RE|LE|R|L|X|×|@|/|,|:|°|∞)
+""", re.IGNORECASE | re.VERBOSE)
+_EYES = {"R": "R", "OD": "R", "RE": "R", "L": "L", "OS": "L", "LE": "L", "OU": "OU"}
+_SPH_UNITS = {"DS", "D.S", "D.S.", "DS.", "SPH"}
+_CYL_UNITS = {"DC", "D.C", "D.C.", "DC.", "CYL"}
+_AXIS_MARKS = {"X", "×", "@", "AX", "AXIS"}
+_PLANO = {"PL", "PLAN", "PLANO", "∞"}
 
-_ALLOWED = ("allowed forms: '-2.25 -1.00 x 180', '+1.50 DS', 'pl -0.75 x 90 add +2.00', "
-            "'+1.00 / -0.50 x 45'; sphere in [-30, 30] D, cylinder in [-12, 12] D, "
-            "axis in [0, 180] deg, add in [0, 4] D")
+_ALLOWED = ("allowed: [R|L|OD|OS|OU] sphere [cylinder x axis] [add A], e.g. "
+            "'-2.25 / -1.00 x 010', '+1.50 DS', '-0.25 DC x 45' (a cylinder alone), "
+            "'pl -0.75 x 90 add +2.00', 'R -1,00 -0,50 x 180'; sphere in [-30, 30] D, "
+            "cylinder in [-12, 12] D, axis in [0, 180] deg (0 = 180), add in [0, 4] D")
+
+
+def _tokens(text: str, field: str) -> list:
+    """[(kind, text)] of a prescription string: numbers ('num') and keywords ('kw', upper
+    case); whitespace dropped. Unicode minus and plus signs and decimal commas are
+    normalised first."""
+    t = (text.replace("\u2212", "-").replace("\u2013", "-").replace("\uff0b", "+")
+         .replace("\uff0d", "-"))
+    t = re.sub(r"(?<=\d),(?=\d)", ".", t)
+    out, pos = [], 0
+    while pos < len(t):
+        m = _TOKEN.match(t, pos)
+        if m is None:
+            raise SpecError(field, f"cannot read {t[pos:pos + 12]!r} in prescription "
+                                   f"{text!r}; {_ALLOWED}")
+        pos = m.end()
+        if m.lastgroup == "num":
+            out.append(("num", m.group("num").replace(" ", "")))
+        elif m.lastgroup == "kw":
+            out.append(("kw", m.group("kw").upper()))
+    return out
+
+
+def _parse_terms(tokens, text, field):
+    """(eye, [(value, unit)] powers, axis, add) from tokens, per the grammar in
+    :meth:`Prescription.parse`."""
+    def err(why):
+        return SpecError(field, f"{why} in prescription {text!r}; {_ALLOWED}")
+
+    toks = [t for t in tokens if t[1] not in ("/", ",", ":", "°")]
+    eye = None
+    if toks and toks[0][0] == "kw" and toks[0][1] in _EYES:
+        eye = _EYES[toks.pop(0)[1]]
+    if toks and toks[-1][0] == "kw" and toks[-1][1] in _EYES:
+        last = _EYES[toks.pop()[1]]
+        if eye is not None and eye != last:
+            raise err(f"two eyes ({eye}, {last})")
+        eye = last
+    powers, axis, add = [], None, None
+    i = 0
+    while i < len(toks):
+        kind, v = toks[i]
+        if kind == "kw" and v in _PLANO:
+            powers.append((0.0, "sph"))
+            i += 1
+            if i < len(toks) and toks[i] in (("kw", u) for u in _SPH_UNITS | {"D"}):
+                i += 1
+        elif kind == "num":
+            unit = None
+            if i + 1 < len(toks) and toks[i + 1][0] == "kw":
+                u = toks[i + 1][1]
+                unit = "sph" if u in _SPH_UNITS else "cyl" if u in _CYL_UNITS else \
+                    "D" if u == "D" else None
+            powers.append((float(v), unit))
+            i += 2 if unit else 1
+        elif kind == "kw" and v in _AXIS_MARKS:
+            if axis is not None:
+                raise err("two axes")
+            if i + 1 >= len(toks) or toks[i + 1][0] != "num" or toks[i + 1][1][0] in "+-":
+                raise err(f"'{v}' not followed by an axis in degrees")
+            axis = float(toks[i + 1][1])
+            i += 2
+        elif kind == "kw" and v.startswith("ADD"):
+            if add is not None:
+                raise err("two adds")
+            if i + 1 >= len(toks) or toks[i + 1][0] != "num":
+                raise err("'add' not followed by a power")
+            add = float(toks[i + 1][1])
+            i += 2
+            if i < len(toks) and toks[i] == ("kw", "D"):
+                i += 1
+        else:
+            raise err(f"unexpected {v!r}")
+    return eye, powers, axis, add, err
 
 
 @dataclass(frozen=True)
@@ -48,15 +127,19 @@ class Prescription:
     sphere, cylinder : float
         Dioptres. Either cylinder sign is accepted (minus- or plus-cylinder form).
     axis : float
-        Cylinder axis, degrees, TABO, in (0, 180]; 0 is stored as 180.
+        Cylinder axis, degrees, TABO, in (0, 180]; 0 is stored as 180, and so is any axis
+        of a zero cylinder.
     add : float
         Near addition, dioptres, >= 0.
+    eye : None, "R", "L" or "OU"
+        Which eye the prescription is for, when the text said so (metadata).
     """
 
     sphere: float = 0.0
     cylinder: float = 0.0
     axis: float = 180.0
     add: float = 0.0
+    eye: str | None = None
 
     def __post_init__(self):
         from eyelab.errors import check_range
@@ -65,50 +148,84 @@ class Prescription:
         object.__setattr__(self, "cylinder",
                            check_range("rx.cylinder", self.cylinder, *CYLINDER_RANGE))
         ax = check_range("rx.axis", self.axis, 0.0, 180.0)
-        object.__setattr__(self, "axis", 180.0 if ax == 0.0 else ax)
+        # 0 is written 180; without a cylinder an axis means nothing and is stored as 180
+        object.__setattr__(self, "axis", 180.0 if ax == 0.0 or self.cylinder == 0 else ax)
         object.__setattr__(self, "add", check_range("rx.add", self.add, *ADD_RANGE))
+        if self.eye not in (None, "R", "L", "OU"):
+            raise SpecError("rx.eye", f"must be None, 'R', 'L' or 'OU', got {self.eye!r}")
 
     # ------------------------------------------------------------------ parsing
     @classmethod
     def parse(cls, text: str, *, field: str = "rx") -> Prescription:
-        """Parse a clinical prescription string.
+        """Parse a clinical prescription string, in linear time.
+
+        Grammar: ``[eye] sphere [cylinder axis] [add] [eye]`` where the sphere is a number
+        (``+1.50``, ``-3.00D``, ``-2.25 DS``, ``D.S.``, ``sph``) or ``pl``/``plano``; the
+        cylinder a number, optionally ``DC``/``D.C.``/``cyl``; the axis ``x``, ``×``,
+        ``@``, ``ax`` or ``axis`` and 0-180 degrees (``°`` allowed; 0 means 180); the add
+        ``add``/``Add:``/``ADD`` and a power (``D`` allowed); the eye ``R``/``L``/``OD``/
+        ``OS``/``OU`` (kept in :attr:`eye`). One power with an axis is a cylinder alone
+        (plano sphere: ``-0.25 DC x 45``). Decimal commas, Unicode minus and plus signs,
+        and a ``/`` between sphere and cylinder are accepted. Anything else — a cylinder
+        without axis, a sphere with one, three powers, two axes — is an error that quotes
+        the input; nothing is guessed.
 
         >>> Prescription.parse("-2.25 -1.00 x 180")
-        Prescription(sphere=-2.25, cylinder=-1.0, axis=180.0, add=0.0)
-        >>> Prescription.parse("pl -0.75 x 90 add +2.00").add
-        2.0
+        Prescription(sphere=-2.25, cylinder=-1.0, axis=180.0, add=0.0, eye=None)
+        >>> Prescription.parse("-0.25 DC x 45").format()
+        'plano / -0.25 x 045'
+        >>> Prescription.parse("R -1,00 -0,50 x 180 Add: +2.50").format()
+        'R -1.00 / -0.50 x 180 add +2.50'
         """
         if not isinstance(text, str):
             raise SpecError(field, f"expected a prescription string, got {text!r}; {_ALLOWED}")
-        m = _RX_RE.match(text.replace("−", "-"))
-        if m is None:
-            raise SpecError(field, f"cannot parse prescription {text!r}; {_ALLOWED}")
-        sph_s = m.group("sph")
-        sph = 0.0 if sph_s.lower().startswith("pl") or sph_s == "∞" else float(sph_s)
-        cyl = float(m.group("cyl")) if m.group("cyl") else 0.0
-        axis = float(m.group("axis")) if m.group("axis") else 180.0
-        add = float(m.group("add")) if m.group("add") else 0.0
+        if len(text) > 200:
+            raise SpecError(field, f"a prescription of {len(text)} characters; at most 200")
+        eye, powers, axis, add, err = _parse_terms(_tokens(text, field), text, field)
+        if not powers:
+            raise err("no power")
+        if len(powers) > 2:
+            raise err(f"{len(powers)} powers (a sphere and a cylinder at most)")
+        if len(powers) == 1:
+            (value, unit), = powers
+            if axis is not None:       # a cylinder alone: plano sphere (clinical usage)
+                if unit == "sph":
+                    raise err("a sphere (DS) with an axis")
+                sph, cyl = 0.0, value
+            else:
+                if unit == "cyl":
+                    raise err("a cylinder without an axis")
+                sph, cyl = value, 0.0
+        else:
+            (sph, u1), (cyl, u2) = powers
+            if u1 == "cyl" or u2 == "sph":
+                raise err("the sphere must come before the cylinder")
+            if axis is None:
+                raise err("a cylinder without an axis")
         try:
-            return cls(sph, cyl, axis, add)
+            return cls(sph, cyl, 180.0 if axis is None else axis,
+                       0.0 if add is None else add, eye)
         except SpecError as e:
             raise SpecError(field + e.field[2:], f"{e.message} (in prescription {text!r})") \
                 from None
 
     def format(self, *, plus_cylinder: bool | None = None) -> str:
-        """Clinical string, e.g. ``'-2.25 / -1.00 x 180'``; ``plus_cylinder`` transposes first.
+        """Clinical string, e.g. ``'-2.25 / -1.00 x 010'`` (axis in three digits);
+        ``plus_cylinder`` transposes first.
 
         >>> Prescription(-2.25, -1.0, 180).format(plus_cylinder=True)
-        '-3.25 / +1.00 x 90'
+        '-3.25 / +1.00 x 090'
         """
         rx = self
         if plus_cylinder is not None and self.cylinder != 0:
             if (self.cylinder > 0) != plus_cylinder:
                 rx = self.transpose()
         sph = "plano" if rx.sphere == 0 else f"{rx.sphere:+.2f}"
-        s = f"{sph} DS" if rx.cylinder == 0 else f"{sph} / {rx.cylinder:+.2f} x {rx.axis:g}"
+        ax = f"{rx.axis:03.0f}" if float(rx.axis).is_integer() else f"{rx.axis:g}"
+        s = f"{sph} DS" if rx.cylinder == 0 else f"{sph} / {rx.cylinder:+.2f} x {ax}"
         if rx.add:
             s += f" add {rx.add:+.2f}"
-        return s
+        return s if rx.eye is None else f"{rx.eye} {s}"
 
     __str__ = format
 
@@ -116,7 +233,8 @@ class Prescription:
     def transpose(self) -> Prescription:
         """The same correction in the other cylinder form: S+C / -C x A+-90 (in (0, 180])."""
         ax = (self.axis + 90.0) % 180.0
-        return Prescription(self.sphere + self.cylinder, -self.cylinder, ax or 180.0, self.add)
+        return Prescription(self.sphere + self.cylinder, -self.cylinder, ax or 180.0, self.add,
+                            self.eye)
 
     def minus_cylinder(self) -> Prescription:
         return self.transpose() if self.cylinder > 0 else self
