@@ -95,3 +95,26 @@ def test_grazing_refraction_at_the_critical_angle_is_flagged_and_finite():
     hit = intersect(ps, np.zeros((3, 3)) - [0, 0, 0.001], d)
     wf = Wavefront.spherical(d, 0.3).refract(hit, nl)
     assert np.isfinite(np.concatenate([wf.k11, wf.k12, wf.k22])).all()
+
+
+def test_steep_surface_hit_from_any_start_and_never_behind():
+    """A steep concave front (base curve -20 D): a ray from 1 m away traces exactly as the
+    same ray started 2 cm or 100 m before the lens (the root of the sphere's far side was
+    taken from far away, and the ray MISSED); a lens behind a ray's origin is missed."""
+    from eyelab.optics.lens import SpectacleLens
+    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.trace import FATAL
+
+    lens = SpectacleLens.from_rx(Prescription(-3.0), base_curve=-20.0)
+    xy = np.array([[0.0, 0.0], [0.01, 0.005], [-0.008, 0.006]])
+    d = np.tile([0.0, 0.0, 1.0], (3, 1))
+    outs = []
+    for z0 in (-0.02, -1.014, -100.0):
+        r = lens.trace(np.column_stack([xy, np.full(3, z0)]), d, 587.56)
+        assert not np.any(r["status"] & np.uint8(FATAL))
+        outs.append((r["out_points"], r["out_dirs"]))
+    for p, q in outs[1:]:
+        np.testing.assert_allclose(p, outs[0][0], atol=1e-12)
+        np.testing.assert_allclose(q, outs[0][1], atol=1e-12)
+    behind = lens.trace(np.column_stack([xy, np.full(3, 0.05)]), d, 587.56)
+    assert np.all(behind["status"] & np.uint8(FATAL))

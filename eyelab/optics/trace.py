@@ -95,16 +95,24 @@ class Hit:
 
 
 def intersect(ps: PlacedSurface, origins, directions) -> Hit:
-    """Intersect rays with a placed surface (nearest intersection along +t near the vertex).
+    """Intersect rays with a placed surface (the branch through the vertex, ahead of the
+    ray's origin: t >= 0, else MISSED).
 
-    The osculating sphere (or conic) at the vertex gives the first guess by the
-    cancellation-free quadratic root (Spencer & Murty 1962: t = C / (-B - sign(B) sqrt(B^2 - AC))),
-    then Newton on F(t) = z(t) - f(x(t), y(t)) refines it for non-spherical surfaces.
+    Each ray is first transferred to the vertex tangent plane; from there the osculating
+    sphere (or conic) at the vertex gives the first guess by the cancellation-free quadratic
+    root (Spencer & Murty 1962: t = C / (-B - sign(B) sqrt(B^2 - AC))), then Newton on
+    F(t) = z(t) - f(x(t), y(t)) refines it for non-spherical surfaces.
     """
     p, d = ps.to_local(origins, directions)
     n = p.shape[0]
     status = np.zeros(n, np.uint8)
     surf = ps.surface
+    # transfer each ray to the vertex tangent plane first (Spencer & Murty 1962): there the
+    # root choice below is the vertex branch's for any ray; from far away a steep surface
+    # would otherwise give the root of the sphere's other side
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0 = np.where(np.abs(d[:, 2]) > 1e-12, -p[:, 2] / d[:, 2], 0.0)
+    p = p + t0[:, None] * d
     c = surf.seed_curvature
     k = getattr(surf, "conic", 0.0)
     a = c * (d[:, 0] ** 2 + d[:, 1] ** 2 + (1 + k) * d[:, 2] ** 2)
@@ -137,6 +145,8 @@ def intersect(ps: PlacedSurface, origins, directions) -> Hit:
             active[idx[done]] = False
         bad |= active  # not converged
     q = p + t[:, None] * d
+    # the hit must lie ahead of the ray's origin (propagation direction, t >= 0)
+    bad |= (t0 + t) < -TOL.intersect_tol
     dv = surf.derivatives(q[:, 0], q[:, 1])
     bad |= ~dv.valid
     pw = q @ ps.rotation.T + ps.translation
