@@ -95,6 +95,20 @@ def main(argv=None) -> int:
     ap = _build_parser()
     args = ap.parse_args(argv)
     try:
+        rc = _main(args)
+        sys.stdout.flush()        # a closed pipe shows here, not at interpreter exit
+        return rc
+    except BrokenPipeError:
+        # the reader went away (`eyelab analyze --json | head -1`): stop quietly
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
+
+
+def _main(args) -> int:
+    try:
         if args.command == "analyze":
             return _analyze(args)
         if args.command == "bench":

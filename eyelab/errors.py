@@ -24,19 +24,33 @@ class SpecError(ValueError):
 
 def check_range(field: str, value, lo: float, hi: float, *, lo_open=False, hi_open=False):
     """Return ``float(value)`` if it lies in the range, else raise :class:`SpecError`.
+    Booleans and strings are not numbers (``"inf"`` excepted: TOML's inf), and an integer
+    too large for a float is out of range, not an overflow.
 
     >>> check_range("eye.age", 40, 0, 100)
     40.0
     """
+    if isinstance(value, str) and value.strip().lower() in ("inf", "+inf", "infinity"):
+        value = float("inf")                     # TOML's inf, also written as a string
+    if isinstance(value, (bool, str, bytes)) or type(value).__name__ == "bool_":
+        kind = "a boolean" if not isinstance(value, (str, bytes)) else "a string"
+        raise SpecError(field, f"must be a number in {_fmt(lo, hi, lo_open, hi_open)}, "
+                               f"got {value!r} ({kind})")
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise SpecError(field, f"must be a number in {_fmt(lo, hi, lo_open, hi_open)}, "
-                               f"got {value!r}") from None
+                               f"got {_short(value)}") from None
     bad = (v != v or (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi))
     if bad:
-        raise SpecError(field, f"must be in {_fmt(lo, hi, lo_open, hi_open)}, got {value!r}")
+        raise SpecError(field, f"must be in {_fmt(lo, hi, lo_open, hi_open)}, "
+                               f"got {_short(value)}")
     return v
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:20]}... ({len(text)} characters)"
 
 
 def _fmt(lo, hi, lo_open, hi_open):

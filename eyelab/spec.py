@@ -345,15 +345,26 @@ def read_spec_data(path: str | Path | None = None) -> tuple:
         base = None
     else:
         p = Path(path)
-        if not p.is_file():
-            raise SpecError("spec", f"file not found: {str(p)!r}")
-        text = p.read_text()
+        shown = str(p) if len(str(p)) <= 80 else f"{str(p)[:40]}... ({len(str(p))} characters)"
+        try:
+            if not p.is_file():
+                raise SpecError("spec", f"file not found (or not a file): {shown!r}")
+            raw = p.read_bytes()
+        except OSError as e:
+            raise SpecError("spec", f"cannot read {shown!r}: {e.strerror}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise SpecError("spec", f"{shown} is not a UTF-8 text file (byte {e.start}): a "
+                                    "spec is TOML text; a mesh goes in [render] scene") from None
         source = str(p)
         base = p.parent
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SpecError("spec", f"{source} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise SpecError("spec", f"{source}: nesting too deep") from None
     return data, source, base
 
 

@@ -162,3 +162,52 @@ def test_bench_render_small(tmp_path, monkeypatch):
                                          "one_wavelength", "one_wavelength_no_lens"}
     assert all(np.isfinite(v) and v > 0 for v in res["skip_speedups"].values())
     assert all(r["gl_render_s"] > 0 for r in res["rows"])
+
+
+@pytest.mark.parametrize("spec_text, field", [
+    ('[eye]\nage = "45"\n', "eye.age"),                           # a numeric string
+    ('[eye]\npupil_diameter_mm = true\n', "eye.pupil_diameter_mm"),  # a boolean
+    ('[eye]\nage = ' + "9" * 400 + '\n', "eye.age"),              # a 400-digit integer
+    ('[lens]\nrx = "-2.00"\nmaterial = {n_d = 1.5, v_d = "inf"}\nbase_curve_d = "4"\n',
+     "lens.base_curve_d"),
+])
+def test_wrong_types_and_huge_numbers_name_the_field(tmp_path, capsys, spec_text, field):
+    p = tmp_path / "s.toml"
+    p.write_text(spec_text)
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"{field}:" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("make", ["latin1", "mesh", "nested", "long_name", "folder"])
+def test_unreadable_spec_files_are_one_line_errors(tmp_path, capsys, make):
+    if make == "latin1":
+        p = tmp_path / "s.toml"
+        p.write_bytes(b"# caf\xe9\n[eye]\nage = 40\n")
+    elif make == "mesh":
+        import trimesh
+
+        p = tmp_path / "box.stl"
+        trimesh.creation.box().export(p)
+    elif make == "nested":
+        p = tmp_path / "s.toml"
+        p.write_text("x = " + "[" * 3000 + "]" * 3000 + "\n")
+    elif make == "long_name":
+        p = tmp_path / ("a" * 5000 + ".toml")
+    else:
+        p = tmp_path
+    out = tmp_path / "o.png"
+    assert main(["render", str(p), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("eyelab: error: spec")
+    assert not out.exists()
+
+
+def test_a_closed_pipe_ends_quietly(tmp_path):
+    import subprocess
+    import sys
+
+    # `true` exits at once: every write to the pipe fails (EPIPE)
+    cmd = f"{sys.executable} -P -m eyelab.apps.cli analyze --json | true"
+    r = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
+    assert r.stderr == "", r.stderr
