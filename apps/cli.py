@@ -135,6 +135,10 @@ def _analyze(args) -> int:
     from eyelab.analyze import analyze_spec, format_report
     from eyelab.spec import load_spec
 
+    if args.output:
+        from eyelab.fileio import check_output
+
+        check_output("--output", args.output)
     spec = load_spec(args.spec)
     if args.fixation:
         spec = replace(spec, fixation=args.fixation)
@@ -154,6 +158,16 @@ def _render(args) -> int:
     spec = load_spec(args.spec)
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
+    from eyelab.fileio import check_distinct, check_output
+
+    # every output checked before any work; two outputs at one path refused
+    outputs = {"--output": args.output,
+               "--report": getattr(args, "report", None) if args.command == "render"
+               else args.output[:-4] + ".json"}
+    for flag, path in outputs.items():
+        if path is not None:
+            check_output(flag, path)
+    check_distinct(**outputs)
     try:
         rs = spec.render.with_changes(renderer=args.renderer, samples=args.samples,
                                       width=args.width, height=args.height,

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from eyelab.errors import SpecError
+
 
 @contextmanager
 def atomic_path(path, suffix: str = ".tmp"):
@@ -42,3 +44,31 @@ def json_default(o):
     if isinstance(o, np.ndarray):
         return o.tolist()
     return str(o)
+
+
+def check_output(flag: str, path) -> Path:
+    """Fail early, before any work: ``path`` must not be a folder, its parent must be a
+    folder (or creatable) that this process may write in. Returns the path."""
+    p = Path(path)
+    if p.is_dir():
+        raise SpecError(flag, f"{str(p)!r} is a folder, not a file")
+    parent = p.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise SpecError(flag, f"cannot create {str(p)!r}: {str(parent)!r} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise SpecError(flag, f"cannot write in {str(parent)!r}")
+    return p
+
+
+def check_distinct(**paths) -> None:
+    """Refuse two outputs at the same path (``flag=path`` pairs; None ignored)."""
+    seen = {}
+    for flag, path in paths.items():
+        if path is None:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise SpecError(flag, f"is the same file as {seen[key]} ({str(path)!r})")
+        seen[key] = flag

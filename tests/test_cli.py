@@ -211,3 +211,21 @@ def test_a_closed_pipe_ends_quietly(tmp_path):
     cmd = f"{sys.executable} -P -m eyelab.apps.cli analyze --json | true"
     r = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
     assert r.stderr == "", r.stderr
+
+
+def test_outputs_are_checked_before_any_work(tmp_path, capsys):
+    """Same path for two outputs, a folder as output, a parent that is a file: one-line
+    errors, exit 2, nothing written, before rendering starts."""
+    same = tmp_path / "same.png"
+    assert main(["render", "-o", str(same), "--report", str(same), "--width", "32",
+                 "--height", "24", "--samples", "1"]) == 2
+    assert "--report" in capsys.readouterr().err and not same.exists()
+    folder = tmp_path / "f.png"
+    folder.mkdir()
+    assert main(["render", "-o", str(folder)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    afile = tmp_path / "file"
+    afile.write_text("x")
+    assert main(["render", "-o", str(afile / "x.png")]) == 2
+    assert "not a folder" in capsys.readouterr().err
+    assert main(["analyze", "-o", str(folder)]) == 2
