@@ -408,8 +408,10 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
 
     cluster = None
     if scheduler is None:
+        # ":0": the scheduler's HTTP server on a free port (None still takes 8787, and
+        # fails when another cluster holds it)
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+                               dashboard_address=":0")
     client = Client(scheduler if cluster is None else cluster)
     try:
         futs = [client.submit(run_job, j, str(out), formats, key=f"eyelab-{j.stem}",

@@ -95,7 +95,7 @@ def test_load_mesh_round_trip(tmp_path):
     m = load_mesh(p)
     assert m.n_triangles == 12
     assert (m.colors == [10, 20, 30]).all()
-    with pytest.raises(SpecError, match="scene.mesh"):
+    with pytest.raises(SpecError, match="render.scene"):
         load_mesh(tmp_path / "missing.obj")
 
 
@@ -112,3 +112,30 @@ def test_prefiltered_texture_keeps_the_mean_light():
     assert out.shape == (2, 2, 3)
     assert np.all(out == 188)
     np.testing.assert_array_equal(reduce_texture(tex, 1), tex)
+
+
+def test_bad_meshes_are_named_errors(tmp_path):
+    """Unreadable, empty, point-cloud, non-finite, absurdly large and all-degenerate
+    meshes name render.scene; zero-area triangles among good ones are dropped."""
+    import trimesh
+
+    from eyelab.errors import SpecError
+    from eyelab.scene.scene import load_mesh
+
+    (tmp_path / "junk.ply").write_bytes(b"\x00\x01 not a mesh")
+    (tmp_path / "empty.ply").write_text(
+        "ply\nformat ascii 1.0\nelement vertex 0\nelement face 0\n"
+        "property list uchar int vertex_indices\nend_header\n")
+    trimesh.PointCloud(np.random.default_rng(0).random((10, 3))).export(tmp_path / "pc.ply")
+    (tmp_path / "nan.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nf 1 2 3\nf 1 2 4\n")
+    (tmp_path / "huge.obj").write_text("v 0 0 0\nv 1e300 0 0\nv 0 1 0\nf 1 2 3\n")
+    trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [2, 0, 0]], faces=[[0, 1, 2]],
+                    process=False).export(tmp_path / "line.ply")
+    for name in ("junk.ply", "empty.ply", "pc.ply", "nan.obj", "huge.obj", "line.ply"):
+        with pytest.raises(SpecError) as e:
+            load_mesh(tmp_path / name)
+        assert e.value.field == "render.scene", name
+    trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0]],
+                    faces=[[0, 1, 2], [0, 1, 3]], process=False).export(tmp_path / "one.ply")
+    assert load_mesh(tmp_path / "one.ply").n_triangles == 1

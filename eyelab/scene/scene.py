@@ -172,15 +172,37 @@ class Scene:
 
 def load_mesh(path, *, name=None, transform=None) -> SceneMesh:
     """Load any mesh trimesh reads (OBJ, PLY, STL, GLB, ...) as one SceneMesh, with its
-    vertex colours or texture and uv if present. ``transform``: (4, 4) applied to it."""
+    vertex colours or texture and uv if present. ``transform``: (4, 4) applied to it.
+    Unreadable, empty, point-cloud or non-finite meshes are a :class:`SpecError` naming
+    ``render.scene``; zero-area triangles are dropped (all of them: an error)."""
     import trimesh
 
     try:
-        loaded = trimesh.load(path, force="mesh")
+        loaded = trimesh.load(path, force="mesh", process=False)
     except Exception as e:  # trimesh raises many types for unreadable files
-        raise SpecError("scene.mesh", f"cannot read {str(path)!r}: {e}") from None
+        raise SpecError("render.scene", f"cannot read {str(path)!r} as a mesh: {e}") from None
     if transform is not None:
         loaded.apply_transform(np.asarray(transform, float))
+    v = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), float)
+    f = np.asarray(getattr(loaded, "faces", np.zeros((0, 3), int)))
+    if len(v) == 0 or f.ndim != 2 or len(f) == 0:
+        raise SpecError("render.scene", f"{str(path)!r} has no triangles (an empty file, a "
+                                        "point cloud or lines only)")
+    if not np.all(np.isfinite(v)):
+        raise SpecError("render.scene", f"{str(path)!r} has {int((~np.isfinite(v)).any(1).sum())}"
+                                        " vertices with non-finite coordinates")
+    if np.abs(v).max() > 1e6:
+        raise SpecError("render.scene", f"{str(path)!r} has coordinates beyond 1000 km "
+                                        f"({np.abs(v).max():.3g} m): wrong units?")
+    loaded.process()          # merge duplicate vertices, as trimesh does by default
+    area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    keep = area2 > 1e-12 * max(float(np.ptp(v, axis=0).max()), 1e-300) ** 2
+    if not keep.any():
+        raise SpecError("render.scene", f"{str(path)!r}: every triangle is degenerate "
+                                        "(zero area)")
+    if not keep.all():        # zero-area triangles draw nothing: dropped
+        loaded.update_faces(keep)
+        loaded.remove_unreferenced_vertices()
     tex = uv = colors = None
     vis = loaded.visual
     if getattr(vis, "kind", None) == "texture" and getattr(vis, "uv", None) is not None \
