@@ -176,13 +176,16 @@ def _render(args) -> int:
         key = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
-    from eyelab.jobs import demo, render_spec, write_json, write_png
+    from eyelab.fileio import atomic_group
+    from eyelab.jobs import demo, json_writer, png_writer, render_spec
 
+    # outputs as one set: all written to temporaries, then renamed back to back
     if args.command == "render":
         res = render_spec(spec, no_lens=args.no_lens)
-        write_png(args.output, res.srgb)
+        writers = {args.output: png_writer(res.srgb)}
         if args.report:
-            write_json(args.report, res.report)
+            writers[args.report] = json_writer(res.report)
+        atomic_group(writers)
         rep = res.report
         done = ", ".join(f"{k} {v}" for k, v in rep["samples"]["done"].items())
         print(f"wrote {args.output} ({res.srgb.shape[1]}x{res.srgb.shape[0]}, "
@@ -192,8 +195,8 @@ def _render(args) -> int:
             print(f"  skipped {why}")
     else:
         image, rep = demo(spec)
-        write_png(args.output, image)
-        write_json(args.output[:-4] + ".json", rep)
+        atomic_group({args.output: png_writer(image),
+                      args.output[:-4] + ".json": json_writer(rep)})
         print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
     return 0
 

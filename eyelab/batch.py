@@ -347,17 +347,18 @@ def _row(meta: dict) -> dict:
 
 # ------------------------------------------------------------------------- a run
 def sweep_temporaries(out_dir: Path) -> int:
-    """Remove temporaries a killed run left (``.job-*`` files beside the outputs)."""
+    """Remove the temporaries a killed run left beside the outputs (this run's folder is
+    its own: every ``.eyelab-tmp.`` job, summary and sheet file)."""
+    from eyelab.fileio import TMP_PREFIX
+
     n = 0
-    for p in out_dir.glob(".job-*"):
-        try:
-            p.unlink()
-            n += 1
-        except OSError:
-            pass
-    for pattern in (".summary.csv.*", ".index.html.*"):
-        for p in out_dir.glob(pattern):
-            p.unlink(missing_ok=True)
+    for pattern in ("job-*", "summary.csv.*", "index.html.*"):
+        for p in out_dir.glob(TMP_PREFIX + pattern):
+            try:
+                p.unlink()
+                n += 1
+            except OSError:
+                pass
     return n
 
 

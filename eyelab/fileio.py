@@ -1,7 +1,10 @@
 """Output files written whole or not at all, and JSON for numpy values.
 
 Every file eyelab writes (images, reports, blur fields, cached references) goes through
-:func:`atomic_path`: a bad input or a crash never leaves a partial file behind.
+:func:`atomic_path`: a bad input or a crash never leaves a partial file under a final name;
+a process killed mid-write leaves a recognisable temporary that the next write of the same
+file sweeps (:func:`sweep_for`). Output sets (an image and its report) are written as
+temporaries first and renamed last, back to back (:func:`atomic_group`).
 """
 
 from __future__ import annotations
@@ -15,16 +18,37 @@ import numpy as np
 
 from eyelab.errors import SpecError
 
+#: Temporaries are named ``.eyelab-tmp.<final name>.<random><suffix>`` beside the final
+#: file: recognisable, and swept by the next write of the same file (:func:`sweep_for`).
+TMP_PREFIX = ".eyelab-tmp."
+
+
+def sweep_for(*paths) -> int:
+    """Remove the temporaries a killed process left for these final paths (only theirs:
+    another file's temporaries may belong to a process still writing). Returns how many."""
+    n = 0
+    for path in paths:
+        p = Path(path)
+        if not p.parent.is_dir():
+            continue
+        for t in p.parent.glob(f"{TMP_PREFIX}{p.name}.*"):
+            try:
+                t.unlink()
+                n += 1
+            except OSError:
+                pass
+    return n
+
 
 @contextmanager
 def atomic_path(path, suffix: str = ".tmp"):
     """Yield a temporary file name beside ``path`` (ending in ``suffix``, so writers that
     pick a format by extension still can); when the block ends without an exception the
     file replaces ``path`` with the usual permissions (umask), otherwise it is removed.
-    Parent folders are created."""
+    Parent folders are created. The temporary's name starts with :data:`TMP_PREFIX`."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=suffix)
+    fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f"{TMP_PREFIX}{p.name}.", suffix=suffix)
     os.close(fd)
     try:
         yield tmp
@@ -72,3 +96,25 @@ def check_distinct(**paths) -> None:
         if key in seen:
             raise SpecError(flag, f"is the same file as {seen[key]} ({str(path)!r})")
         seen[key] = flag
+
+
+def atomic_group(writers: dict) -> None:
+    """Write several files as one set: {path: write(tmp_path)}; every file is written to
+    its temporary first, and only when all succeeded are they renamed into place, in the
+    given order, back to back (a failure while writing leaves the old set untouched; a
+    kill can only fall between two renames — microseconds — where the set is mixed).
+    Leftover temporaries of the same paths are swept first."""
+    sweep_for(*writers)
+    stack = []
+    try:
+        for path, write in writers.items():
+            cm = atomic_path(path, suffix=Path(path).suffix or ".tmp")
+            tmp = cm.__enter__()
+            stack.append((cm, tmp))
+            write(tmp)
+    except BaseException:
+        for cm, _ in reversed(stack):
+            cm.__exit__(RuntimeError, RuntimeError("aborted"), None)
+        raise
+    for cm, _ in stack:
+        cm.__exit__(None, None, None)

@@ -42,18 +42,33 @@ def build_scene(name_or_path: str) -> Scene:
     return Scene([load_mesh(name_or_path)], name=Path(name_or_path).stem)
 
 
+def png_writer(image: np.ndarray):
+    """A writer (``write(path)``) of an (h, w, 3) uint8 image as PNG."""
+    def write(path):
+        import matplotlib.image as mpimg
+
+        mpimg.imsave(path, image, format="png")
+    return write
+
+
+def json_writer(obj):
+    """A writer (``write(path)``) of ``obj`` as JSON (numpy values converted)."""
+    def write(path):
+        with open(path, "w") as f:
+            json.dump(obj, f, indent=2, default=json_default)
+    return write
+
+
 def write_png(path, image: np.ndarray) -> None:
     """Atomic PNG write of an (h, w, 3) uint8 image (no partial file on failure)."""
-    import matplotlib.image as mpimg
-
     with atomic_path(path, suffix=".png") as tmp:
-        mpimg.imsave(tmp, image)
+        png_writer(image)(tmp)
 
 
 def write_json(path, obj) -> None:
     """Atomic JSON write (numpy values converted)."""
-    with atomic_path(path) as tmp, open(tmp, "w") as f:
-        json.dump(obj, f, indent=2, default=json_default)
+    with atomic_path(path) as tmp:
+        json_writer(obj)(tmp)
 
 
 def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):

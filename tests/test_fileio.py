@@ -1,5 +1,6 @@
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,3 +32,66 @@ def _umask():
     m = os.umask(0)
     os.umask(m)
     return m
+
+
+def test_atomic_group_writes_all_or_none_and_sweeps(tmp_path):
+    from eyelab.fileio import TMP_PREFIX, atomic_group
+
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    stale = tmp_path / f"{TMP_PREFIX}a.txt.left-by-a-kill.txt"
+    stale.write_text("x")
+    def text(t):
+        return lambda p: Path(p).write_text(t)
+
+    atomic_group({a: text("1"), b: text("2")})
+    assert a.read_text() == "1" and b.read_text() == "2" and not stale.exists()
+
+    def fail(p):
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        atomic_group({a: text("new"), b: fail})
+    assert a.read_text() == "1" and b.read_text() == "2"      # the old set, untouched
+    assert not list(tmp_path.glob(TMP_PREFIX + "*"))
+
+
+@pytest.mark.slow
+def test_kill_9_during_render_and_demo_leaves_whole_files(tmp_path):
+    """`eyelab demo` and `eyelab render --report` killed (SIGKILL) at 24 random moments:
+    each final file is either absent or whole (the PNG decodes, the JSON parses), and the
+    next complete run leaves no temporary."""
+    import json
+    import os
+    import random
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import matplotlib.image as mpimg
+
+    from eyelab.fileio import TMP_PREFIX
+
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    cli = [sys.executable, "-P", "-m", "eyelab.apps.cli"]
+    size = ["--width", "160", "--height", "120", "--samples", "2"]
+    cmds = {"demo": cli + ["demo", "-o", str(tmp_path / "d.png")] + size,
+            "render": cli + ["render", "-o", str(tmp_path / "r.png"), "--report",
+                             str(tmp_path / "r.json")] + size}
+    rng = random.Random(3)
+    for i in range(24):
+        name = ("demo", "render")[i % 2]
+        proc = subprocess.Popen(cmds[name], env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        time.sleep(rng.uniform(1.0, 4.5))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        for png in (tmp_path / "d.png", tmp_path / "r.png"):
+            if png.exists():
+                assert mpimg.imread(png).shape[2] in (3, 4)
+        for js in (tmp_path / "d.json", tmp_path / "r.json"):
+            if js.exists():
+                json.loads(js.read_text())
+    for cmd in cmds.values():
+        subprocess.run(cmd, env=env, check=True, capture_output=True, timeout=300)
+    assert not list(tmp_path.glob(TMP_PREFIX + "*"))
