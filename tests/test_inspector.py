@@ -5,6 +5,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 import tomllib
 
 import numpy as np
@@ -207,34 +208,62 @@ def test_bench_inspect_small():
         "passes only"
 
 
-XVFB = shutil.which("xvfb-run")
+XVFB = shutil.which("Xvfb")
+
+
+def _start_xvfb():
+    """An Xvfb server on a free display, waited for: it writes its display number to a
+    pipe (-displayfd) once it accepts connections. Returns (process, ":N")."""
+    r, w = os.pipe()
+    proc = subprocess.Popen([XVFB, "-displayfd", str(w), "-screen", "0", "1280x1024x24",
+                             "-nolisten", "tcp"], pass_fds=(w,), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    os.close(w)
+    try:
+        num = b""
+        deadline = time.monotonic() + 30
+        while not num.endswith(b"\n") and time.monotonic() < deadline:
+            chunk = os.read(r, 16)
+            if not chunk:
+                break
+            num += chunk
+    finally:
+        os.close(r)
+    assert num.strip().isdigit(), f"Xvfb did not start ({num!r})"
+    return proc, f":{num.strip().decode()}"
 
 
 @pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="xvfb-run is not installed (CI installs it and sets "
+                    reason="Xvfb is not installed (CI installs it and sets "
                            "EYELAB_REQUIRE_XVFB)")
 def test_real_window_under_xvfb(tmp_path):
     """``eyelab inspect SPEC --screenshot`` with a display (Xvfb): a real window for an
     uncorrected and a corrected myope; the images are not blank, differ as the renders
     do, and equal the offscreen renders of the same specs."""
-    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but xvfb-run is missing"
+    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
+    xvfb, display = _start_xvfb()
     env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
+    env["DISPLAY"] = display
     shots = {}
-    for name, lens in (("uncorrected", ""), ("corrected", '[lens]\nrx = "-2.00 DS"\n')):
-        spec = tmp_path / f"{name}.toml"
-        spec.write_text(SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n', lens))
-        png = tmp_path / f"{name}.png"
-        r = subprocess.run([XVFB, "-a", "-s", "-screen 0 1280x1024x24", sys.executable,
-                            "-P", "-m", "eyelab.apps.cli", "inspect", str(spec),
-                            "--screenshot", str(png)], env=env, capture_output=True,
-                           text=True, timeout=300)
-        assert r.returncode == 0, r.stderr[-2000:]
-        import matplotlib.image as mpimg
+    try:
+        for name, lens in (("uncorrected", ""), ("corrected", '[lens]\nrx = "-2.00 DS"\n')):
+            spec = tmp_path / f"{name}.toml"
+            spec.write_text(SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n',
+                                         lens))
+            png = tmp_path / f"{name}.png"
+            r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
+                                str(spec), "--screenshot", str(png)], env=env,
+                               capture_output=True, text=True, timeout=300)
+            assert r.returncode == 0, r.stderr[-2000:]
+            import matplotlib.image as mpimg
 
-        shots[name] = (mpimg.imread(png)[..., :3] * 255).round().astype(np.uint8)
-        assert shots[name].std() > 10                        # not blank
-        ref = render_spec(load_spec(spec)).srgb
-        assert _ssim(shots[name], ref) >= 0.99
+            shots[name] = (mpimg.imread(png)[..., :3] * 255).round().astype(np.uint8)
+            assert shots[name].std() > 10                        # not blank
+            ref = render_spec(load_spec(spec)).srgb
+            assert _ssim(shots[name], ref) >= 0.99
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=30)
     assert _sharpness(shots["corrected"]) > 1.2 * _sharpness(shots["uncorrected"])
 
 
