@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import functools
 import hashlib
 import html
 import itertools
@@ -56,7 +57,7 @@ class Job:
     data: dict
     params: dict
 
-    @property
+    @functools.cached_property
     def key(self) -> str:
         from eyelab import __version__
 

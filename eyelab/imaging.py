@@ -263,14 +263,16 @@ class Renderer(abc.ABC):
         self.close()
 
 
-def channel_wavelengths(eye, lens, chromatic: bool, report) -> tuple:
+def channel_wavelengths(eye, lens, chromatic: bool, report=None) -> tuple:
     """The wavelengths (nm) a render traces: R/G/B's design wavelengths when ``chromatic``
     and either the eye's own chromatic aberration or the lens's dispersion makes the
-    channels differ; else the eye's reference wavelength alone (said in the report)."""
+    channels differ; else the eye's reference wavelength alone (said in ``report``, if
+    given)."""
     lens_disperses = lens is not None and lens.material.dispersive
     if chromatic and (eye.chromatic or lens_disperses):
         return RGB_WAVELENGTHS_NM
     why = ("disabled" if not chromatic else
            "neither the eye (eye.chromatic = false) nor the lens material disperses")
-    report["skipped"].append(f"chromatic: {why}: one wavelength")
+    if report is not None:
+        report["skipped"].append(f"chromatic: {why}: one wavelength")
     return (EYE_REFERENCE_NM,)

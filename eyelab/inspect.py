@@ -25,6 +25,7 @@ import numpy as np
 
 from eyelab.color import CVD_KINDS, cvd_linear, encode_srgb
 from eyelab.errors import SpecError
+from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.prescription import Prescription
 from eyelab.spec import dump_spec, parse_spec, read_spec_data
 
@@ -424,7 +425,7 @@ class InspectorModel:
         o = np.asarray(cam.position, float)[None]
         d = np.asarray(cam.basis[2], float)[None]
         if self.lens is not None:
-            res = self.lens.trace(o, d, 587.56, reverse=True)
+            res = self.lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
             if (res["status"][0] & np.uint8(FATAL)) == 0:
                 o, d = res["out_points"], res["out_dirs"]
         hit = EmbreeIntersector(self.scene()).intersect(o + 1e-7 * d, d)

@@ -216,7 +216,8 @@ def _start_xvfb():
     pipe (-displayfd) once it accepts connections. Returns (process, ":N")."""
     r, w = os.pipe()
     proc = subprocess.Popen([XVFB, "-displayfd", str(w), "-screen", "0", "1280x1024x24",
-                             "-nolisten", "tcp"], pass_fds=(w,), stdout=subprocess.DEVNULL,
+                             "-nolisten", "tcp", "-ac"], pass_fds=(w,),
+                            stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     os.close(w)
     try:
@@ -251,9 +252,14 @@ def test_real_window_under_xvfb(tmp_path):
             spec.write_text(SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n',
                                          lens))
             png = tmp_path / f"{name}.png"
-            r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
-                                str(spec), "--screenshot", str(png)], env=env,
-                               capture_output=True, text=True, timeout=300)
+            # the X connection itself has failed now and then in CI right after other
+            # tests ("bad X server connection"): that, and only that, is retried
+            for _ in range(3):
+                r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
+                                    str(spec), "--screenshot", str(png)], env=env,
+                                   capture_output=True, text=True, timeout=300)
+                if r.returncode == 0 or "bad X server connection" not in r.stderr:
+                    break
             assert r.returncode == 0, r.stderr[-2000:]
             import matplotlib.image as mpimg
 

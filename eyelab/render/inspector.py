@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 import pyvista as pv
 
+from eyelab.optics.eye import EYE_REFERENCE_NM
+
 #: Timer period (ms) between ticks.
 TICK_MS = 15
 #: Height (px) of the controls strip and width of the side column relative to the view.
@@ -284,13 +286,13 @@ class InspectorWindow:
         # the view's own field (the last stage's), its green channel when per channel
         fields = [f for f in fields if f.camera == fields[-1].camera] if fields else []
         if fields:
-            field = min(fields, key=lambda f: abs(f.report.get("wavelength_nm", 587.56)
+            field = min(fields, key=lambda f: abs(f.report.get("wavelength_nm", EYE_REFERENCE_NM)
                                                   - 546.07))
             depth = getattr(m, "gaze_distance_m", None) or 1.0
             k = int(np.argmin(np.abs(field.slice_depths() - depth)))
             self._field_title.SetInput(
                 f"blur field at {field.slice_depths()[k]:.2f} m depth, "
-                f"{field.report.get('wavelength_nm', 587.56):g} nm (arcmin)")
+                f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm (arcmin)")
             # ellipses magnified to fill about half the column spacing (Kakimoto Fig. 12)
             w = field.slice_depths()[k]
             tx, ty = field.camera.tan_half

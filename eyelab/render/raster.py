@@ -36,6 +36,7 @@ from eyelab.imaging import (
     Renderer,
     RenderResult,
     View,
+    channel_wavelengths,
     finish,
     new_report,
 )
@@ -249,16 +250,16 @@ class RasterRenderer(Renderer):
         accommodation state whatever the colour: through a dispersive lens the channels
         take it per voxel from the reference wavelength's field (elsewhere Eq. 13 gives the
         same at every wavelength)."""
-        disperses = lens is not None and lens.material.dispersive
-        if not (q.chromatic and (eye.chromatic or disperses)):
+        wls = channel_wavelengths(eye, lens, q.chromatic)
+        if len(wls) == 1:
             return [self._field(eye, lens, cam, bounds, view, q, report, label, pupil)]
         acc = None
-        if disperses and view.focus_d is None:
+        if lens is not None and lens.material.dispersive and view.focus_d is None:
             ref = self._field(eye, lens, cam, bounds, view, q, report, label, pupil)
             acc = np.where(ref.status == VoxelStatus.OK, ref.accommodation, np.nan)
         return [self._field(eye, lens, cam, bounds, view, q, report,
                             f"{label}_{wl:g}nm", pupil, wavelength_nm=wl, accommodation=acc)
-                for wl in RGB_WAVELENGTHS_NM]
+                for wl in wls]
 
     def _field(self, eye, lens, cam, bounds, view, q, report, label, pupil=None,
                wavelength_nm=EYE_REFERENCE_NM, accommodation=None):
@@ -457,9 +458,8 @@ class RasterRenderer(Renderer):
         if len(st["fields"]) == 1:
             return win.grab_rgba()
         out = st["rgba"]
-        for c in range(len(st["fields"])):
+        for c in range(len(st["fields"])):       # the seed uniforms stay set across channels
             self._select_channel(st, c, route)
-            win.set_seed(st["seeds"][k], st["jitter"][k])
             out[..., c] = win.grab_rgba()[..., c]
         out[..., 3] = 255
         return out
