@@ -20,8 +20,15 @@ def _atomic_write(path: str, text: str) -> None:
         fh.write(text)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (the usage is what ``--help`` is for)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def _build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="eyelab", description="What a person sees through "
+    ap = _Parser(prog="eyelab", description="What a person sees through "
                                  "spectacle lenses: point analysis, benchmarks.")
     sub = ap.add_subparsers(dest="command", required=True)
     an = sub.add_parser("analyze", help="chief rays, wavefronts and retinal blur for object "

@@ -27,7 +27,7 @@ import numpy as np
 from eyelab.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.errors import SpecError, check_range
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
-from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 
 #: Top-level keys of every renderer's report, in this order.
@@ -61,9 +61,10 @@ class View:
     """What the eye looks at and how it focuses; the same for every renderer.
 
     width, height : image size, pixels (16-4096); fov_y_deg : vertical field of view, deg
-    (1-150); near, far : clipping depths from the pupil, m (0.001-10, > near; scene content
-    outside is not drawn); focus_d : None (each point gets the eye's best accommodation for
-    it, Kakimoto Eq. 13) or a fixed accommodation in D (clamped to the eye's amplitude);
+    (1-150); near, far : clipping depths from the pupil, m (near 0.001-10, far up to 1e5 and
+    > near; scene content outside is not drawn); focus_d : None (each point gets the eye's
+    best accommodation for it, Kakimoto Eq. 13) or a fixed accommodation in D (0-25,
+    clamped to the eye's amplitude);
     cvd, cvd_severity : colour-vision deficiency of the observer (Machado 2009; None,
     "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB;
     gaze_deg : (right, up) degrees (each within +-60): the eye turns about its centre of
@@ -93,7 +94,7 @@ class View:
         if not self.far > self.near:
             raise SpecError("render.far_m", f"must be > near_m ({self.near}), got {self.far}")
         if self.focus_d is not None:
-            check_range("render.focus_d", self.focus_d, 0, 16)
+            check_range("render.focus_d", self.focus_d, 0, MAX_ACCOMMODATION_D)
         if self.cvd is not None:
             check_choice("render.cvd", self.cvd, CVD_KINDS)
         check_range("render.cvd_severity", self.cvd_severity, 0, 1)

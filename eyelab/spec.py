@@ -16,8 +16,16 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
-from eyelab.imaging import View, check_bool
-from eyelab.optics.eye import Eye, hofstetter_amplitude, watson_yellott_pupil
+from eyelab.imaging import View, check_bool, check_choice
+from eyelab.optics.eye import (
+    AMPLITUDE_MODELS,
+    EYE_KINDS,
+    MAX_ACCOMMODATION_D,
+    Eye,
+    hofstetter_amplitude,
+    watson_yellott_pupil,
+)
+from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
@@ -108,6 +116,20 @@ def _rx(value, field):
 
 def parse_eye(t: dict) -> Eye:
     _check_keys(t, EYE_KEYS, "eye")
+    # enumerations are checked even where the value would be unused; keys that only
+    # take effect with another key are refused without it (never silently ignored)
+    if "amplitude_model" in t:
+        check_choice("eye.amplitude_model", t["amplitude_model"], tuple(AMPLITUDE_MODELS))
+        if "age" not in t:
+            raise SpecError("eye.amplitude_model", "only used with eye.age (Hofstetter's "
+                                                   "amplitude for that age)")
+    if "kind" in t:
+        check_choice("eye.kind", t["kind"], EYE_KINDS)
+    for key in ("kind", "vertex_distance_mm"):
+        if key in t and "rx" not in t:
+            _num(t, key, "eye", 5, 30) if key == "vertex_distance_mm" else None
+            raise SpecError(f"eye.{key}", "only used with eye.rx (the explicit powers "
+                                          "define the eye as written)")
     kw = {}
     if "age" in t and "accommodation_max_d" in t:
         raise SpecError("eye.age", "give either age or accommodation_max_d, not both")
@@ -115,7 +137,7 @@ def parse_eye(t: dict) -> Eye:
         kw["accommodation_max"] = hofstetter_amplitude(
             check_range("eye.age", t["age"], 0, 120), t.get("amplitude_model", "mean"))
     elif "accommodation_max_d" in t:
-        kw["accommodation_max"] = _num(t, "accommodation_max_d", "eye", 0, 16)
+        kw["accommodation_max"] = _num(t, "accommodation_max_d", "eye", 0, MAX_ACCOMMODATION_D)
     if "pupil_diameter_mm" in t and "luminance_cd_m2" in t:
         raise SpecError("eye.pupil_diameter_mm",
                         "give either pupil_diameter_mm or luminance_cd_m2, not both")
@@ -143,8 +165,12 @@ def parse_eye(t: dict) -> Eye:
         try:
             return Eye.from_rx(rx, vertex_distance=vd, kind=kind, **kw)
         except SpecError as e:
-            raise SpecError(e.field if e.field.startswith("eye") else "eye." + e.field,
-                            e.message) from None
+            # the eye made from the Rx is out of range: blame what the user wrote
+            key = e.field.split(".", 1)[-1]
+            blamed = ("eye.retina_distance_mm" if key == "power_min_d"
+                      and "retina_distance_mm" in t else f"eye.{key}" if key in t else "eye.rx")
+            raise SpecError(blamed, f"with eye.rx = {str(rx)!r} the eye's {key} would be out "
+                                    f"of range ({e.message})") from None
     if "power_min_d" in t:
         kw["power_min"] = _num(t, "power_min_d", "eye", 40, 80)
     if "astigmatism_d" in t:
@@ -204,29 +230,38 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
     material = get_material(t.get("material", "cr39"), field="lens.material")
     ct = _num(t, "center_thickness_mm", "lens", 0.2, 30)
     diam = _num(t, "diameter_mm", "lens", 10, 90)
+    if "coating" in t:
+        check_choice("lens.coating", t["coating"], COATINGS)
     if "front" in t or "back" in t:
+        for key in ("rx", "base_curve_d", "torus"):
+            if key in t:
+                raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
         for key in ("front", "back"):
             if key not in t:
                 raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
-        for key in ("rx", "base_curve_d"):
-            if key in t:
-                raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
         if ct is None:
             raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
         return SpectacleLens(_surface(t["front"], "lens.front"), _surface(t["back"], "lens.back"),
                              ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
                              coating=t.get("coating", "none"))
+    if "torus" in t:
+        check_choice("lens.torus", t["torus"], ("x", "y"))
     if "rx" in t:
         rx = _rx(t["rx"], "lens.rx")
     elif eye_rx is not None:
         rx = eye_rx
     else:
         raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
-    return SpectacleLens.from_rx(
-        rx, material=material, base_curve=_num(t, "base_curve_d", "lens", -20, 30),
-        center_thickness=None if ct is None else ct * 1e-3,
-        diameter=None if diam is None else diam * 1e-3, pose=pose, torus=t.get("torus", "y"),
-        coating=t.get("coating", "none"))
+    try:
+        return SpectacleLens.from_rx(
+            rx, material=material, base_curve=_num(t, "base_curve_d", "lens", -20, 30),
+            center_thickness=None if ct is None else ct * 1e-3,
+            diameter=None if diam is None else diam * 1e-3, pose=pose,
+            torus=t.get("torus", "y"), coating=t.get("coating", "none"))
+    except SpecError as e:
+        if e.field == "lens.rx" and "rx" not in t:     # the lens took the eye's Rx
+            raise SpecError("eye.rx", f"(the lens is made for it) {e.message}") from None
+        raise
 
 
 def parse_points(items) -> ObjectPoints:
@@ -324,7 +359,8 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     if fix not in ("fixed", "rotating"):
         raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
     acc = an.get("accommodation_d", "auto")
-    acc = None if acc == "auto" else check_range("analysis.accommodation_d", acc, 0, 16)
+    acc = None if acc == "auto" else check_range("analysis.accommodation_d", acc, 0,
+                                                 MAX_ACCOMMODATION_D)
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
     return Spec(eye, lens, points, wl, fix, acc, source, render)
@@ -390,6 +426,8 @@ def dump_spec(data: dict) -> str:
             return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
         if isinstance(v, (list, tuple)):
             return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
         raise SpecError("spec", f"cannot write {v!r} as TOML")
 
     def table(name, t, lines):

@@ -57,6 +57,17 @@ def ocular_lca(wavelength_nm, reference_nm: float = EYE_REFERENCE_NM):
     return THIBOS_Q / (reference_nm * 1e-3 - THIBOS_C) - THIBOS_Q / (wl * 1e-3 - THIBOS_C)
 
 
+#: Largest amplitude of accommodation eyelab takes, D: Hofstetter's maximum at age 0
+#: (25 - 0.4 x 0).
+MAX_ACCOMMODATION_D = 25.0
+#: Hofstetter's formulas (SCIENCE.md §3) as (a, b) in a - b x age.
+AMPLITUDE_MODELS = {"min": (15.0, 0.25), "mean": (18.5, 0.3), "max": (25.0, 0.4)}
+
+
+#: How eye.rx makes the eye: "refractive" (keeps the axial length) or "axial".
+EYE_KINDS = ("refractive", "axial")
+
+
 def hofstetter_amplitude(age, which: str = "mean"):
     """Amplitude of accommodation (D) by Hofstetter's formulas (SCIENCE.md §3), >= 0.
 
@@ -65,10 +76,10 @@ def hofstetter_amplitude(age, which: str = "mean"):
     >>> hofstetter_amplitude(40)
     6.5
     """
-    coef = {"min": (15.0, 0.25), "mean": (18.5, 0.3), "max": (25.0, 0.4)}
-    if which not in coef:
-        raise SpecError("eye.amplitude_model", f"must be one of {sorted(coef)}, got {which!r}")
-    a, b = coef[which]
+    if not isinstance(which, str) or which not in AMPLITUDE_MODELS:
+        raise SpecError("eye.amplitude_model", f"must be one of {sorted(AMPLITUDE_MODELS)}, "
+                                               f"got {which!r}")
+    a, b = AMPLITUDE_MODELS[which]
     return max(0.0, a - b * check_range("eye.age", age, 0.0, 120.0))
 
 
@@ -131,10 +142,10 @@ class Eye:
     chromatic: bool = True
 
     def __post_init__(self):
-        check_range("eye.power_min", self.power_min, 40.0, 80.0)
-        check_range("eye.astigmatism", self.astigmatism, 0.0, 10.0)
+        check_range("eye.power_min_d", self.power_min, 40.0, 80.0)
+        check_range("eye.astigmatism_d", self.astigmatism, 0.0, 10.0)
         check_range("eye.astigmatism_axis_deg", self.astigmatism_axis_deg, -360.0, 360.0)
-        check_range("eye.accommodation_max", self.accommodation_max, 0.0, 16.0)
+        check_range("eye.accommodation_max_d", self.accommodation_max, 0.0, MAX_ACCOMMODATION_D)
         check_range("eye.retina_distance_mm", self.retina_distance * 1e3, 15.0, 35.0)
         check_range("eye.n_vitreous", self.n_vitreous, 1.2, 1.6)
         check_range("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, 0.5, 10.0)
@@ -154,7 +165,7 @@ class Eye:
         for the spherical-equivalent error (Table 3); the cylinder is refractive either way.
         The add is a lens feature and does not change the eye.
         """
-        if kind not in ("refractive", "axial"):
+        if not isinstance(kind, str) or kind not in EYE_KINDS:
             raise SpecError("eye.kind", f"must be 'refractive' or 'axial', got {kind!r}")
         d = vertex_distance
         (f_a, dir_a), (f_b, _) = rx.principal_meridians()

@@ -33,6 +33,9 @@ MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
                         "1.74": 1.5e-3}
 #: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
 MIN_EDGE_THICKNESS = 1.0e-3
+#: Lowest n_d of a lens made from a prescription (the lowest spectacle material is
+#: ~1.49; below 1.3 the surfaces of ordinary powers become hemispheres).
+MIN_LENS_INDEX = 1.3
 
 
 @dataclass(frozen=True)
@@ -246,22 +249,31 @@ class SpectacleLens:
         does not fit raises :class:`SpecError`.
         """
         mat = get_material(material)
+        if not MIN_LENS_INDEX <= mat.n_d:
+            raise SpecError("lens.material", f"a lens made from a prescription needs n_d in "
+                            f"[{MIN_LENS_INDEX}, 2.5], got {mat.n_d:g} ({mat.name})")
+        if not isinstance(torus, str) or torus not in ("x", "y"):
+            raise SpecError("lens.torus", f"must be 'x' or 'y', got {torus!r}")
         pose = pose or LensPose()
         n = mat.n(wavelength_nm)
         se = rx.sphere + rx.cylinder / 2
         if base_curve is None:
             base_curve = se + 6.0 if se > 0 else se / 2 + 6.0
             base_curve = min(max(base_curve, 0.5), 12.0)
-        check_range("lens.base_curve", base_curve, -20.0, 30.0)
+        check_range("lens.base_curve_d", base_curve, -20.0, 30.0)
         c1 = base_curve / (n - 1.0)
         p1 = rx.sphere                 # along the cylinder axis
         p2 = rx.sphere + rx.cylinder   # perpendicular to it
         if diameter is None:
             c2_est = max(abs(p - base_curve) for p in (p1, p2)) / (n - 1.0) * 1.1
             diameter = min(0.060, 2 * 0.9 / max(abs(c1), c2_est, 1e-9))
+            if diameter < 0.010:
+                raise SpecError("lens.rx", f"{rx} in {mat.name} (n_d {mat.n_d:g}) needs "
+                                "surfaces steeper than a hemisphere within 10 mm: use a "
+                                "higher-index material or a weaker prescription")
         rad = diameter / 2
         if abs(c1) * rad >= 0.98:
-            raise SpecError("lens.base_curve", f"{base_curve:g} D is too steep for a "
+            raise SpecError("lens.base_curve_d", f"{base_curve:g} D is too steep for a "
                             f"{diameter * 1e3:g} mm lens of index {n:.3f}; allowed |F1| < "
                             f"{0.98 * (n - 1) / rad:.1f} D")
         key = mat.name if mat.name in MIN_CENTER_THICKNESS else "cr39"
@@ -272,7 +284,7 @@ class SpectacleLens:
             f2 = [p - base_curve / (1.0 - t * base_curve / n) for p in (p1, p2)]
             c2 = [f / (1.0 - n) for f in f2]
             if max(abs(c) for c in c2) * rad >= 0.98:
-                raise SpecError("rx", f"{rx} needs a back surface too steep for a "
+                raise SpecError("lens.rx", f"{rx} needs a back surface too steep for a "
                                 f"{diameter * 1e3:g} mm lens; use a smaller diameter")
             back = Toric(c2[0], c2[1], axis_w, torus) if c2[0] != c2[1] else Asphere(c2[0])
             if fixed_t:

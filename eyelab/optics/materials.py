@@ -39,8 +39,10 @@ class Material:
     v_d: float = float("inf")
 
     def __post_init__(self):
-        check_range(f"material[{self.name}].n_d", self.n_d, 1.0, 2.5)
-        check_range(f"material[{self.name}].v_d", self.v_d, 5.0, float("inf"))
+        object.__setattr__(self, "n_d", check_range(f"material[{self.name}].n_d", self.n_d,
+                                                    1.0, 2.5))
+        object.__setattr__(self, "v_d", check_range(f"material[{self.name}].v_d", self.v_d,
+                                                    5.0, float("inf")))
 
     @property
     def cauchy(self) -> tuple[float, float]:

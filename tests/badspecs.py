@@ -1,0 +1,277 @@
+"""A generated corpus of bad specs: every field of every table, given values of the wrong
+type, out of range, non-finite, huge, unknown; plus unknown keys and tables, bad encodings,
+deep nesting and bad files. Each case is (name, bytes, field) where ``field`` is the dotted
+name the one-line error must start its message with.
+
+Used by ``tests/test_bad_specs.py``; ``python tests/badspecs.py DIR`` writes the corpus as
+files (``DIR/<n>.toml`` + ``DIR/index.json``) to run it against another build.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+HUGE = 10**400                       # TOML reads it; no float holds it
+
+#: Values that are not numbers at all (bools, strings, numeric strings, arrays, tables).
+NOT_NUMBERS = [True, False, "45", "\uff14\uff15", "abc", "", [1.0], {"v": 1.0}]
+#: Numbers that no numeric field accepts.
+NON_FINITE = [math.nan, -math.inf, HUGE, -HUGE, 1e300, -1e300]
+NOT_BOOLS = [1, 0, "true", "yes", 1.0, [True]]
+NOT_STRINGS = [1, 2.5, True, ["a"], {"a": 1}]
+
+# (table path, key, kind, low, high, base tables) -- `base` is the rest of the spec the
+# field needs to be read at all; ranges are the documented ones.
+EYE_BASE = {"eye": {}}
+RX_EYE = {"eye": {"rx": "-2.00 DS"}}
+RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
+SURF_LENS = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                      "back": {"type": "sphere", "radius_mm": 80.0},
+                      "center_thickness_mm": 2.0}}
+TORIC_LENS = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                       "back": {"type": "toric", "radius_x_mm": 80.0, "radius_y_mm": 70.0},
+                       "center_thickness_mm": 2.0}}
+RASTER = {"render": {"renderer": "raster"}}
+REFERENCE = {"render": {"renderer": "reference"}}
+POINT = {"points": [{"distance_m": 1.0}]}
+
+FIELDS = [
+    ("eye", "age", "num", 0, 120, EYE_BASE),
+    ("eye", "amplitude_model", "enum", None, None, {"eye": {"age": 40}}),
+    ("eye", "accommodation_max_d", "num", 0, 25, EYE_BASE),
+    ("eye", "pupil_diameter_mm", "num", 0.5, 10, EYE_BASE),
+    ("eye", "luminance_cd_m2", "num", 0, 1e7, EYE_BASE),
+    ("eye", "power_min_d", "num", 40, 80, EYE_BASE),
+    ("eye", "astigmatism_d", "num", 0, 10, EYE_BASE),
+    ("eye", "astigmatism_axis_deg", "num", 0, 180, EYE_BASE),
+    ("eye", "retina_distance_mm", "num", 15, 35, EYE_BASE),
+    ("eye", "n_vitreous", "num", 1.2, 1.6, EYE_BASE),
+    ("eye", "rotation_centre_mm", "num", 5, 20, EYE_BASE),
+    ("eye", "vertex_distance_mm", "num", 5, 30, RX_EYE),
+    ("eye", "kind", "enum", None, None, RX_EYE),
+    ("eye", "chromatic", "bool", None, None, EYE_BASE),
+    ("eye", "rx", "rx", None, None, EYE_BASE),
+    ("lens", "rx", "rx", None, None, {"lens": {}}),
+    ("lens", "base_curve_d", "num", -20, 30, RX_LENS),
+    ("lens", "center_thickness_mm", "num", 0.2, 30, RX_LENS),
+    ("lens", "diameter_mm", "num", 10, 90, RX_LENS),
+    ("lens", "vertex_distance_mm", "num", 5, 30, RX_LENS),
+    ("lens", "pantoscopic_tilt_deg", "num", -30, 30, RX_LENS),
+    ("lens", "wrap_deg", "num", -30, 30, RX_LENS),
+    ("lens", "decentration_mm", "pair", -20, 20, RX_LENS),
+    ("lens", "torus", "enum", None, None, RX_LENS),
+    ("lens", "coating", "enum", None, None, RX_LENS),
+    ("lens", "material", "material", None, None, RX_LENS),
+    ("lens.front", "radius_mm", "num", -1e9, 1e9, SURF_LENS),
+    ("lens.front", "curvature", "num", -200, 200, {"lens": {
+        "front": {"type": "sphere"}, "back": {"type": "plane"}, "center_thickness_mm": 2.0}}),
+    ("lens.front", "conic", "num", -100, 100, SURF_LENS),
+    ("lens.front", "type", "enum", None, None, SURF_LENS),
+    ("lens.front", "coefficients", "list", -1e12, 1e12, SURF_LENS),
+    ("lens.back", "radius_x_mm", "num", -1e9, 1e9, TORIC_LENS),
+    ("lens.back", "axis_deg", "num", -360, 360, TORIC_LENS),
+    ("lens.back", "revolve", "enum", None, None, TORIC_LENS),
+    ("analysis", "wavelength_nm", "num", 380, 780, {}),
+    ("analysis", "fixation", "enum", None, None, {}),
+    ("analysis", "accommodation_d", "num", 0, 25, {}),
+    ("points[0]", "distance_m", "num", 0.01, 1e7, POINT),
+    ("points[0]", "field_deg", "pair", -80, 80, POINT),
+    ("points[0]", "position_m", "triple", -1e6, 1e6, {"points": [{}]}),
+    ("render", "renderer", "enum", None, None, {}),
+    ("render", "scene", "scene", None, None, {}),
+    ("render", "width", "int", 16, 4096, {}),
+    ("render", "height", "int", 16, 4096, {}),
+    ("render", "fov_y_deg", "num", 1, 150, {}),
+    ("render", "near_m", "num", 0.001, 10, {}),
+    ("render", "far_m", "num", 0.001, 1e5, {}),
+    ("render", "focus_d", "num", 0, 25, {}),
+    ("render", "cvd", "enum", None, None, {}),
+    ("render", "cvd_severity", "num", 0, 1, {"render": {"cvd": "protan"}}),
+    ("render", "gaze_deg", "pair", -60, 60, {}),
+    ("render", "samples", "int", 1, 256, RASTER),
+    ("render", "field_shape", "triple_int", 1, 512, RASTER),
+    ("render", "depth_mode", "enum", None, None, RASTER),
+    ("render", "refine", "bool", None, None, RASTER),
+    ("render", "reconstruct", "bool", None, None, RASTER),
+    ("render", "antialias", "bool", None, None, RASTER),
+    ("render", "skip_unneeded", "bool", None, None, RASTER),
+    ("render", "chromatic", "bool", None, None, RASTER),
+    ("render", "field_route", "enum", None, None, RASTER),
+    ("render", "lens_rings", "int", 2, 256, RASTER),
+    ("render", "lens_segments", "int", 8, 1024, RASTER),
+    ("render", "lens_grid_px", "int", 1, 64, RASTER),
+    ("render", "env_oversample", "num", 0.5, 4, RASTER),
+    ("render", "rim_color", "triple_int", 0, 255, RASTER),
+    ("render", "invalid_color", "triple_int", 0, 255, RASTER),
+    ("render", "samples", "int", 1, 65536, REFERENCE),
+    ("render", "model", "enum", None, None, REFERENCE),
+    ("render", "fons_n", "int", 1, 64, REFERENCE),
+    ("render", "fons_m", "int", 1, 64, REFERENCE),
+    ("render", "seed", "int", 0, 2**63 - 1, REFERENCE),
+    ("render", "workers", "int", 1, 256, REFERENCE),
+    ("render", "accommodation", "enum", None, None, REFERENCE),
+]
+
+
+def _bad_values(kind, lo, hi):
+    """Values a field of this kind must refuse."""
+    if kind == "num":
+        return NOT_NUMBERS + NON_FINITE + [lo - 1 - abs(lo), hi + 1 + abs(hi)]
+    if kind == "int":
+        return NOT_NUMBERS + NON_FINITE + [lo - 1, hi + 1, lo + 0.5, float(lo)]
+    if kind == "bool":
+        return NOT_BOOLS
+    if kind == "enum":
+        return ["banana", "", " ", "RASTER!"] + NOT_STRINGS
+    if kind == "rx":
+        return ["-2.00 DS banana", "", "x", "-3" + " " * 400 + "!", "+40.00 DS",
+                "-2 -1 x 400", "-2 -1 x", "1e400", "-1.00 DC", "-2.00 -1.00 x 90 add 9",
+                "-2.00 -20.00 x 90", 1, True, [-2.0]]
+    if kind == "pair":
+        return [[0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0],
+                [0.0, HUGE], [hi + 1, 0.0], [0.0, lo - 1], ["1", 0.0]]
+    if kind == "triple":
+        return [[0.0, 0.0], [0.0, 0.0, 0.0, 0.0], "0 0 1", [True, 0.0, 1.0],
+                [math.nan, 0.0, 1.0], [0.0, 0.0, HUGE], [hi * 2, 0.0, 1.0], ["1", 0.0, 1.0]]
+    if kind == "triple_int":
+        return [[8, 8], [8, 8, 8, 8], "8", [1.5, 8, 8], [True, 8, 8], [8, "8", 8],
+                [hi + 1, 8, 8], [8, 8, lo - 1], [8, HUGE, 8], 8]
+    if kind == "list":
+        return ["1e-6", 1e-6, [True], [math.nan], [HUGE], [1e300], ["a"], [[1.0]]]
+    if kind == "material":
+        return ["banana", "", "air", 1.5, True, ["cr39"], {"n_d": 1.0}, {"n_d": "1.5"},
+                {"n_d": 1.5, "v_d": "40"}, {"n_d": 1.5, "v_d": -10.0}, {"n_d": math.nan},
+                {"v_d": 40.0}, {"n_d": 1.5, "colour": "red"}, {"n_d": HUGE}, {"n_d": 1.0001},
+                {"n_d": 5.0}]
+    if kind == "scene":
+        return ["banana", "", 1, True, ["room"], {"path": 1}, "/nonexistent/mesh.ply"]
+    raise ValueError(kind)
+
+
+def _merge(base, table, key, value):
+    spec = _deep_copy(base)
+    node = spec
+    for part in table.split("."):
+        if part.endswith("]"):
+            name, idx = part[:-1].split("[")
+            node = node.setdefault(name, [{}])[int(idx)]
+        else:
+            node = node.setdefault(part, {})
+    node[key] = value
+    return spec
+
+
+def _deep_copy(x):
+    if isinstance(x, dict):
+        return {k: _deep_copy(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_deep_copy(v) for v in x]
+    return x
+
+
+def to_toml(spec: dict) -> str:
+    from eyelab.spec import dump_spec
+
+    return dump_spec(spec)
+
+
+def corpus() -> list:
+    """[(name, bytes, field)]: the whole corpus."""
+    cases = []
+    for table, key, kind, lo, hi, base in FIELDS:
+        for i, v in enumerate(_bad_values(kind, lo, hi)):
+            spec = _merge(base, table, key, v)
+            cases.append((f"{table}.{key}#{i}", to_toml(spec).encode(), f"{table}.{key}"))
+    # unknown keys (a typo of each key) and unknown tables
+    for table, key, _, _, _, base in FIELDS:
+        if "renderer" in base.get("render", {}) and key in ("samples",):
+            continue
+        spec = _merge(base, table, key + "s" if not key.endswith("s") else key[:-1], 1.0)
+        typo = key + "s" if not key.endswith("s") else key[:-1]
+        cases.append((f"{table}.{typo}(unknown)", to_toml(spec).encode(), f"{table}.{typo}"))
+    for name in ("camera", "eyes", "Lens", "render2"):
+        cases.append((f"[{name}]", f"[{name}]\nx = 1\n".encode(), f"spec.{name}"))
+    for name, text in (("eye = 5", "eye = 5\n"), ("lens = []", "lens = []\n"),
+                       ("render = 'x'", "render = 'x'\n"), ("points = {}", "[points]\n"),
+                       ("points = []", "points = []\n"), ("analysis = 1", "analysis = 1\n"),
+                       ("points = [1]", "points = [1]\n")):
+        cases.append((name, text.encode(), name.split(" ")[0]))
+    # keys that only take effect with another key, and keys another choice excludes
+    only = {
+        "amplitude_model without age": ({"eye": {"amplitude_model": "max"}},
+                                         "eye.amplitude_model"),
+        "kind without rx": ({"eye": {"kind": "axial", "power_min_d": 60}}, "eye.kind"),
+        "eye vertex distance without rx": ({"eye": {"vertex_distance_mm": 12}},
+                                           "eye.vertex_distance_mm"),
+        "torus with explicit surfaces": (_merge(SURF_LENS, "lens", "torus", "x"),
+                                         "lens.torus"),
+        "base curve with explicit surfaces": (_merge(SURF_LENS, "lens", "base_curve_d", 4.0),
+                                              "lens.base_curve_d"),
+        "rx with explicit surfaces": (_merge(SURF_LENS, "lens", "rx", "-2.00"), "lens.rx"),
+        "front without back": ({"lens": {"front": {"type": "plane"},
+                                         "center_thickness_mm": 2.0}}, "lens.back"),
+        "age and amplitude": ({"eye": {"age": 40, "accommodation_max_d": 2}}, "eye.age"),
+        "pupil and luminance": ({"eye": {"pupil_diameter_mm": 3, "luminance_cd_m2": 100}},
+                                "eye.pupil_diameter_mm"),
+        "rx and powers": ({"eye": {"rx": "-1.00", "power_min_d": 60}}, "eye.power_min_d"),
+        "radius and curvature": (_merge(SURF_LENS, "lens.front", "curvature", 10.0),
+                                 "lens.front.curvature"),
+        "zero radius": (_merge(SURF_LENS, "lens.front", "radius_mm", 0), "lens.front.radius_mm"),
+        "far before near": ({"render": {"near_m": 2.0, "far_m": 1.0}}, "render.far_m"),
+        "aspect": ({"render": {"width": 16, "height": 4096}}, "render.width"),
+        "point at the pupil": ({"points": [{"position_m": [0, 0, 0]}]}, "points[0].position_m"),
+        "point twice": ({"points": [{"position_m": [0, 0, -1], "distance_m": 1}]},
+                        "points[0].position_m"),
+        "rx eye too strong": ({"eye": {"rx": "+25.00 DS"}}, "eye.rx"),
+        "rx eye with retina": ({"eye": {"rx": "-2.00", "retina_distance_mm": 15}},
+                               "eye.retina_distance_mm"),
+        "low-index material for the eye's rx": ({"eye": {"rx": "-12.00"}, "lens": {
+            "material": {"n_d": 1.2}}}, "lens.material"),
+        "steep base curve": ({"lens": {"rx": "-2.00", "base_curve_d": 29, "diameter_mm": 60}},
+                             "lens.base_curve_d"),
+    }
+    for name, (spec, fld) in only.items():
+        cases.append((name, to_toml(spec).encode(), fld))
+    # a renderer's key under the other renderer
+    cases.append(("reference key on raster", b'[render]\nmodel = "fons"\n', "render.model"))
+    cases.append(("raster key on reference",
+                  b'[render]\nrenderer = "reference"\nfield_shape = [8, 8, 8]\n',
+                  "render.field_shape"))
+    # encodings, syntax and nesting
+    raw = {
+        "latin-1 comment": "# caf\xe9\n[eye]\nage = 40\n".encode("latin-1"),
+        "utf-16": "[eye]\nage = 40\n".encode("utf-16"),
+        "random bytes": bytes(range(256)) * 4,
+        "nul bytes": b"[eye]\x00\nage = 40\n",
+        "deep arrays": b"x = " + b"[" * 3000 + b"]" * 3000 + b"\n",
+        "deep tables": b"[" + b".".join(b"a" for _ in range(3000)) + b"]\n",
+        "deep inline": b"x = " + b"{a = " * 2000 + b"1" + b"}" * 2000 + b"\n",
+        "truncated": b'[eye]\nrx = "-2.00',
+        "duplicate key": b"[eye]\nage = 40\nage = 41\n",
+        "duplicate table": b"[eye]\nage = 40\n[eye]\nage = 41\n",
+        "no value": b"[eye]\nage =\n",
+        "bare word": b"[eye]\nage = forty\n",
+        "binary mesh": b"solid x\n" + bytes([0x80, 0xff]) * 40,
+        "ply": b"ply\nformat ascii 1.0\nelement vertex 0\nend_header\n",
+    }
+    for name, data in raw.items():
+        cases.append((name, data, "spec"))
+    return cases
+
+
+def main(out: str) -> None:
+    d = Path(out)
+    d.mkdir(parents=True, exist_ok=True)
+    index = []
+    for i, (name, data, fld) in enumerate(corpus()):
+        (d / f"{i:04d}.toml").write_bytes(data)
+        index.append({"file": f"{i:04d}.toml", "name": name, "field": fld})
+    (d / "index.json").write_text(json.dumps(index, indent=1))
+    print(f"{len(index)} cases in {d}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

@@ -1,0 +1,90 @@
+"""The generated bad-spec corpus (``tests/badspecs.py``, > 1000 cases across every field):
+each case exits 2 with one line naming the offending field, no traceback, nothing written."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from badspecs import corpus
+
+from eyelab.apps.cli import main
+
+CASES = corpus()
+
+
+def test_the_corpus_is_large_and_covers_every_table():
+    assert len(CASES) >= 500
+    fields = {f for _, _, f in CASES}
+    for table in ("eye", "lens", "lens.front", "lens.back", "lens.material", "analysis",
+                  "points[0]", "render", "spec"):
+        assert any(f == table or f.startswith(table + ".") for f in fields), table
+
+
+def _run(argv, capsys):
+    rc = main(argv)
+    err = capsys.readouterr().err.strip()
+    return rc, err
+
+
+def test_every_bad_spec_is_one_named_line_and_writes_nothing(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    failures = []
+    for i, (name, data, field) in enumerate(CASES):
+        spec.write_bytes(data)
+        # render (PNG + report) and demo (PNG + JSON), alternately: both must stop first
+        argv = (["render", str(spec), "-o", str(tmp_path / "r.png"), "--report",
+                 str(tmp_path / "r.json")] if i % 2 else
+                ["demo", str(spec), "-o", str(tmp_path / "d.png")])
+        rc, err = _run(argv, capsys)
+        left = sorted(set(os.listdir(tmp_path)) - {"s.toml"})
+        if not (rc == 2 and len(err.splitlines()) == 1
+                and err.startswith(f"eyelab: error: {field}") and not left):
+            failures.append(f"{name}: rc={rc} written={left} {err[:200]!r}")
+    assert not failures, f"{len(failures)} of {len(CASES)}:\n" + "\n".join(failures[:20])
+
+
+def test_analyze_reads_the_same_corpus(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    out = tmp_path / "a.json"
+    for name, data, field in CASES[::7]:
+        spec.write_bytes(data)
+        rc, err = _run(["analyze", str(spec), "-o", str(out)], capsys)
+        assert rc == 2 and err.startswith(f"eyelab: error: {field}"), (name, err)
+        assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["--width", "0"], "render.width"),
+    (["--width", "99999"], "render.width"),
+    (["--width", "16", "--height", "4096"], "render.width"),
+    (["--samples", "0"], "render.samples"),
+    (["--samples", "100000"], "render.samples"),
+    (["--renderer", "reference", "--samples", "0"], "render.samples"),
+    (["--gaze", "90", "0"], "render.gaze_deg[0]"),
+    (["--gaze", "nan", "0"], "render.gaze_deg[0]"),
+    (["--width", "abc"], "--width"),
+    (["--renderer", "banana"], "--renderer"),
+    (["--no-such-flag"], "unrecognized arguments"),
+])
+def test_bad_command_lines_are_one_line(tmp_path, capsys, argv, field):
+    out = tmp_path / "o.png"
+    try:
+        rc = main(["render", "-o", str(out), *argv])
+    except SystemExit as e:            # argparse's own errors
+        rc = e.code
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and field in err, err
+    assert not out.exists()
+
+
+def test_values_at_the_documented_limits_are_accepted(tmp_path, capsys):
+    """The corpus refuses just outside the ranges; these just inside are read (age 0 gives
+    Hofstetter's 18.5 D, which once overflowed the amplitude's range)."""
+    from eyelab.spec import parse_spec
+
+    spec = parse_spec({"eye": {"age": 0}, "render": {"focus_d": 25, "far_m": 1e5}})
+    assert spec.eye.accommodation_max == pytest.approx(18.5)
+    parse_spec({"eye": {"age": 0, "amplitude_model": "max"}})
+    parse_spec({"lens": {"rx": "-2.00", "material": {"n_d": 1.5, "v_d": "inf"}}})
+    parse_spec({"eye": {"rx": "-2.00", "kind": "axial", "vertex_distance_mm": 14}})
