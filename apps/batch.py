@@ -18,6 +18,9 @@ def add_parser(sub) -> None:
     b.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://host:port) to send the jobs to instead")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    from eyelab.apps.cli import add_max_memory
+
+    add_max_memory(b)
 
 
 def run(args) -> int:
@@ -31,6 +34,11 @@ def run(args) -> int:
         raise SpecError("--scheduler", f"must be an address like tcp://host:8786, got "
                                        f"{args.scheduler!r}")
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+    if args.max_memory is not None:      # the jobs (and Dask workers) read it from here
+        from eyelab.resources import ENV_MAX_MEMORY, memory_limit
+
+        memory_limit(args.max_memory)
+        os.environ[ENV_MAX_MEMORY] = repr(args.max_memory)
     js = load_job_spec(args.jobspec, out_dir=args.output)
     res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
                     progress=not args.quiet and sys.stderr.isatty())

@@ -93,9 +93,17 @@ def _render_overrides(parser) -> None:
                         "the raster renderer, rays per pixel of the reference)")
     parser.add_argument("--width", type=int, help="override render.width (pixels)")
     parser.add_argument("--height", type=int, help="override render.height (pixels)")
+    add_max_memory(parser)
     parser.add_argument("--gaze", type=float, nargs=2, metavar=("RIGHT", "UP"),
                         help="override render.gaze_deg: the eye turned this many degrees "
                         "right and up behind the lens")
+
+
+def add_max_memory(parser) -> None:
+    """``--max-memory GIB``: the memory limit renders are checked against up front."""
+    parser.add_argument("--max-memory", type=float, metavar="GIB",
+                        help="refuse renders whose estimated memory exceeds this many GiB "
+                        "(default: $EYELAB_MAX_MEMORY_GB, else half the machine's memory)")
 
 
 def main(argv=None) -> int:
@@ -183,6 +191,9 @@ def _render(args) -> int:
         key = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
+    from eyelab.resources import check_memory, memory_limit
+
+    check_memory(rs, memory_limit(args.max_memory))
     from eyelab.fileio import atomic_group
     from eyelab.jobs import demo, json_writer, png_writer, render_spec
 

@@ -24,6 +24,9 @@ def add_parser(sub) -> None:
     ins.add_argument("--screenshot", help="render to the target S, write the view (PNG) "
                      "and its spec (.toml beside it), and exit")
     ins.add_argument("--window-shot", help="with --screenshot: also the whole window (PNG)")
+    from eyelab.apps.cli import add_max_memory
+
+    add_max_memory(ins)
     ins.add_argument("--offscreen", action="store_true",
                      help="no window on the screen (implied by --screenshot without a display)")
 
@@ -61,6 +64,9 @@ def run(args) -> int:
     if offscreen:
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
     model = InspectorModel(args.spec, size=size, samples=args.samples, scene=args.mesh)
+    from eyelab.resources import check_memory, memory_limit
+
+    check_memory(model.spec.render, memory_limit(args.max_memory))
     from eyelab.render.inspector import InspectorWindow
 
     win = InspectorWindow(model, off_screen=offscreen)

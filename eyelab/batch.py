@@ -275,6 +275,7 @@ def run_job(job: Job, out_dir, formats) -> dict:
     retried by the next run. Returns the summary row."""
     from eyelab import __version__
     from eyelab.fileio import atomic_path, json_default
+    from eyelab.resources import check_memory, memory_limit
     from eyelab.spec import parse_spec
 
     out_dir = Path(out_dir)
@@ -284,6 +285,7 @@ def run_job(job: Job, out_dir, formats) -> dict:
     try:
         spec = parse_spec(job.data, f"job {job.index}")
         rs = spec.render
+        check_memory(rs, memory_limit())
         res = _renderer(rs.renderer, rs.quality).render(_scene(rs.scene), spec.eye,
                                                          spec.lens, rs.view)
     except SpecError as e:

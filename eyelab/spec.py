@@ -7,6 +7,7 @@ unless a key ends in ``_m``; D for powers; degrees for angles.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -96,9 +97,11 @@ class Spec:
 def _check_keys(table, allowed, where):
     if not isinstance(table, dict):
         raise SpecError(where, f"must be a table, got {table!r}")
-    unknown = sorted(set(table) - allowed)
+    unknown = sorted(set(table) - allowed, key=str)
     if unknown:
-        raise SpecError(f"{where}.{unknown[0]}", f"unknown key; allowed keys: "
+        near = difflib.get_close_matches(str(unknown[0]), sorted(allowed), n=1, cutoff=0.6)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        raise SpecError(f"{where}.{unknown[0]}", f"unknown key; {hint}allowed keys: "
                                                  f"{', '.join(sorted(allowed))}")
 
 

@@ -88,3 +88,13 @@ def test_values_at_the_documented_limits_are_accepted(tmp_path, capsys):
     parse_spec({"eye": {"age": 0, "amplitude_model": "max"}})
     parse_spec({"lens": {"rx": "-2.00", "material": {"n_d": 1.5, "v_d": "inf"}}})
     parse_spec({"eye": {"rx": "-2.00", "kind": "axial", "vertex_distance_mm": 14}})
+
+
+def test_an_unknown_key_suggests_the_nearest_valid_name():
+    from eyelab.errors import SpecError
+    from eyelab.spec import parse_spec
+
+    for data, near in (({"eye": {"agee": 40}}, "'age'"), ({"Lens": {}}, "'lens'"),
+                       ({"render": {"sampels": 4}}, "'samples'")):
+        with pytest.raises(SpecError, match=f"did you mean {near}"):
+            parse_spec(data)

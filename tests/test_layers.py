@@ -17,7 +17,7 @@ LAYERS = {
     "eyelab.sampling": 0, "eyelab.parallel": 0, "eyelab.fileio": 0, "eyelab.cache": 0,
     "eyelab.color": 0,
     "eyelab.optics": 1,
-    "eyelab.imaging": 2, "eyelab.options": 2,
+    "eyelab.imaging": 2, "eyelab.options": 2, "eyelab.resources": 2,
     "eyelab.blur": 3, "eyelab.scene": 3,
     "eyelab.spec": 4, "eyelab.analyze": 4,
     "eyelab.render": 5, "eyelab.reference": 5,
