@@ -17,9 +17,9 @@ def add_parser(sub) -> None:
                    help="worker processes of a local Dask cluster (1: in this process)")
     b.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://host:port) to send the jobs to instead")
-    b.add_argument("--quiet", action="store_true", help="no progress bar")
-    from eyelab.apps.cli import add_max_memory
+    from eyelab.apps.cli import add_max_memory, add_quiet
 
+    add_quiet(b)
     add_max_memory(b)
 
 

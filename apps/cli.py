@@ -63,6 +63,7 @@ def _build_parser() -> argparse.ArgumentParser:
                      "stability: 10^4 engine cases (CI runs it; the default is 10^5)")
     pre.add_argument("--full", action="store_true",
                      help="quality: 1024x768 and every configuration; stability: 10^6 cases")
+    add_quiet(be)
     be.add_argument("--plot", help="quality: also write the error-vs-time plot (PNG) here")
     be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
     be.add_argument("--points", type=int, default=1_000_000,
@@ -94,9 +95,16 @@ def _render_overrides(parser) -> None:
     parser.add_argument("--width", type=int, help="override render.width (pixels)")
     parser.add_argument("--height", type=int, help="override render.height (pixels)")
     add_max_memory(parser)
+    add_quiet(parser)
     parser.add_argument("--gaze", type=float, nargs=2, metavar=("RIGHT", "UP"),
                         help="override render.gaze_deg: the eye turned this many degrees "
                         "right and up behind the lens")
+
+
+def add_quiet(parser) -> None:
+    """``--quiet``: no progress bars (they show on a terminal for work longer than 2 s)."""
+    parser.add_argument("--quiet", action="store_true", help="no progress bars (shown on "
+                        "stderr when it is a terminal, for work longer than 2 s)")
 
 
 def add_max_memory(parser) -> None:
@@ -123,6 +131,10 @@ def main(argv=None) -> int:
 
 
 def _main(args) -> int:
+    if getattr(args, "quiet", False):
+        from eyelab.progress import set_enabled
+
+        set_enabled(False)
     try:
         if args.command == "analyze":
             return _analyze(args)
@@ -225,6 +237,12 @@ def _bench(args) -> int:
     if args.repeats < 1 or args.repeats > 50:
         raise SpecError("--repeats", f"must be in [1, 50], got {args.repeats}")
     output = args.output or f"bench-{args.what}.json"
+    from eyelab.fileio import check_distinct, check_output
+
+    check_output("--output", output)
+    if args.plot:
+        check_output("--plot", args.plot)
+        check_distinct(**{"--output": output, "--plot": args.plot})
     if args.what == "optics":
         from eyelab.bench.optics import run_optics_bench
 
@@ -264,10 +282,10 @@ def _bench(args) -> int:
 
         res = run_memory_bench(*((40, 100) if args.quick else (200, 500)))
     elif args.what == "stability":
-        from eyelab.bench.stability import run_stability_bench
+        from eyelab.bench.stability import QUICK, run_stability_bench
 
         if args.quick:     # what CI runs (tests/test_bench_quality.py)
-            res = run_stability_bench(cases=10_000, field_configs=40, reference_configs=8)
+            res = run_stability_bench(**QUICK)
         else:
             res = run_stability_bench(cases=1_000_000 if args.full else 100_000)
     else:

@@ -436,9 +436,9 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
 def _bar(total, progress):
     if not progress:
         return None
-    from tqdm import tqdm
+    from eyelab.progress import bar
 
-    return tqdm(total=total, desc="batch", unit="job")
+    return bar(total, "batch", "job", force=True)
 
 
 def write_summary(out: Path, rows: list) -> None:

@@ -47,6 +47,8 @@ def atomic_path(path, suffix: str = ".tmp"):
     file replaces ``path`` with the usual permissions (umask), otherwise it is removed.
     Parent folders are created. The temporary's name starts with :data:`TMP_PREFIX`."""
     p = Path(path)
+    if p.exists() and not p.is_file():     # never rename over a device or a folder
+        raise SpecError("output", f"{str(p)!r} is not a regular file")
     p.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f"{TMP_PREFIX}{p.name}.", suffix=suffix)
     os.close(fd)
@@ -76,6 +78,9 @@ def check_output(flag: str, path) -> Path:
     p = Path(path)
     if p.is_dir():
         raise SpecError(flag, f"{str(p)!r} is a folder, not a file")
+    if p.exists() and not p.is_file():
+        raise SpecError(flag, f"{str(p)!r} is not a regular file (a device, pipe or socket); "
+                              "outputs replace whole files")
     parent = p.parent
     while not parent.exists():
         parent = parent.parent

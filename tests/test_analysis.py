@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from bruteforce import bundle_vergence, retinal_spot_axes
+from eyelab.bench.bruteforce import bundle_vergence, retinal_spot_axes
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens

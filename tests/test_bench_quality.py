@@ -3,7 +3,7 @@
 import pytest
 
 from eyelab.bench.quality import run_quality_bench
-from eyelab.bench.stability import run_stability_bench
+from eyelab.bench.stability import QUICK, run_stability_bench
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_quick_quality_reference_converges_with_samples(quality):
 
 
 def test_quick_stability_all_clear():
-    res = run_stability_bench(cases=10_000, field_configs=40, reference_configs=8)
+    res = run_stability_bench(**QUICK)
     assert res["engine_configurations"] >= 10_000
     assert res["all_clear"], res["summary"]
 

@@ -229,3 +229,18 @@ def test_outputs_are_checked_before_any_work(tmp_path, capsys):
     assert main(["render", "-o", str(afile / "x.png")]) == 2
     assert "not a folder" in capsys.readouterr().err
     assert main(["analyze", "-o", str(folder)]) == 2
+
+
+def test_a_device_is_never_replaced(tmp_path, capsys):
+    """`-o /dev/null` names a device: refused before any work, never renamed over."""
+    import os
+    import stat
+
+    for argv in (["render", "-o", os.devnull.replace("null", "null.png")],
+                 ["bench", "optics", "-o", os.devnull],
+                 ["analyze", "-o", os.devnull]):
+        if not os.path.exists(argv[-1]):
+            continue
+        assert main(argv) == 2
+        assert "not a regular file" in capsys.readouterr().err
+    assert stat.S_ISCHR(os.stat(os.devnull).st_mode)

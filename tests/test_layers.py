@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {
     "eyelab": 0, "eyelab.errors": 0, "eyelab.constants": 0, "eyelab.vecmath": 0,
     "eyelab.sampling": 0, "eyelab.parallel": 0, "eyelab.fileio": 0, "eyelab.cache": 0,
-    "eyelab.color": 0,
+    "eyelab.color": 0, "eyelab.progress": 0,
     "eyelab.optics": 1,
     "eyelab.imaging": 2, "eyelab.options": 2, "eyelab.resources": 2,
     "eyelab.blur": 3, "eyelab.scene": 3,

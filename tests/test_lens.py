@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from bruteforce import bundle_vergence
+from eyelab.bench.bruteforce import bundle_vergence
 from eyelab.errors import SpecError
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye

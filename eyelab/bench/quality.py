@@ -31,6 +31,7 @@ from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
 from eyelab.options import RasterQuality, ReferenceQuality
+from eyelab.progress import bar as progress_bar
 from eyelab.reference.metrics import compare_images, to_linear
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer
@@ -113,12 +114,16 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
         if bad:
             raise SpecError(flag, f"unknown {bad}; allowed: {sorted(known)}")
     cases = []
+    todo = [(s, c) for s in scenes() if not only_scenes or s in only_scenes
+            for c in configs(quick) if not only_configs or c in only_configs]
+    bar = progress_bar(len(todo), f"quality {w}x{h}", "case")
     for sname, (scene, fov, near, far) in scenes().items():
         if only_scenes and sname not in only_scenes:
             continue
         for cname, (eye, lens) in configs(quick).items():
             if only_configs and cname not in only_configs:
                 continue
+            bar.set_postfix_str(f"{sname} / {cname}")
             view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
             truth, t_truth, trep = _truth(truth_cache, f"{sname}__{cname}__{w}x{h}__"
                                           f"{truth_spp}spp__{TRUTH_FORMAT}", ReferenceQuality(
@@ -160,6 +165,8 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                     np.log(m["time_s"]), np.log(rt), np.log(re))))
                 m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
             cases.append(case)
+            bar.update(1)
+    bar.close()
     return summarise(cases, preset="quick" if quick else "full", size=(w, h),
                      plot_path=plot_path)
 

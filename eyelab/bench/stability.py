@@ -29,8 +29,11 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Sphere, Toric
 from eyelab.optics.trace import FATAL
+from eyelab.progress import bar as progress_bar
 
 MATERIALS = [m for k, m in CATALOGUE.items() if k != "air"]
+#: ``eyelab bench stability --quick``: what CI runs (tests/test_bench_quality.py).
+QUICK = {"cases": 10_000, "field_configs": 40, "reference_configs": 8}
 
 
 def _random_lens(rng):
@@ -83,10 +86,85 @@ def _check_engine(eye, lens, objects, fixation):
                       | bad_inf).sum())
     curv = np.abs(np.concatenate([res.wave_eye.k11[ok], res.wave_eye.k22[ok]])) \
         if ok.any() else np.zeros(1)
-    return len(objects), nan, wrong, {"time_s": dt, "max_iterations": int(
+    return res, len(objects), nan, wrong, {"time_s": dt, "max_iterations": int(
         res.chief.iterations.max(initial=0)), "max_residual": float(
         res.chief.residual[ok].max(initial=0.0)), "max_curvature": float(curv.max()),
         "ok": int(ok.sum())}
+
+
+#: Tolerances of the independent re-derivation (bundle fits of radius 10 um: their own
+#: error is ~1e-5 D on ordinary lenses and grows with the third derivatives of strong,
+#: tilted lenses at 40 deg; a wrong answer is off by much more -- a sign, a dioptre, 2x).
+VERGENCE_TOL_D = 2e-3
+VERGENCE_TOL_REL = 1e-3
+BLUR_TOL_M = 2e-7
+BLUR_TOL_REL = 2e-3
+ACCOMMODATION_TOL_D = 2e-3
+
+
+def _rederive(eye, lens, objects, res, fixation, rng, n_ok=2, n_fatal=1):
+    """Re-derive a random subset of ``res`` without the engine's wavefront tracer or path
+    finder: for OK rows the wave at the eye from a bundle of real rays
+    (:func:`~eyelab.bench.bruteforce.bundle_vergence`), Eq. 13's accommodation from that
+    wave and the eye's amplitude bounds, and the retinal blur from rim rays through the thin
+    eye (:func:`~eyelab.bench.bruteforce.retinal_spot_axes`); for rows without a light path,
+    an exhaustive search (:func:`~eyelab.bench.bruteforce.search_path`) must find none.
+    Returns counts and the worst deviations."""
+    from eyelab.bench.bruteforce import bundle_vergence, retinal_spot_axes, search_path
+
+    out = {"vergence_checked": 0, "vergence_wrong": 0, "blur_wrong": 0,
+           "accommodation_wrong": 0, "missed_checked": 0, "missed_wrong": 0,
+           "max_vergence_dev_d": 0.0, "max_blur_dev_m": 0.0, "max_accommodation_dev_d": 0.0,
+           "examples": []}
+    ok = (res.status & np.uint8(FATAL)) == 0
+    k_eng = res.wave_eye.in_basis(res.eye_x)
+    maj, mnr, _ = res.blur_axes()
+    pos = objects.positions()
+    for i in rng.permutation(np.flatnonzero(ok))[:n_ok]:
+        finite = bool(objects.finite[i])
+        start = res.chief.start[i]
+        bf = bundle_vergence(lens, start, res.chief.dir_in[i], finite, res.pupil[i],
+                             res.wave_eye.N[i], res.eye_x[i], radius=1e-5, strict=False)
+        if bf is None:         # a bundle ray grazes the rim: no independent truth here
+            continue
+        out["vergence_checked"] += 1
+        k_bf = np.array(bf[:3])
+        k_en = np.array([k[i] for k in k_eng])
+        dev = float(np.abs(k_bf - k_en).max())
+        out["max_vergence_dev_d"] = max(out["max_vergence_dev_d"], dev)
+        if dev > VERGENCE_TOL_D + VERGENCE_TOL_REL * float(np.abs(k_bf).max()):
+            out["vergence_wrong"] += 1
+            out["examples"].append(f"row {i}: wave at the eye {k_en} D, real rays {k_bf} D")
+        # Eq. 13 on the measured wave, within the eye's amplitude
+        want = float(np.clip(eye.emmetropic_power - 0.5 * (k_bf[0] + k_bf[2]) - eye.power_min,
+                             0.0, eye.accommodation_max))
+        acc = float(res.accommodation[i])
+        dev_a = abs(acc - want)
+        out["max_accommodation_dev_d"] = max(out["max_accommodation_dev_d"], dev_a)
+        if not (0.0 <= acc <= eye.accommodation_max) or dev_a > ACCOMMODATION_TOL_D \
+                + VERGENCE_TOL_REL * float(np.abs(k_bf).max()):
+            out["accommodation_wrong"] += 1
+            out["examples"].append(f"row {i}: accommodation {acc:.4f} D, Eq. 13 on the real "
+                                   f"wave {want:.4f} D (amplitude {eye.accommodation_max:g})")
+        bmaj, bmin, _ = retinal_spot_axes(eye, k_bf, want)
+        dev_b = max(abs(maj[i] - bmaj), abs(mnr[i] - bmin))
+        out["max_blur_dev_m"] = max(out["max_blur_dev_m"], dev_b)
+        if dev_b > BLUR_TOL_M + BLUR_TOL_REL * bmaj:
+            out["blur_wrong"] += 1
+            out["examples"].append(f"row {i}: blur {maj[i]:.3e} x {mnr[i]:.3e} m, rim rays "
+                                   f"{bmaj:.3e} x {bmin:.3e} m")
+    if lens is not None:
+        target = np.array([0.0, 0.0, eye.rotation_centre]) if fixation == "rotating" \
+            else np.zeros(3)
+        for i in rng.permutation(np.flatnonzero(~ok))[:n_fatal]:
+            out["missed_checked"] += 1
+            found, r = search_path(lens, target, pos[i], bool(objects.finite[i]),
+                                   objects.direction[i])
+            if found:
+                out["missed_wrong"] += 1
+                out["examples"].append(f"row {i}: status {int(res.status[i])} but a light "
+                                       f"path exists (residual {r:.1e} rad)")
+    return out
 
 
 def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: int = 100,
@@ -99,8 +177,14 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
     worst_curv = (0.0, None)
     refused = 0
     crash_examples = []
+    rederived = {"vergence_checked": 0, "vergence_wrong": 0, "blur_wrong": 0,
+                 "accommodation_wrong": 0, "missed_checked": 0, "missed_wrong": 0,
+                 "max_vergence_dev_d": 0.0, "max_blur_dev_m": 0.0,
+                 "max_accommodation_dev_d": 0.0, "examples": []}
     n_configs = int(math.ceil(cases / points_per_config))
+    bar = progress_bar(n_configs + field_configs + reference_configs, "stability", "config")
     for c in range(n_configs):
+        bar.update(1)
         try:
             lens = None if rng.uniform() < 0.1 else _random_lens(rng)
         except SpecError:
@@ -113,11 +197,19 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
                                        rng.uniform(-40, 40, points_per_config))
         fixation = "rotating" if c % 2 else "fixed"
         try:
-            n, bad, wr, st = _check_engine(eye, lens, obj, fixation)
+            res, n, bad, wr, st = _check_engine(eye, lens, obj, fixation)
+            rd = _rederive(eye, lens, obj, res, fixation, rng)
         except Exception:  # a crash is what this benchmark counts
             crashes += 1
             crash_examples.append(traceback.format_exc(limit=3))
             continue
+        for k, v in rd.items():
+            if k == "examples":
+                rederived["examples"].extend(f"config {c}: {e}" for e in v)
+            elif k.startswith("max_"):
+                rederived[k] = max(rederived[k], v)
+            else:
+                rederived[k] += v
         total += n
         nan += bad
         wrong += wr
@@ -149,6 +241,7 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
 
     field_nan = field_crash = voxels = 0
     for _ in range(field_configs):
+        bar.update(1)
         eye = _random_eye(rng)
         try:
             lens = _random_lens(rng) if rng.uniform() < 0.7 else None
@@ -171,6 +264,7 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
     scene = room_scene()
     ref_nan = ref_crash = pixels = 0
     for _ in range(reference_configs):
+        bar.update(1)
         eye = _random_eye(rng)
         try:
             lens = _random_lens(rng) if rng.uniform() < 0.7 else None
@@ -185,6 +279,7 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
             continue
         pixels += img.shape[0] * img.shape[1]
         ref_nan += int((~np.isfinite(img)).any(axis=2).sum())
+    bar.close()
     out = {
         "benchmark": "stability", "seed": seed,
         "engine_configurations": total, "engine_ok_rows": ok_rows,
@@ -198,16 +293,26 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         "most_path_iterations": {"iterations": worst_iter[0], "case": worst_iter[1]},
         "largest_curvature_1_per_m": {"value": worst_curv[0], "case": worst_curv[1]},
         "crash_examples": crash_examples[:5],
+        "rederived": dict(rederived, examples=rederived["examples"][:10]),
         "time_s": time.perf_counter() - t0,
     }
+    rd_wrong = sum(rederived[k] for k in ("vergence_wrong", "blur_wrong",
+                                          "accommodation_wrong", "missed_wrong"))
     out["all_clear"] = (nan == crashes == wrong == field_nan == field_crash == ref_nan
-                        == ref_crash == 0)
+                        == ref_crash == rd_wrong == 0)
     out["summary"] = [
         f"engine: {total} configurations ({ok_rows} with a light path), {nan} NaN/inf, "
         f"{crashes} crashes, {wrong} wrong statuses; {refused} impossible lenses refused "
         f"with a clear error",
         f"blur field: {voxels} voxels, {field_nan} NaN/inf, {field_crash} crashes; reference: "
         f"{pixels} pixels, {ref_nan} NaN/inf, {ref_crash} crashes",
+        f"re-derived independently: {rederived['vergence_checked']} rows with a light path "
+        f"(real-ray bundles, Eq. 13, rim rays): {rederived['vergence_wrong']} wrong waves, "
+        f"{rederived['accommodation_wrong']} wrong accommodations, "
+        f"{rederived['blur_wrong']} wrong blurs (largest deviations "
+        f"{rederived['max_vergence_dev_d']:.1e} D, {rederived['max_accommodation_dev_d']:.1e} "
+        f"D, {rederived['max_blur_dev_m']:.1e} m); {rederived['missed_checked']} rows without "
+        f"one searched exhaustively: {rederived['missed_wrong']} had a path",
         f"slowest batch {slowest[0] * 1e3:.1f} ms; most path iterations {worst_iter[0]}; "
         f"largest wave curvature {worst_curv[0]:.3g} 1/m; {out['time_s']:.1f} s in all",
         "ALL CLEAR" if out["all_clear"] else "FAILURES FOUND",

@@ -212,7 +212,7 @@ def compute_blur_field_bundles(eye, lens=None, camera: Camera | None = None, *,
         ref_depth = 2.0 / (1.0 / camera.near + 1.0 / camera.far)
         aim = cop + dirs_cam * (ref_depth / (dirs_cam @ fwd))[:, None]
         chief = find_chief_rays(lens, pupil, ObjectPoints.from_positions(aim - pupil),
-                                wavelength_nm)
+                                wavelength_nm, search=False)   # as the blur field's columns
         d_rev = -chief.dir_out
         ref_status = ((chief.status & np.uint8(FATAL)) != 0).astype(np.uint8)
     seeds = disc_seeds(samples)

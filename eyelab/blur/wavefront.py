@@ -28,6 +28,7 @@ from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL
 from eyelab.parallel import map_row_chunks
+from eyelab.progress import bar as progress_bar
 from eyelab.vecmath import UP, cross, unit
 
 #: Angular step (rad) for the retina -> NDC Jacobian: central differences, error ~h^2.
@@ -102,8 +103,13 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     t = time.perf_counter()
     if lens is not None:
         aim = cop + dirs_cam * (reference_depth / (dirs_cam @ fwd))[:, None]
+        # no global search for columns whose Newton start misses the lens: they are the
+        # naked eye's columns (the raster draws what is seen through the lens in its own
+        # pass), and searching every one of them costs ~10x the field where a small lens
+        # leaves most of a wide view outside it
         chief = find_chief_rays(lens, pupil, ObjectPoints.from_positions(aim - pupil) if
-                                np.allclose(pupil, 0) else _shifted(aim, pupil), wavelength_nm)
+                                np.allclose(pupil, 0) else _shifted(aim, pupil), wavelength_nm,
+                                search=False)
         q = chief.entry
         d_out = -chief.dir_in                      # outgoing (scene-ward) direction
         col_status = chief.status
@@ -139,7 +145,14 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
                       wavelength_nm, accommodation)
 
     t = time.perf_counter()
-    map_row_chunks(run, ncol, workers=workers, block=max(1, 16384 // max(len(ks), 1)))
+    with progress_bar(ncol, f"blur field {nz}x{ny}x{nx} at {wavelength_nm:g} nm",
+                      "column") as bar:
+        def run_shown(a, b):
+            run(a, b)
+            bar.update(b - a)
+
+        map_row_chunks(run_shown, ncol, workers=workers,
+                       block=max(1, 16384 // max(len(ks), 1)))
     timings["voxels_s"] = time.perf_counter() - t
     extended = extend_into_invisible(matrix, status) if lens is not None else 0
     timings["total_s"] = time.perf_counter() - t0

@@ -94,13 +94,20 @@ def _residual(lens, target, dirs, objects, wavelength_nm, ea, eb):
     return np.stack([dot(ea, diff), dot(eb, diff)], -1), res
 
 
-def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 587.56):
+def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 587.56, *,
+                    search: bool = True):
     """Chief rays from ``objects`` through ``lens`` (or straight, if ``lens`` is None) to
     ``target`` ((3,) or (n, 3), metres).
 
     Newton's method on the two transverse components of the reverse-traced direction,
     with a central-difference Jacobian (4 extra traces per iteration, all vectorised) and
-    step halving when the residual grows. Converged rows are frozen.
+    step halving when the residual grows. Converged rows are frozen. Newton starts from the
+    straight line to the object; where that ends without a light path through the lens (it
+    diverged at a strong lens's rim, or converged on the line that passes outside the lens
+    while a path through it exists — an object seen both around and through a minus lens),
+    ``search`` starts it again from the best of a grid of reverse rays aimed over the whole
+    lens (:data:`SEARCH_GRID`), so a row is reported without a path only when none was
+    found from any of them.
     """
     n = len(objects)
     target = np.broadcast_to(np.asarray(target, float), (n, 3)).copy()
@@ -120,17 +127,74 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
     ea = any_tangent(e0)
     eb = cross(e0, ea)
     ab = np.zeros((n, 2))
-    h = TOL.path_fd_step
-
-    def dirs_of(ab_):
-        d = e0 + ab_[:, :1] * ea + ab_[:, 1:] * eb
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    r, res = _residual(lens, target, dirs_of(ab), objects, wavelength_nm, ea, eb)
-    rn = np.linalg.norm(r, axis=1)
     its = np.zeros(n, int)
-    active = (rn > TOL.path_tol) & ~behind
-    for _ in range(TOL.path_max_iter):
+    _newton(lens, target, objects, e0, ea, eb, ab, its, ~behind, wavelength_nm)
+    if search:
+        r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
+        lost = ~behind & ~_is_path(res, r, objects, pos)
+        if lost.any():
+            _search(lens, target, objects, e0, ea, eb, ab, its, np.flatnonzero(lost),
+                    wavelength_nm, pos)
+    r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
+    rn = np.linalg.norm(r, axis=1)
+    status |= res["status"]
+    notconv = ~(rn <= TOL.path_fail) & ~behind
+    status[notconv] |= np.uint8(Status.NOT_CONVERGED)
+    q = res["out_points"]
+    dist = np.where(objects.finite, np.linalg.norm(pos - q, axis=1), np.inf)
+    # the object must lie in front of the lens along the outgoing ray
+    in_front = np.where(objects.finite, dot(pos - q, res["out_dirs"]) > 0, True)
+    status[~in_front & ~behind] |= np.uint8(Status.BEHIND)
+    rev_dir = _dirs(e0, ea, eb, ab)
+    start = np.where(objects.finite[:, None], pos, q + res["out_dirs"])
+    h_back, h_front = res["hit1"], res["hit2"]
+    return ChiefRays(start=start, entry=h_front.points, exit=h_back.points,
+                     dir_in=-res["out_dirs"], dir_glass=-res["inside"], dir_out=-rev_dir,
+                     hits=(h_front, h_back), residual=np.where(np.isfinite(rn), rn, np.inf),
+                     iterations=its, status=status, object_distance_to_entry=dist)
+
+
+#: Reverse rays per row of the fallback search: a SEARCH_GRID x SEARCH_GRID square over
+#: the lens's front surface (the points inside its aperture), and how many of the best
+#: Newton restarts from.
+SEARCH_GRID = 33
+SEARCH_STARTS = 6
+#: Newton iterations of a restart (from a grid point it converges in a few; a restart that
+#: has not converged by then started in no path's basin).
+SEARCH_MAX_ITER = 15
+#: Grid rays whose angular residual exceeds this (rad) are no start: the grid spacing
+#: (1.9 mm on a 60 mm lens, ~0.2 rad seen from the pupil) bounds the residual of the grid
+#: point nearest a path well below it.
+SEARCH_MAX_RESIDUAL = 0.5
+
+
+def _dirs(e0, ea, eb, ab):
+    d = e0 + ab[:, :1] * ea + ab[:, 1:] * eb
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _is_path(res, r, objects, pos):
+    """Rows whose reverse ray passes the lens, points at the object (within
+    TOL.path_fail) and has the object in front of it."""
+    from eyelab.optics.trace import FATAL
+
+    passed = (res["status"] & np.uint8(FATAL)) == 0
+    rn = np.linalg.norm(r, axis=1)
+    in_front = np.where(objects.finite, dot(pos - res["out_points"], res["out_dirs"]) > 0,
+                        True)
+    return passed & (rn <= TOL.path_fail) & in_front
+
+
+def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
+            max_iter=None):
+    """Newton iterations in place on ``ab`` (n, 2) for the rows of ``active``."""
+    n = len(ab)
+    h = TOL.path_fd_step
+    r, _ = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
+    rn = np.linalg.norm(r, axis=1)
+    active = active & (rn > TOL.path_tol)
+    rn = np.where(np.isfinite(rn), rn, np.inf)
+    for _ in range(max_iter or TOL.path_max_iter):
         if not active.any():
             break
         idx = np.flatnonzero(active)
@@ -169,23 +233,61 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
         rn[idx] = np.where(np.isfinite(rtn), rtn, np.inf)
         its[idx] += 1
         active[idx] = (rn[idx] > TOL.path_tol) & ok & np.isfinite(rn[idx])
-    r, res = _residual(lens, target, dirs_of(ab), objects, wavelength_nm, ea, eb)
-    rn = np.linalg.norm(r, axis=1)
-    status |= res["status"]
-    notconv = ~(rn <= TOL.path_fail) & ~behind
-    status[notconv] |= np.uint8(Status.NOT_CONVERGED)
-    q = res["out_points"]
-    dist = np.where(objects.finite, np.linalg.norm(pos - q, axis=1), np.inf)
-    # the object must lie in front of the lens along the outgoing ray
-    in_front = np.where(objects.finite, dot(pos - q, res["out_dirs"]) > 0, True)
-    status[~in_front & ~behind] |= np.uint8(Status.BEHIND)
-    rev_dir = dirs_of(ab)
-    start = np.where(objects.finite[:, None], pos, q + res["out_dirs"])
-    h_back, h_front = res["hit1"], res["hit2"]
-    return ChiefRays(start=start, entry=h_front.points, exit=h_back.points,
-                     dir_in=-res["out_dirs"], dir_glass=-res["inside"], dir_out=-rev_dir,
-                     hits=(h_front, h_back), residual=np.where(np.isfinite(rn), rn, np.inf),
-                     iterations=its, status=status, object_distance_to_entry=dist)
+    assert n == len(ab)
+
+
+def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos,
+            chunk=64):
+    """For ``rows`` without a light path: reverse rays from the target through a grid of
+    points on the lens's front aperture; Newton again from the SEARCH_STARTS best passing
+    ones (smallest angular residual), all restarts of a chunk of rows in one vectorised
+    iteration; the first restart of a row that ends on a light path replaces its direction
+    (``ab`` and ``its`` in place)."""
+    from eyelab.optics.trace import FATAL
+
+    front, _ = lens.placed_surfaces()
+    rad = lens.diameter / 2
+    u = np.linspace(-rad, rad, SEARCH_GRID)
+    gu, gv = (g.ravel() for g in np.meshgrid(u, u))
+    keep = gu * gu + gv * gv <= rad * rad
+    # on the front surface itself (not its vertex plane: a steep surface's rim lies far
+    # behind that plane, and rays through it cross the plane outside the aperture)
+    local = np.stack([gu[keep], gv[keep], front.surface.sag(gu[keep], gv[keep])], 1)
+    disc = local @ np.asarray(front.rotation, float).T + np.asarray(front.translation, float)
+    m = len(disc)
+    for a in range(0, len(rows), chunk):
+        idx = rows[a:a + chunk]
+        k = len(idx)
+        d = disc[None, :, :] - target[idx][:, None, :]                 # (k, m, 3)
+        d /= np.linalg.norm(d, axis=2, keepdims=True)
+        fwd = np.einsum("kmj,kj->km", d, e0[idx])
+        rep = np.repeat(idx, m)
+        sub = ObjectPoints(objects.direction[rep], objects.distance[rep])
+        r, res = _residual(lens, target[rep], d.reshape(-1, 3), sub, wavelength_nm,
+                           ea[rep], eb[rep])
+        rn = np.linalg.norm(r, axis=1).reshape(k, m)
+        ok = ((res["status"] & np.uint8(FATAL)) == 0).reshape(k, m) & (fwd > 1e-3)
+        rn = np.where(ok & np.isfinite(rn) & (rn < SEARCH_MAX_RESIDUAL), rn, np.inf)
+        order = np.argsort(rn, axis=1)[:, :SEARCH_STARTS]              # (k, S)
+        row_of, start_of = np.nonzero(np.isfinite(np.take_along_axis(rn, order, 1)))
+        if not len(row_of):
+            continue
+        cr = idx[row_of]                                                # candidate rows
+        dd = d[row_of, order[row_of, start_of]]
+        f = fwd[row_of, order[row_of, start_of]]
+        c_ab = np.stack([dot(dd, ea[cr]) / f, dot(dd, eb[cr]) / f], -1)
+        c_its = its[cr].copy()
+        c_obj = ObjectPoints(objects.direction[cr], objects.distance[cr])
+        _newton(lens, target[cr], c_obj, e0[cr], ea[cr], eb[cr], c_ab, c_its,
+                np.ones(len(cr), bool), wavelength_nm, max_iter=SEARCH_MAX_ITER)
+        r2, res2 = _residual(lens, target[cr], _dirs(e0[cr], ea[cr], eb[cr], c_ab), c_obj,
+                             wavelength_nm, ea[cr], eb[cr])
+        good = _is_path(res2, r2, c_obj, pos[cr])
+        # the first good restart of each row (candidates are in row, then start, order)
+        g = np.flatnonzero(good)
+        rows_g, first = np.unique(cr[g], return_index=True)
+        ab[rows_g] = c_ab[g[first]]
+        its[rows_g] = c_its[g[first]]
 
 
 def dirs_of_sub(e0, ea, eb, idx, ab):

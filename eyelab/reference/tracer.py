@@ -102,15 +102,11 @@ class ReferenceRenderer(Renderer):
                     counts["acc_diff_max"] = max(counts["acc_diff_max"], float(np.abs(diff).max()))
                     counts["acc_n"] += len(diff)
 
-        bar = None
-        if q.progress:
-            from tqdm import tqdm
+        from eyelab.progress import bar as progress_bar
 
-            bar = tqdm(total=n, desc="reference", unit="px")
-        map_row_chunks(run if bar is None else _progress(run, bar), n, workers=q.workers,
-                       block=block)
-        if bar is not None:
-            bar.close()
+        with progress_bar(n, f"reference {view.width}x{view.height}, {len(samples)} spp",
+                          "px", force=q.progress) as bar:
+            map_row_chunks(_progress(run, bar), n, workers=q.workers, block=block)
         img = out.reshape(view.height, view.width, 3)
         dt = time.perf_counter() - t0
         report["samples"].update(target=len(samples), done={"pixel": len(samples)})

@@ -44,6 +44,7 @@ from eyelab.optics.camera import fit_virtual_camera, fit_window
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.options import RasterQuality
+from eyelab.progress import bar as progress_bar
 from eyelab.render.accumulate import PassAccumulator, encode_linear
 from eyelab.render.actors import field_actor_factory
 from eyelab.render.composite import LensCompositor, compose
@@ -427,6 +428,8 @@ class RasterRenderer(Renderer):
             report["details"]["channel_renders_per_pass"] = max(channels)
         timings = report["timings_s"]
         done = 0
+        bar = progress_bar(max((s["passes"] for s in stages), default=0),
+                           f"raster {view.width}x{view.height}", "pass")
         try:
             for cp in checkpoints:
                 for k in range(done, cp):
@@ -439,6 +442,7 @@ class RasterRenderer(Renderer):
                             st["zbuf"] = st["win"].depth()
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
+                    bar.update(1)
                 done = cp
                 if shown is not None and cp not in shown:
                     yield cp, None, None
@@ -446,6 +450,7 @@ class RasterRenderer(Renderer):
                 image, layers = self._image(naked, env, view, q, report)
                 yield cp, image.copy(), layers
         finally:
+            bar.close()
             for st in stages:
                 st["win"].set_seed((0.0, 0.0))
 

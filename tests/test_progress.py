@@ -1,0 +1,43 @@
+"""Progress bars: on stderr for long work when enabled (a terminal, or forced), silent when
+stderr is not a terminal or under --quiet."""
+
+from __future__ import annotations
+
+import pytest
+
+from eyelab import progress
+from eyelab.blur import compute_blur_field
+from eyelab.optics.eye import Eye
+
+
+@pytest.fixture
+def shown(monkeypatch):
+    monkeypatch.setattr(progress, "DELAY_S", 0.0)
+    progress.set_enabled(True)
+    yield
+    progress.set_enabled(None)
+
+
+def test_a_blur_field_and_a_stability_run_show_bars(shown, capsys):
+    compute_blur_field(Eye(), None, shape=(8, 4, 4))
+    err = capsys.readouterr().err
+    assert "blur field 8x4x4" in err and "column" in err
+    from eyelab.bench.stability import run_stability_bench
+
+    run_stability_bench(cases=100, field_configs=1, reference_configs=0)
+    assert "stability" in capsys.readouterr().err
+
+
+def test_silent_when_not_a_terminal_or_quiet(capsys, monkeypatch, tmp_path):
+    monkeypatch.setattr(progress, "DELAY_S", 0.0)
+    progress.set_enabled(None)               # pytest's stderr is not a terminal
+    compute_blur_field(Eye(), None, shape=(8, 4, 4))
+    assert capsys.readouterr().err == ""
+    from eyelab.apps.cli import main
+
+    try:
+        assert main(["bench", "optics", "--quiet", "--points", "1000", "--repeats", "1",
+                     "-o", str(tmp_path / "b.json")]) == 0
+        assert not progress.enabled()
+    finally:
+        progress.set_enabled(None)
