@@ -94,6 +94,8 @@ def _render_overrides(parser) -> None:
                         "the raster renderer, rays per pixel of the reference)")
     parser.add_argument("--width", type=int, help="override render.width (pixels)")
     parser.add_argument("--height", type=int, help="override render.height (pixels)")
+    parser.add_argument("--scene", help="override render.scene: a built-in scene's name or "
+                        "a mesh file (placed by [render] scene = {path, position_m, ...})")
     add_max_memory(parser)
     add_quiet(parser)
     parser.add_argument("--gaze", type=float, nargs=2, metavar=("RIGHT", "UP"),
@@ -196,7 +198,8 @@ def _render(args) -> int:
             check_output(flag, path)
     check_distinct(**outputs)
     try:
-        rs = spec.render.with_changes(renderer=args.renderer, samples=args.samples,
+        rs = spec.render.with_changes(scene=args.scene, renderer=args.renderer,
+                                      samples=args.samples,
                                       width=args.width, height=args.height,
                                       gaze_deg=None if args.gaze is None else list(args.gaze))
     except SpecError as e:
@@ -223,11 +226,16 @@ def _render(args) -> int:
               f"{rep['timings_s']['total']:.2f} s)")
         for why in rep["skipped"]:
             print(f"  skipped {why}")
+        for warning in rep["warnings"]:
+            print(f"eyelab: warning: {warning}", file=sys.stderr)
     else:
         image, rep = demo(spec)
         atomic_group({args.output: png_writer(image),
                       args.output[:-4] + ".json": json_writer(rep)})
         print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
+        warnings = dict.fromkeys(w for r in rep["panels"].values() for w in r["warnings"])
+        for warning in warnings:
+            print(f"eyelab: warning: {warning}", file=sys.stderr)
     return 0
 
 

@@ -131,8 +131,11 @@ def load_job_spec(path, *, out_dir=None) -> JobSpec:
         raise SpecError("jobspec.base", "must be a table of spec tables")
     _merge(base, extra)
     scene = base.get("render", {}).get("scene")
-    if isinstance(scene, str) and not Path(scene).is_absolute() and (p.parent / scene).is_file():
-        base["render"]["scene"] = str((p.parent / scene).resolve())
+    where = scene if isinstance(scene, dict) else base.get("render", {})
+    key = "path" if isinstance(scene, dict) else "scene"
+    rel = where.get(key) if isinstance(where, dict) else None
+    if isinstance(rel, str) and not Path(rel).is_absolute() and (p.parent / rel).is_file():
+        where[key] = str((p.parent / rel).resolve())
     out = js.get("output", {})
     if not isinstance(out, dict):
         raise SpecError("jobspec.output", "must be a table")
@@ -232,15 +235,15 @@ def _renderer(name, quality):
 _SCENES = {}         # per process: scenes built once, by name or (path, mtime, size)
 
 
-def _scene(name: str):
+def _scene(source):
     from eyelab.jobs import build_scene
 
-    p = Path(name)
-    key = (name, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (name,)
+    p = Path(source.name)
+    key = (source, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (source,)
     if key not in _SCENES:
         if len(_SCENES) >= 8:
             _SCENES.pop(next(iter(_SCENES)))
-        _SCENES[key] = build_scene(name)
+        _SCENES[key] = build_scene(source)
     return _SCENES[key]
 
 

@@ -31,8 +31,8 @@ from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 
 #: Top-level keys of every renderer's report, in this order.
-REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "timings_s", "cache",
-               "details")
+REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", "timings_s",
+               "cache", "details")
 
 
 def check_int(field_name: str, value, lo: int, hi: int) -> int:
@@ -183,7 +183,8 @@ def new_report(renderer: str, view: View, quality) -> dict:
     """An empty report of the common schema (see :data:`REPORT_KEYS`)."""
     return {"renderer": renderer, "view": view.to_dict(),
             "quality": dataclasses.asdict(quality), "samples": {"target": 0, "done": {}},
-            "skipped": [], "timings_s": {}, "cache": {"hits": [], "misses": []},
+            "skipped": [], "warnings": [], "timings_s": {},
+            "cache": {"hits": [], "misses": []},
             "details": {}}
 
 

@@ -31,15 +31,27 @@ def make_renderer(name: str, quality=None) -> Renderer:
                                        f"got {name!r}")
 
 
-def build_scene(name_or_path: str) -> Scene:
-    """A built-in scene by name (:data:`eyelab.scene.library.SCENES`) or a mesh file."""
+def build_scene(source) -> Scene:
+    """The scene a :class:`~eyelab.scene.scene.SceneSource` (or a bare name or path)
+    describes: a built-in scene (:data:`eyelab.scene.library.SCENES`) or the parts of a
+    mesh file, placed, with its background (a mesh file's default: white)."""
+    import dataclasses
+
     from eyelab.scene.library import SCENES
+    from eyelab.scene.scene import SceneSource, load_meshes
 
-    if name_or_path in SCENES:
-        return SCENES[name_or_path]()
-    from eyelab.scene.scene import load_mesh
-
-    return Scene([load_mesh(name_or_path)], name=Path(name_or_path).stem)
+    src = source if isinstance(source, SceneSource) else SceneSource(str(source))
+    if src.name in SCENES:
+        scene = SCENES[src.name]()
+        if src.placed:
+            m = src.matrix()
+            scene = dataclasses.replace(scene, meshes=[x.transformed(m) for x in scene.meshes])
+    else:
+        scene = Scene(load_meshes(src.name, transform=src.matrix() if src.placed else None),
+                      name=Path(src.name).stem)
+    if src.background is not None:
+        scene = dataclasses.replace(scene, background=tuple(src.background))
+    return scene
 
 
 def png_writer(image: np.ndarray):

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
-from eyelab.imaging import View, check_bool, check_choice
+from eyelab.imaging import View, check_bool, check_choice, check_int
 from eyelab.optics.eye import (
     AMPLITUDE_MODELS,
     EYE_KINDS,
@@ -34,6 +34,7 @@ from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Asphere, Surface, Toric
 from eyelab.options import QUALITIES, RENDERERS, RasterQuality, quality_keys
 from eyelab.scene.library import SCENE_NAMES
+from eyelab.scene.scene import UNITS, SceneSource
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
@@ -55,7 +56,7 @@ class RenderSpec:
     options (:mod:`eyelab.options`). ``table`` keeps the keys as written, so that
     :meth:`with_changes` can re-validate them for another renderer or with overrides."""
 
-    scene: str = "room"
+    scene: SceneSource = SceneSource("room")
     renderer: str = "raster"
     view: View = View()
     quality: object = field(default_factory=RasterQuality)
@@ -307,7 +308,7 @@ def parse_points(items) -> ObjectPoints:
 def renderer_keys(renderer: str) -> tuple:
     """The ``[render]`` keys a renderer takes: scene, renderer, the view's and its quality
     options'."""
-    return ("scene", "renderer", *RENDER_VIEW_KEYS,
+    return ("scene", "renderer", "background", *RENDER_VIEW_KEYS,
             *(k for k in quality_keys(renderer) if k not in _NOT_SPEC_KEYS))
 
 
@@ -328,23 +329,72 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
             raise SpecError(f"render.{key}", f"only for renderer = {' or '.join(map(repr, owners))}"
                                              f" (this spec uses {renderer!r})")
     _check_keys(t, allowed, "render")
-    scene = t.get("scene", "room")
-    if not isinstance(scene, str):
-        raise SpecError("render.scene", f"must be one of {SCENE_NAMES} or a mesh file path")
-    if scene not in SCENE_NAMES:
-        p = Path(scene) if base is None or Path(scene).is_absolute() else base / scene
-        if not p.is_file():
-            raise SpecError("render.scene", f"{scene!r} is neither a built-in scene "
-                            f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
-        scene = str(p)
+    scene, written = parse_scene(t.get("scene", "room"), t.get("background"), base)
     view = View(**{attr: t[key] for key, attr in RENDER_VIEW_KEYS.items() if key in t})
     qkw = {k: t[k] for k in quality_keys(renderer) if k in t}
     for key in ("field_shape", "rim_color", "invalid_color"):
         if key in qkw and isinstance(qkw[key], list):
             qkw[key] = tuple(qkw[key])
     quality = QUALITIES[renderer](**qkw)
-    table = dict(t, scene=scene, renderer=renderer)
+    table = dict(t, scene=written, renderer=renderer)
     return RenderSpec(scene, renderer, view, quality, table)
+
+
+#: Keys of a ``[render] scene`` table (a mesh file placed in the world).
+SCENE_KEYS = {"path", "position_m", "scale", "rotation_deg", "units"}
+
+
+def parse_scene(value, background, base: Path | None) -> tuple:
+    """``[render] scene`` (a built-in name, a mesh path, or a table {path, position_m,
+    scale, rotation_deg, units}) and ``[render] background`` -> (:class:`SceneSource`,
+    the value with its path resolved, as the spec table keeps it)."""
+    table = value if isinstance(value, dict) else {"path": value}
+    if not isinstance(value, (str, dict)):
+        raise SpecError("render.scene", f"must be one of {SCENE_NAMES}, a mesh file path or "
+                                        "a table {path, position_m, scale, rotation_deg, "
+                                        f"units}}, got {value!r}")
+    where = "render.scene" if isinstance(value, str) else "render.scene.path"
+    if isinstance(value, dict):
+        _check_keys(value, SCENE_KEYS, "render.scene")
+        if "path" not in value:
+            raise SpecError("render.scene.path", "a scene table needs the mesh file's path")
+    name = table["path"]
+    if not isinstance(name, str):
+        raise SpecError(where, f"must be a built-in scene name or a mesh file path, "
+                               f"got {name!r}")
+    if name not in SCENE_NAMES:
+        p = Path(name) if base is None or Path(name).is_absolute() else base / name
+        try:
+            ok = p.is_file()
+        except OSError:
+            ok = False
+        if not ok:
+            raise SpecError(where, f"{name[:80]!r} is neither a built-in scene "
+                                   f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
+        name = str(p)
+
+    def triple(key, lo, hi):
+        v = table.get(key, [0.0, 0.0, 0.0])
+        if not (isinstance(v, list) and len(v) == 3):
+            raise SpecError(f"render.scene.{key}", f"must be [x, y, z], got {v!r}")
+        return tuple(check_range(f"render.scene.{key}[{i}]", x, lo, hi)
+                     for i, x in enumerate(v))
+
+    units = table.get("units", "m")
+    check_choice("render.scene.units", units, tuple(UNITS))
+    bg = None
+    if background is not None:
+        if not (isinstance(background, list) and len(background) == 3):
+            raise SpecError("render.background", f"must be [r, g, b] in 0-255, got "
+                                                 f"{background!r}")
+        bg = tuple(check_int(f"render.background[{i}]", c, 0, 255)
+                   for i, c in enumerate(background))
+    src = SceneSource(name, position_m=triple("position_m", -1e4, 1e4),
+                      scale=check_range("render.scene.scale", table.get("scale", 1.0), 1e-9,
+                                        1e9, lo_open=True),
+                      rotation_deg=triple("rotation_deg", -360, 360), units=units,
+                      background=bg)
+    return src, (dict(value, path=name) if isinstance(value, dict) else name)
 
 
 def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:

@@ -37,6 +37,7 @@ TORIC_LENS = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
 RASTER = {"render": {"renderer": "raster"}}
 REFERENCE = {"render": {"renderer": "reference"}}
 POINT = {"points": [{"distance_m": 1.0}]}
+SCENE_TABLE = {"render": {"scene": {"path": "room"}}}
 
 FIELDS = [
     ("eye", "age", "num", 0, 120, EYE_BASE),
@@ -113,6 +114,12 @@ FIELDS = [
     ("render", "seed", "int", 0, 2**63 - 1, REFERENCE),
     ("render", "workers", "int", 1, 256, REFERENCE),
     ("render", "accommodation", "enum", None, None, REFERENCE),
+    ("render", "background", "triple_int", 0, 255, {}),
+    ("render.scene", "position_m", "triple", -1e4, 1e4, SCENE_TABLE),
+    ("render.scene", "rotation_deg", "triple", -360, 360, SCENE_TABLE),
+    ("render.scene", "scale", "num", 1e-9, 1e9, SCENE_TABLE),
+    ("render.scene", "units", "enum", None, None, SCENE_TABLE),
+    ("render.scene", "path", "scene", None, None, SCENE_TABLE),
 ]
 
 

@@ -47,7 +47,7 @@ from eyelab.optics.trace import FATAL
 from eyelab.options import ReferenceQuality
 from eyelab.parallel import map_row_chunks
 from eyelab.sampling import disc_seeds, pixel_jitter
-from eyelab.scene.raycast import EmbreeIntersector
+from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
 from eyelab.vecmath import UP, cross, unit
 
 
@@ -81,6 +81,7 @@ class ReferenceRenderer(Renderer):
         dirs = cam.ray_directions(ndc[:, 0], ndc[:, 1])
         n = len(dirs)
         inter = EmbreeIntersector(scene)
+        report["warnings"] = scene_warnings(scene, cam, inter)
         samples = self.pupil_samples(q)
         wls = channel_wavelengths(eye, lens, q.chromatic, report)
         out = np.zeros((n, 3))

@@ -59,7 +59,7 @@ from eyelab.scene.lensview import (
 )
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.prefilter import prefiltered, reduction_factor
-from eyelab.scene.raycast import EmbreeIntersector
+from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
 from eyelab.scene.refine import refine_for_fields
 
 #: Scene textures are mip-mapped (trilinear, in linear light) only below this many passes.
@@ -194,6 +194,9 @@ class RasterRenderer(Renderer):
         report["details"].setdefault("refinement", [])
         timings = report["timings_s"]
         cam = view.camera(eye.rotation_centre)
+        report["warnings"], _ = self._cached(
+            "small", content_key(warnings=scene.content_key, camera=cam),
+            lambda: scene_warnings(scene, cam), report, "scene_warnings")
         bounds = scene.bounds()
         lens_in_view = self._lens_in_view(lens, cam, report)
         covered = lens_in_view and q.skip_unneeded and self._lens_covers(lens, cam, report)

@@ -107,3 +107,40 @@ class NumpyIntersector:
                 best_f[better] = s + j[better]
                 best_uv[better] = np.stack([u[np.arange(n), j], v[np.arange(n), j]], 1)[better]
         return Hits(best_t, best_m, best_f, best_uv)
+
+
+def scene_warnings(scene: Scene, camera, intersector=None) -> list:
+    """What a user would want to know before trusting the image (strings, empty when all
+    is well): the eye inside a mesh (most of 26 rays from the camera's centre of
+    projection in every direction hit a triangle from behind: a room model around the
+    eye, or a model centred on the origin), or nothing in view (none of a 32 x 24 grid of
+    rays through the view meets a mesh between the near and far planes: the image is the
+    background). ``camera``: :class:`eyelab.optics.camera.Camera`."""
+    inter = intersector or EmbreeIntersector(scene)
+    o = np.asarray(camera.position, float)
+    g = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)
+                  if (x, y, z) != (0, 0, 0)], float)
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    hits = inter.intersect(np.broadcast_to(o, g.shape), g)
+    inside = []
+    for k, m in enumerate(scene.meshes):
+        sel = hits.hit & (hits.mesh == k)
+        if not sel.any():
+            continue
+        f = m.faces[hits.tri[sel]]
+        v = m.vertices
+        nrm = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+        back = int((np.einsum("ij,ij->i", nrm, g[sel]) > 0).sum())
+        if back >= 0.75 * len(g):
+            inside.append(m.name)
+    out = [f"the eye is inside mesh {name!r} ({len(g)} rays from the pupil meet it from "
+           "behind): place the scene with [render] scene = {path, position_m, ...}"
+           for name in inside]
+    x, y = np.meshgrid(np.linspace(-1, 1, 32), np.linspace(-1, 1, 24))
+    d = camera.ray_directions(x.ravel(), y.ravel())
+    h = inter.intersect(np.broadcast_to(o, d.shape), d)
+    depth = h.t * (d @ np.asarray(camera.basis[2], float))
+    if not (h.hit & (depth >= camera.near) & (depth <= camera.far)).any():
+        out.append(f"nothing in view: no mesh between near_m {camera.near:g} and far_m "
+                   f"{camera.far:g} m in the view (the image is the background)")
+    return out

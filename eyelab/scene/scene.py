@@ -170,46 +170,153 @@ class Scene:
         return lo, hi
 
 
+#: Length units a mesh file may be written in -> metres.
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 1e-3, "in": 0.0254}
+
+
+@dataclass(frozen=True)
+class SceneSource:
+    """What ``[render] scene`` names: a built-in scene or a mesh file, and where it goes.
+
+    name : a built-in scene's name or a mesh file path; units : the file's length unit
+    ("m", "cm", "mm", "in"); scale : a further factor; rotation_deg : (x, y, z) rotations in
+    degrees, applied about the world axes in that order (x first); position_m : where the
+    file's origin goes (m, eyelab's frame: the pupil at the origin, looking along -z, y
+    up); background : sRGB (r, g, b) of what no mesh covers (None: the built-in scene's
+    own, white for a mesh file).
+
+    A vertex v of the file goes to ``R_z R_y R_x (units * scale * v) + position_m``.
+    """
+
+    name: str
+    position_m: tuple = (0.0, 0.0, 0.0)
+    scale: float = 1.0
+    rotation_deg: tuple = (0.0, 0.0, 0.0)
+    units: str = "m"
+    background: tuple | None = None
+
+    def __str__(self):
+        return self.name
+
+    @property
+    def placed(self) -> bool:
+        return (tuple(self.position_m) != (0.0, 0.0, 0.0) or self.scale != 1.0
+                or tuple(self.rotation_deg) != (0.0, 0.0, 0.0) or self.units != "m")
+
+    def matrix(self) -> np.ndarray:
+        """(4, 4) homogeneous transform from the file's coordinates to eyelab's (m)."""
+        rx, ry, rz = np.radians(np.asarray(self.rotation_deg, float))
+        cx, sx, cy, sy, cz, sz = (np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry),
+                                  np.cos(rz), np.sin(rz))
+        r_x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        r_y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        r_z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        m = np.eye(4)
+        m[:3, :3] = r_z @ r_y @ r_x * (UNITS[self.units] * self.scale)
+        m[:3, 3] = self.position_m
+        return m
+
+
 def load_mesh(path, *, name=None, transform=None) -> SceneMesh:
-    """Load any mesh trimesh reads (OBJ, PLY, STL, GLB, ...) as one SceneMesh, with its
-    vertex colours or texture and uv if present. ``transform``: (4, 4) applied to it.
+    """One :class:`SceneMesh` from a mesh file (all of its parts in one): see
+    :func:`load_meshes`, which keeps a multi-part file's parts (and their textures)
+    apart."""
+    parts = load_meshes(path, transform=transform)
+    if len(parts) == 1:
+        return parts[0] if name is None else SceneMesh(name, *_arrays(parts[0]))
+    if any(p.texture is not None for p in parts):
+        raise SpecError("render.scene", f"{str(path)!r} has several textured parts: load "
+                                        "it with load_meshes")
+    offs = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    return SceneMesh(name or str(path), np.concatenate([p.vertices for p in parts]),
+                     np.concatenate([p.faces + o for p, o in zip(parts, offs, strict=True)]),
+                     np.concatenate([p.colors for p in parts]))
+
+
+def _arrays(m):
+    return m.vertices, m.faces, m.colors, m.texture, m.uv
+
+
+def load_meshes(path, *, transform=None) -> list:
+    """Every part of a mesh file trimesh reads (OBJ+MTL, PLY, STL, GLB/glTF, ...) as
+    :class:`SceneMesh` es, with its look: a texture with its uv (a simple material's
+    image or a PBR base-colour texture), per-vertex colours, per-face colours (kept flat:
+    each face gets its own vertices), a PBR base-colour factor, or grey. ``transform``:
+    (4, 4) applied to every part (after the file's own node transforms).
+
     Unreadable, empty, point-cloud or non-finite meshes are a :class:`SpecError` naming
     ``render.scene``; zero-area triangles are dropped (all of them: an error)."""
     import trimesh
 
     try:
-        loaded = trimesh.load(path, force="mesh", process=False)
+        loaded = trimesh.load(path, process=False)
     except Exception as e:  # trimesh raises many types for unreadable files
         raise SpecError("render.scene", f"cannot read {str(path)!r} as a mesh: {e}") from None
-    if transform is not None:
-        loaded.apply_transform(np.asarray(transform, float))
-    v = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), float)
-    f = np.asarray(getattr(loaded, "faces", np.zeros((0, 3), int)))
-    if len(v) == 0 or f.ndim != 2 or len(f) == 0:
+    if isinstance(loaded, trimesh.Scene):
+        geoms = [g for g in loaded.dump(concatenate=False) if isinstance(g, trimesh.Trimesh)]
+    else:
+        geoms = [loaded] if isinstance(loaded, trimesh.Trimesh) else []
+    geoms = [g for g in geoms if len(g.faces)]
+    if not geoms:
         raise SpecError("render.scene", f"{str(path)!r} has no triangles (an empty file, a "
                                         "point cloud or lines only)")
-    if not np.all(np.isfinite(v)):
-        raise SpecError("render.scene", f"{str(path)!r} has {int((~np.isfinite(v)).any(1).sum())}"
-                                        " vertices with non-finite coordinates")
-    if np.abs(v).max() > 1e6:
-        raise SpecError("render.scene", f"{str(path)!r} has coordinates beyond 1000 km "
-                                        f"({np.abs(v).max():.3g} m): wrong units?")
-    loaded.process()          # merge duplicate vertices, as trimesh does by default
-    area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
-    keep = area2 > 1e-12 * max(float(np.ptp(v, axis=0).max()), 1e-300) ** 2
-    if not keep.any():
+    for g in geoms:
+        v = np.asarray(g.vertices, float)
+        if not np.all(np.isfinite(v)):
+            raise SpecError("render.scene", f"{str(path)!r} has "
+                                            f"{int((~np.isfinite(v)).any(1).sum())} vertices "
+                                            "with non-finite coordinates")
+        if np.abs(v).max() > 1e6:
+            raise SpecError("render.scene", f"{str(path)!r} has coordinates beyond 1000 km "
+                                            f"({np.abs(v).max():.3g} m): wrong units?")
+    if transform is not None:
+        for g in geoms:
+            g.apply_transform(np.asarray(transform, float))
+    parts = []
+    extent = max(float(np.ptp(np.concatenate([g.vertices for g in geoms]), axis=0).max()),
+                 1e-300)
+    for k, g in enumerate(geoms):
+        f = np.asarray(g.faces)
+        v = np.asarray(g.vertices, float)
+        area2 = np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]),
+                               axis=1)
+        keep = area2 > 1e-12 * extent ** 2
+        if not keep.any():
+            continue
+        parts.append(_part(g, keep, f"{path}" if len(geoms) == 1 else f"{path}#{k}"))
+    if not parts:
         raise SpecError("render.scene", f"{str(path)!r}: every triangle is degenerate "
                                         "(zero area)")
-    if not keep.all():        # zero-area triangles draw nothing: dropped
-        loaded.update_faces(keep)
-        loaded.remove_unreferenced_vertices()
-    tex = uv = colors = None
-    vis = loaded.visual
-    if getattr(vis, "kind", None) == "texture" and getattr(vis, "uv", None) is not None \
-            and getattr(vis.material, "image", None) is not None:
-        tex = np.asarray(vis.material.image.convert("RGB"))
-        uv = np.asarray(vis.uv, float)
-    elif getattr(vis, "kind", None) in ("vertex", "face"):
-        colors = np.asarray(vis.vertex_colors)[:, :3]
-    return SceneMesh(name or str(path), np.asarray(loaded.vertices), np.asarray(loaded.faces),
-                     colors, tex, uv)
+    return parts
+
+
+def _part(g, keep, name) -> SceneMesh:
+    """One trimesh geometry -> SceneMesh, its faces ``keep`` only, with its look."""
+    vis = g.visual
+    kind = getattr(vis, "kind", None)
+    if kind is None:
+        g.merge_vertices()      # an STL's triangle soup shares its vertices again
+    v = np.asarray(g.vertices, float)
+    f = np.asarray(g.faces)[keep]
+    if kind == "texture":
+        mat = getattr(vis, "material", None)
+        image = getattr(mat, "image", None)
+        if image is None:
+            image = getattr(mat, "baseColorTexture", None)
+        uv = getattr(vis, "uv", None)
+        if image is not None and uv is not None and len(uv) == len(v):
+            return SceneMesh(name, v, f, texture=np.asarray(image.convert("RGB")),
+                             uv=np.asarray(uv, float))
+        factor = getattr(mat, "baseColorFactor", None)
+        if factor is None:
+            factor = getattr(mat, "main_color", None)
+        if factor is not None:
+            return SceneMesh(name, v, f, colors=np.asarray(factor, np.uint8)[:3])
+    elif kind == "face":
+        fc = np.asarray(vis.face_colors)[keep][:, :3]
+        # flat faces: three vertices of their own per face, all of the face's colour
+        return SceneMesh(name, v[f].reshape(-1, 3), np.arange(3 * len(f)).reshape(-1, 3),
+                         colors=np.repeat(fc, 3, axis=0))
+    elif kind == "vertex":
+        return SceneMesh(name, v, f, colors=np.asarray(vis.vertex_colors)[:, :3])
+    return SceneMesh(name, v, f)
