@@ -40,7 +40,11 @@ def check_int(field_name: str, value, lo: int, hi: int) -> int:
     and non-integral numbers are refused)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise SpecError(field_name, f"must be an integer in [{lo}, {hi}], got {value!r}")
-    return int(check_range(field_name, value, lo, hi))
+    if not lo <= int(value) <= hi:          # exact: no float rounding of huge integers
+        text = repr(int(value))
+        raise SpecError(field_name, f"must be an integer in [{lo}, {hi}], got "
+                        f"{text if len(text) <= 40 else text[:20] + '...'}")
+    return int(value)
 
 
 def check_bool(field_name: str, value) -> bool:

@@ -1,0 +1,316 @@
+"""The spec reference: every table and key with its type, unit, range, default and meaning,
+in one list (:data:`KEYS`) that the README's tables are generated from
+(``python -m eyelab.specdoc`` prints them) and that ``tests/test_specdoc.py`` checks against
+the validator itself (the same key sets; every numeric key accepted at both ends of its
+range and refused just beyond, naming itself), so the documentation cannot drift.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from eyelab.color import CVD_KINDS
+from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, MAX_ACCOMMODATION_D
+from eyelab.optics.fresnel import COATINGS
+from eyelab.optics.materials import CATALOGUE
+from eyelab.options import ACCOMMODATION_RULES, FIELD_ROUTES, MAX_PASSES, MODELS
+from eyelab.scene.library import SCENE_NAMES
+from eyelab.scene.scene import UNITS
+
+RX_EYE = {"eye": {"rx": "-2.00 DS"}}
+RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
+SURFACES = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                     "back": {"type": "sphere", "radius_mm": 80.0},
+                     "center_thickness_mm": 2.0}}
+TORIC = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                  "back": {"type": "toric", "radius_x_mm": 80.0, "radius_y_mm": 70.0},
+                  "center_thickness_mm": 2.0}}
+
+
+@dataclass(frozen=True)
+class Key:
+    """One spec key. ``kind``: number, integer, boolean, choice, pair, triple, text;
+    ``lo``/``hi``: the range of a number or integer (each element of a pair or triple);
+    ``choices``: a choice's values; ``base``: the rest of a spec the key needs to be read;
+    ``edges``: False where a value at the range's ends is refused for another reason (a
+    too-steep lens), so only values beyond the range are tested; ``renderer`` for
+    ``[render]`` keys: "both", "raster" or "reference"."""
+
+    table: str
+    key: str
+    kind: str
+    unit: str
+    default: str
+    meaning: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    choices: tuple = ()
+    base: dict = field(default_factory=dict)
+    edges: bool = True
+    renderer: str = "both"
+    range_text: str = ""
+    integers: bool = False
+
+    def range(self) -> str:
+        if self.range_text:
+            return self.range_text
+        if self.choices:
+            return ", ".join(f'`"{c}"`' for c in self.choices)
+        if self.lo is None:
+            return ""
+        lo = "" if self.lo_open else _num(self.lo)
+        return f"{'> ' + _num(self.lo) + ', ≤ ' if self.lo_open else lo + '–'}{_num(self.hi)}"
+
+
+def _num(v) -> str:
+    if v == 2**63 - 1:
+        return "2⁶³ − 1"
+    if abs(v) >= 1e5 and math.log10(abs(v)).is_integer():
+        return f"{'−' if v < 0 else ''}1e{int(math.log10(abs(v)))}"
+    return f"{v:g}".replace("-", "−")
+
+
+def _choice(values):
+    return tuple(values)
+
+
+KEYS = [
+    # ------------------------------------------------------------------- [eye]
+    Key("eye", "rx", "text", "", "none (an emmetrope)",
+        "the eye's refraction as a clinician's spectacle Rx, at `vertex_distance_mm`",
+        range_text="the Rx grammar below; sphere ±30, cylinder ±12, add 0–4 D"),
+    Key("eye", "kind", "choice", "", '`"refractive"`', "with `rx`: which part of the eye "
+        "carries the error (axial: the length, for the spherical equivalent)",
+        choices=EYE_KINDS, base=RX_EYE),
+    Key("eye", "vertex_distance_mm", "number", "mm", "12", "with `rx`: where the Rx is "
+        "worn", 5, 30, base=RX_EYE),
+    Key("eye", "power_min_d", "number", "D", "58.635", "without `rx`: the weaker "
+        "meridian's relaxed power", 40, 80),
+    Key("eye", "astigmatism_d", "number", "D", "0", "without `rx`: the stronger meridian's "
+        "excess", 0, 10),
+    Key("eye", "astigmatism_axis_deg", "number", "deg", "0", "without `rx`: the stronger "
+        "meridian's direction, counter-clockwise from the wearer's right seen from behind",
+        0, 180),
+    Key("eye", "age", "number", "years", "none", "accommodation amplitude by Hofstetter's "
+        "formula (instead of `accommodation_max_d`)", 0, 120),
+    Key("eye", "amplitude_model", "choice", "", '`"mean"`', "with `age`: Hofstetter's "
+        "minimum, mean or maximum", choices=_choice(AMPLITUDE_MODELS), base={"eye": {
+            "age": 40}}),
+    Key("eye", "accommodation_max_d", "number", "D", "11.93", "amplitude of accommodation",
+        0, MAX_ACCOMMODATION_D),
+    Key("eye", "pupil_diameter_mm", "number", "mm", "4", "entrance pupil", 0.5, 10),
+    Key("eye", "luminance_cd_m2", "number", "cd/m²", "none", "the pupil from the "
+        "luminance (Watson & Yellott 2012), instead of `pupil_diameter_mm`", 0, 1e7,
+        lo_open=True),
+    Key("eye", "retina_distance_mm", "number", "mm", "22.785", "thin eye lens to retina",
+        15, 35),
+    Key("eye", "n_vitreous", "number", "", "1.336", "refractive index behind the eye lens",
+        1.2, 1.6),
+    Key("eye", "rotation_centre_mm", "number", "mm", "13.5", "pupil to the centre of "
+        "rotation", 5, 20),
+    Key("eye", "chromatic", "boolean", "", "true", "the eye's own chromatic aberration "
+        "(Thibos et al. 1992), refraction at the d line"),
+    # ------------------------------------------------------------------ [lens]
+    Key("lens", "rx", "text", "", "`eye.rx`", "the prescription the lens is made for",
+        range_text="the Rx grammar below"),
+    Key("lens", "material", "text", "", '`"cr39"`', "a catalogue name or a table "
+        "{n_d, v_d} (a lens from an Rx needs n_d ≥ 1.3; v_d ≥ 5 or inf)",
+        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + ", {n_d, v_d}"),
+    Key("lens", "base_curve_d", "number", "D", "Vogel's rule", "front surface power (at "
+        "the material's index); limited by the diameter's steepness", -20, 30,
+        base=RX_LENS, edges=False),
+    Key("lens", "center_thickness_mm", "number", "mm", "material minimum (minus), 1 mm "
+        "edge (plus)", "centre thickness", 0.2, 30, base=RX_LENS),
+    Key("lens", "diameter_mm", "number", "mm", "60 (less for strong lenses)", "round "
+        "lens diameter", 10, 90, base=RX_LENS),
+    Key("lens", "vertex_distance_mm", "number", "mm", "12", "back vertex to the cornea",
+        5, 30, base=RX_LENS),
+    Key("lens", "pantoscopic_tilt_deg", "number", "deg", "0", "lower rim toward the "
+        "cheeks", -30, 30, base=RX_LENS),
+    Key("lens", "wrap_deg", "number", "deg", "0", "face-form wrap", -30, 30, base=RX_LENS),
+    Key("lens", "decentration_mm", "pair", "mm", "[0, 0]", "optical centre offset [x, y]",
+        -20, 20, base=RX_LENS),
+    Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: the toric back surface's "
+        "revolution axis", choices=("x", "y"), base=RX_LENS),
+    Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
+        'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
+        base=RX_LENS),
+    Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
+        "[lens.front] and [lens.back] (both, with `center_thickness_mm`)",
+        range_text="a surface table"),
+    Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
+    # ------------------------------------------------ [lens.front] / [lens.back]
+    Key("lens.front", "type", "choice", "", '`"sphere"`', "surface shape",
+        choices=("sphere", "plane", "asphere", "conic", "toric"), base=SURFACES),
+    Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
+        "`radius_mm`)", -200, 200, base={"lens": {"front": {"type": "sphere"},
+                                                  "back": {"type": "plane"},
+                                                  "center_thickness_mm": 2.0}}),
+    Key("lens.front", "radius_mm", "number", "mm", "none", "vertex radius, not 0 (or "
+        "`curvature`)", -1e9, 1e9, base=SURFACES, edges=False),
+    Key("lens.front", "conic", "number", "", "0", "conic constant", -100, 100,
+        base=SURFACES),
+    Key("lens.front", "coefficients", "text", "1/m³, 1/m⁵, …", "[]", "aspheric "
+        "coefficients [A4, A6, …] of the sag polynomial",
+        range_text="numbers within ±1e12"),
+    Key("lens.back", "curvature_x", "number", "1/m", "0", "toric: curvature along x "
+        "before rotation (or `radius_x_mm`)", -200, 200, base={"lens": {
+            "front": {"type": "sphere"}, "back": {"type": "toric"},
+            "center_thickness_mm": 2.0}}),
+    Key("lens.back", "curvature_y", "number", "1/m", "0", "toric: curvature along y (or "
+        "`radius_y_mm`)", -200, 200, base={"lens": {
+            "front": {"type": "sphere"}, "back": {"type": "toric"},
+            "center_thickness_mm": 2.0}}),
+    Key("lens.back", "radius_x_mm", "number", "mm", "none", "toric: radius along x",
+        -1e9, 1e9, base=TORIC, edges=False),
+    Key("lens.back", "radius_y_mm", "number", "mm", "none", "toric: radius along y",
+        -1e9, 1e9, base=TORIC, edges=False),
+    Key("lens.back", "axis_deg", "number", "deg", "0", "toric: rotation of its x axis",
+        -360, 360, base=TORIC),
+    Key("lens.back", "revolve", "choice", "", '`"y"`', "toric: the axis of revolution",
+        choices=("x", "y"), base=TORIC),
+    # -------------------------------------------------------------- [analysis]
+    Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength analysed",
+        380, 780),
+    Key("analysis", "fixation", "choice", "", '`"fixed"`', "pupil fixed at the origin "
+        "(Kakimoto) or rotating about the centre of rotation (the as-worn model)",
+        choices=("fixed", "rotating")),
+    Key("analysis", "accommodation_d", "number", "D", '`"auto"`', "a fixed accommodation, "
+        'or `"auto"`: best effort per point (Eq. 13)', 0, MAX_ACCOMMODATION_D),
+    # -------------------------------------------------------------- [[points]]
+    Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
+        'pupil, or `"inf"`', 0.01, 1e7, base={"points": [{}]}),
+    Key("points[0]", "field_deg", "pair", "deg", "[0, 0]", "field angles [x, y]: x > 0 "
+        "to the wearer's right, y > 0 up", -80, 80, base={"points": [{}]}),
+    Key("points[0]", "position_m", "triple", "m", "none", "the point [x, y, z] instead of "
+        "distance and field (not [0, 0, 0])", -1e6, 1e6, base={"points": [{}]},
+        edges=False),
+    # ---------------------------------------------------------------- [render]
+    Key("render", "scene", "text", "", '`"room"`', "what is looked at: a built-in scene, a "
+        "mesh file, or a table placing a mesh file (below)",
+        range_text=", ".join(f'`"{n}"`' for n in SCENE_NAMES) + ", a path, a table"),
+    Key("render", "renderer", "choice", "", '`"raster"`', "Kakimoto's blur-field raster "
+        "renderer or the distribution ray tracer", choices=("raster", "reference")),
+    Key("render", "background", "triple", "sRGB 0–255", "the scene's (white for a mesh "
+        "file)", "colour where no mesh is", 0, 255, integers=True),
+    Key("render", "width", "integer", "px", "640", "image width (width / height in "
+        "0.05–20)", 16, 4096, base={"render": {"height": 256}}),
+    Key("render", "height", "integer", "px", "480", "image height", 16, 4096,
+        base={"render": {"width": 256}}),
+    Key("render", "fov_y_deg", "number", "deg", "60", "vertical field of view", 1, 150),
+    Key("render", "near_m", "number", "m", "0.05", "near clipping depth from the pupil",
+        0.001, 10),
+    Key("render", "far_m", "number", "m", "100", "far clipping depth (> near_m)", 0.001,
+        1e5, edges=False),
+    Key("render", "focus_d", "number", "D", "best effort per point", "fixed accommodation "
+        "(clamped to the eye's amplitude)", 0, MAX_ACCOMMODATION_D),
+    Key("render", "cvd", "choice", "", "none", "colour-vision deficiency (Machado 2009)",
+        choices=CVD_KINDS),
+    Key("render", "cvd_severity", "number", "", "1", "its severity", 0, 1),
+    Key("render", "gaze_deg", "pair", "deg", "[0, 0]", "the eye turned [right, up] about "
+        "its centre of rotation behind the head-fixed lens", -60, 60),
+    Key("render", "chromatic", "boolean", "", "true", "each colour channel with its own "
+        "light paths and blur (C, e, F lines) where the lens disperses or the eye has its "
+        "own chromatic aberration; false: one wavelength"),
+    Key("render", "samples", "integer", "", "10", "passes S", 1, MAX_PASSES,
+        renderer="raster", base={"render": {"renderer": "raster"}}),
+    Key("render", "field_shape", "triple", "voxels", "[128, 32, 32]", "blur-field grid "
+        "[nz, ny, nx] (integers)", 1, 512, renderer="raster", integers=True,
+        base={"render": {"renderer": "raster", "field_shape": [8, 8, 8]}}),
+    Key("render", "depth_mode", "choice", "", '`"ndc"`', "slices uniform in NDC z "
+        "(dioptres) or in metres", choices=("ndc", "linear"), renderer="raster"),
+    Key("render", "refine", "boolean", "", "true", "adaptive tessellation where the field "
+        "is not linear along edges", renderer="raster"),
+    Key("render", "reconstruct", "boolean", "", "false", "per-pixel Gaussian "
+        "reconstruction against ghosting", renderer="raster"),
+    Key("render", "antialias", "boolean", "", "true", "a sub-pixel jitter per pass",
+        renderer="raster"),
+    Key("render", "skip_unneeded", "boolean", "", "true", "skip passes the frame does not "
+        "need", renderer="raster"),
+    Key("render", "field_route", "choice", "", '`"texture"`', "field sampled in the "
+        "vertex shader or per vertex on the CPU", choices=FIELD_ROUTES, renderer="raster"),
+    Key("render", "lens_rings", "integer", "", "24", "lens outline mesh: rings", 2, 256,
+        renderer="raster"),
+    Key("render", "lens_segments", "integer", "", "96", "lens outline mesh: segments", 8,
+        1024, renderer="raster"),
+    Key("render", "lens_grid_px", "integer", "px", "8", "spacing of the lens mesh that "
+        "carries texture coordinates", 1, 64, renderer="raster"),
+    Key("render", "env_oversample", "number", "", "1.5", "environment-image density "
+        "relative to the eye view's", 0.5, 4, renderer="raster"),
+    Key("render", "rim_color", "triple", "sRGB 0–255", "[30, 30, 30]", "the lens rim",
+        0, 255, renderer="raster", integers=True),
+    Key("render", "invalid_color", "triple", "sRGB 0–255", "[128, 128, 128]", "pixels "
+        "whose rays fail in the lens", 0, 255, renderer="raster", integers=True),
+    Key("render", "samples", "integer", "", "64", "rays per pixel and colour channel",
+        1, 65536, renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "model", "choice", "", '`"thin"`', "Kakimoto's thin toric eye or Fons "
+        "et al.'s reduced-eye sampling", choices=MODELS, renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    Key("render", "fons_n", "integer", "", "4", "radii of the Fons pupil pattern", 1, 64,
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "fons_m", "integer", "", "8", "diameters of the Fons pupil pattern", 1,
+        64, renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "seed", "integer", "", "0", "per-pixel rotations and jitter "
+        "(deterministic)", 0, 2**63 - 1, renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    Key("render", "workers", "integer", "", "every core", "threads", 1, 256,
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "accommodation", "choice", "", '`"eq13"`', "per-pixel accommodation: "
+        "Eq. 13 (as the blur field) or the real-ray retinal spot's RMS minimum",
+        choices=ACCOMMODATION_RULES, renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    # ---------------------------------------------------------- [render.scene]
+    Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
+        "reads; relative to the spec) or a built-in scene's name",
+        range_text="an existing file or a built-in name"),
+    Key("render.scene", "units", "choice", "", '`"m"`', "the file's length unit",
+        choices=tuple(UNITS), base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "scale", "number", "", "1", "a further scale factor", 0, 1e9,
+        lo_open=True, base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "rotation_deg", "triple", "deg", "[0, 0, 0]", "rotations about x, "
+        "then y, then z (world axes)", -360, 360,
+        base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
+        "goes (the pupil is at the origin, looking along −z)", -1e4, 1e4,
+        base={"render": {"scene": {"path": "room"}}}),
+]
+
+#: Headings of the generated tables, in order.
+TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
+          "lens.front": "`[lens.front]`, `[lens.back]` (surfaces; the toric keys below "
+          "apply to either)", "lens.back": None,
+          "analysis": "`[analysis]`", "points[0]": "`[[points]]` (one table per point)",
+          "render": "`[render]`", "render.scene": "`[render] scene = {…}` (a mesh file "
+          "placed in the world: a vertex v goes to R_z R_y R_x (units × scale × v) + "
+          "position_m)"}
+
+
+def markdown() -> str:
+    """The README's spec reference: one Markdown table per spec table."""
+    out = []
+    for table, title in TABLES.items():
+        rows = [k for k in KEYS if k.table == table]
+        if title is not None:
+            if out:
+                out.append("")
+            out.append(title)
+            out.append("")
+            if table == "render":
+                out.append("| key | renderer | type, unit | range | default | meaning |")
+                out.append("|---|---|---|---|---|---|")
+            else:
+                out.append("| key | type, unit | range | default | meaning |")
+                out.append("|---|---|---|---|---|")
+        for k in rows:
+            kind = k.kind if not k.unit else f"{k.kind}, {k.unit}"
+            cells = [f"`{k.key}`", kind, k.range(), k.default, k.meaning]
+            if table == "render":
+                cells.insert(1, k.renderer)
+            out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    print(markdown())

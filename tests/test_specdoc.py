@@ -1,0 +1,107 @@
+"""The spec reference (eyelab/specdoc.py) is the validator's truth: the same keys, every
+range accepted at its ends and refused beyond (naming the key), every choice accepted and
+a wrong one refused; the README's tables are generated from it."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from eyelab.errors import SpecError
+from eyelab.options import RENDERERS
+from eyelab.spec import (
+    ANALYSIS_KEYS,
+    EYE_KEYS,
+    LENS_KEYS,
+    POINT_KEYS,
+    SCENE_KEYS,
+    SURFACE_KEYS,
+    parse_spec,
+    renderer_keys,
+)
+from eyelab.specdoc import KEYS, markdown
+
+README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+
+
+def _keys(*tables):
+    return {k.key for k in KEYS if k.table in tables}
+
+
+def test_the_reference_has_exactly_the_validators_keys():
+    assert _keys("eye") == EYE_KEYS
+    assert _keys("lens") == LENS_KEYS
+    assert _keys("lens.front", "lens.back") == SURFACE_KEYS
+    assert _keys("analysis") == ANALYSIS_KEYS
+    assert _keys("points[0]") == POINT_KEYS
+    assert _keys("render.scene") == SCENE_KEYS
+    for r in RENDERERS:
+        documented = {k.key for k in KEYS if k.table == "render" and k.renderer in (r, "both")}
+        assert documented == set(renderer_keys(r)), r
+
+
+def _spec(key, value):
+    spec = copy.deepcopy(key.base)
+    node = spec
+    for part in key.table.split("."):
+        if part.endswith("]"):
+            name, idx = part[:-1].split("[")
+            node = node.setdefault(name, [{}])[int(idx)]
+        else:
+            node = node.setdefault(part, {})
+    n = {"pair": 2, "triple": 3}.get(key.kind)
+    node[key.key] = value if n is None else [value] * n
+    return spec
+
+
+def _refused(key, value):
+    with pytest.raises(SpecError) as e:
+        parse_spec(_spec(key, value))
+    assert e.value.field.startswith(f"{key.table}.{key.key}"), (value, str(e.value))
+
+
+RANGED = [k for k in KEYS if k.lo is not None]
+
+
+@pytest.mark.parametrize("key", RANGED, ids=[f"{k.table}.{k.key}" for k in RANGED])
+def test_every_range_holds_at_its_ends_and_not_beyond(key):
+    integer = key.kind == "integer" or key.integers
+    step = 1 if integer else 1e-6 * max(1.0, abs(key.hi - key.lo))
+    if key.edges:
+        if not key.lo_open:
+            parse_spec(_spec(key, key.lo))
+        parse_spec(_spec(key, key.hi))
+    if key.lo_open:
+        _refused(key, key.lo)
+    else:
+        _refused(key, key.lo - step)
+    _refused(key, key.hi + step)
+
+
+CHOICES = [k for k in KEYS if k.choices]
+
+
+@pytest.mark.parametrize("key", CHOICES, ids=[f"{k.table}.{k.key}" for k in CHOICES])
+def test_every_choice_is_accepted_and_no_other(key):
+    for c in key.choices:
+        parse_spec(_spec(key, c))
+    _refused(key, "banana")
+
+
+BOOLS = [k for k in KEYS if k.kind == "boolean"]
+
+
+@pytest.mark.parametrize("key", BOOLS, ids=[f"{k.table}.{k.key}" for k in BOOLS])
+def test_booleans(key):
+    parse_spec(_spec(key, True))
+    parse_spec(_spec(key, False))
+    _refused(key, 1)
+
+
+def test_the_readme_tables_are_generated():
+    begin, end = "<!-- spec-reference: begin", "<!-- spec-reference: end -->"
+    block = README[README.index(begin):README.index(end)]
+    block = block[block.index("\n") + 1:].strip()
+    assert block == markdown().strip(), "run: python -m eyelab.specdoc, paste into README"
