@@ -117,7 +117,8 @@ KEYS = [
         range_text="the Rx grammar below"),
     Key("lens", "material", "text", "", '`"cr39"`', "a catalogue name or a table "
         "{n_d, v_d} (a lens from an Rx needs n_d ≥ 1.3; v_d ≥ 5 or inf)",
-        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + ", {n_d, v_d}"),
+        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + ", {n_d, v_d}",
+        base=RX_LENS),
     Key("lens", "base_curve_d", "number", "D", "Vogel's rule", "front surface power (at "
         "the material's index); limited by the diameter's steepness", -20, 30,
         base=RX_LENS, edges=False),
@@ -154,7 +155,7 @@ KEYS = [
         base=SURFACES),
     Key("lens.front", "coefficients", "text", "1/m³, 1/m⁵, …", "[]", "aspheric "
         "coefficients [A4, A6, …] of the sag polynomial",
-        range_text="numbers within ±1e12"),
+        range_text="numbers within ±1e12", base=SURFACES),
     Key("lens.back", "curvature_x", "number", "1/m", "0", "toric: curvature along x "
         "before rotation (or `radius_x_mm`)", -200, 200, base={"lens": {
             "front": {"type": "sphere"}, "back": {"type": "toric"},

@@ -14,6 +14,8 @@ import math
 import sys
 from pathlib import Path
 
+from eyelab.specdoc import KEYS, SURFACES
+
 HUGE = 10**400                       # TOML reads it; no float holds it
 
 #: Values that are not numbers at all (bools, strings, numeric strings, arrays, tables).
@@ -23,104 +25,28 @@ NON_FINITE = [math.nan, -math.inf, HUGE, -HUGE, 1e300, -1e300]
 NOT_BOOLS = [1, 0, "true", "yes", 1.0, [True]]
 NOT_STRINGS = [1, 2.5, True, ["a"], {"a": 1}]
 
-# (table path, key, kind, low, high, base tables) -- `base` is the rest of the spec the
-# field needs to be read at all; ranges are the documented ones.
-EYE_BASE = {"eye": {}}
-RX_EYE = {"eye": {"rx": "-2.00 DS"}}
-RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
-SURF_LENS = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
-                      "back": {"type": "sphere", "radius_mm": 80.0},
-                      "center_thickness_mm": 2.0}}
-TORIC_LENS = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
-                       "back": {"type": "toric", "radius_x_mm": 80.0, "radius_y_mm": 70.0},
-                       "center_thickness_mm": 2.0}}
-RASTER = {"render": {"renderer": "raster"}}
-REFERENCE = {"render": {"renderer": "reference"}}
-POINT = {"points": [{"distance_m": 1.0}]}
-SCENE_TABLE = {"render": {"scene": {"path": "room"}}}
+# The fields come from the spec reference (eyelab/specdoc.py, itself checked against the
+# validator): every documented key gets the bad values of its kind.
+TEXT_KINDS = {"rx": "rx", "material": "material", "scene": "scene", "path": "scene",
+              "coefficients": "list"}
 
-FIELDS = [
-    ("eye", "age", "num", 0, 120, EYE_BASE),
-    ("eye", "amplitude_model", "enum", None, None, {"eye": {"age": 40}}),
-    ("eye", "accommodation_max_d", "num", 0, 25, EYE_BASE),
-    ("eye", "pupil_diameter_mm", "num", 0.5, 10, EYE_BASE),
-    ("eye", "luminance_cd_m2", "num", 0, 1e7, EYE_BASE),
-    ("eye", "power_min_d", "num", 40, 80, EYE_BASE),
-    ("eye", "astigmatism_d", "num", 0, 10, EYE_BASE),
-    ("eye", "astigmatism_axis_deg", "num", 0, 180, EYE_BASE),
-    ("eye", "retina_distance_mm", "num", 15, 35, EYE_BASE),
-    ("eye", "n_vitreous", "num", 1.2, 1.6, EYE_BASE),
-    ("eye", "rotation_centre_mm", "num", 5, 20, EYE_BASE),
-    ("eye", "vertex_distance_mm", "num", 5, 30, RX_EYE),
-    ("eye", "kind", "enum", None, None, RX_EYE),
-    ("eye", "chromatic", "bool", None, None, EYE_BASE),
-    ("eye", "rx", "rx", None, None, EYE_BASE),
-    ("lens", "rx", "rx", None, None, {"lens": {}}),
-    ("lens", "base_curve_d", "num", -20, 30, RX_LENS),
-    ("lens", "center_thickness_mm", "num", 0.2, 30, RX_LENS),
-    ("lens", "diameter_mm", "num", 10, 90, RX_LENS),
-    ("lens", "vertex_distance_mm", "num", 5, 30, RX_LENS),
-    ("lens", "pantoscopic_tilt_deg", "num", -30, 30, RX_LENS),
-    ("lens", "wrap_deg", "num", -30, 30, RX_LENS),
-    ("lens", "decentration_mm", "pair", -20, 20, RX_LENS),
-    ("lens", "torus", "enum", None, None, RX_LENS),
-    ("lens", "coating", "enum", None, None, RX_LENS),
-    ("lens", "material", "material", None, None, RX_LENS),
-    ("lens.front", "radius_mm", "num", -1e9, 1e9, SURF_LENS),
-    ("lens.front", "curvature", "num", -200, 200, {"lens": {
-        "front": {"type": "sphere"}, "back": {"type": "plane"}, "center_thickness_mm": 2.0}}),
-    ("lens.front", "conic", "num", -100, 100, SURF_LENS),
-    ("lens.front", "type", "enum", None, None, SURF_LENS),
-    ("lens.front", "coefficients", "list", -1e12, 1e12, SURF_LENS),
-    ("lens.back", "radius_x_mm", "num", -1e9, 1e9, TORIC_LENS),
-    ("lens.back", "axis_deg", "num", -360, 360, TORIC_LENS),
-    ("lens.back", "revolve", "enum", None, None, TORIC_LENS),
-    ("analysis", "wavelength_nm", "num", 380, 780, {}),
-    ("analysis", "fixation", "enum", None, None, {}),
-    ("analysis", "accommodation_d", "num", 0, 25, {}),
-    ("points[0]", "distance_m", "num", 0.01, 1e7, POINT),
-    ("points[0]", "field_deg", "pair", -80, 80, POINT),
-    ("points[0]", "position_m", "triple", -1e6, 1e6, {"points": [{}]}),
-    ("render", "renderer", "enum", None, None, {}),
-    ("render", "scene", "scene", None, None, {}),
-    ("render", "width", "int", 16, 4096, {}),
-    ("render", "height", "int", 16, 4096, {}),
-    ("render", "fov_y_deg", "num", 1, 150, {}),
-    ("render", "near_m", "num", 0.001, 10, {}),
-    ("render", "far_m", "num", 0.001, 1e5, {}),
-    ("render", "focus_d", "num", 0, 25, {}),
-    ("render", "cvd", "enum", None, None, {}),
-    ("render", "cvd_severity", "num", 0, 1, {"render": {"cvd": "protan"}}),
-    ("render", "gaze_deg", "pair", -60, 60, {}),
-    ("render", "samples", "int", 1, 256, RASTER),
-    ("render", "field_shape", "triple_int", 1, 512, RASTER),
-    ("render", "depth_mode", "enum", None, None, RASTER),
-    ("render", "refine", "bool", None, None, RASTER),
-    ("render", "reconstruct", "bool", None, None, RASTER),
-    ("render", "antialias", "bool", None, None, RASTER),
-    ("render", "skip_unneeded", "bool", None, None, RASTER),
-    ("render", "chromatic", "bool", None, None, RASTER),
-    ("render", "field_route", "enum", None, None, RASTER),
-    ("render", "lens_rings", "int", 2, 256, RASTER),
-    ("render", "lens_segments", "int", 8, 1024, RASTER),
-    ("render", "lens_grid_px", "int", 1, 64, RASTER),
-    ("render", "env_oversample", "num", 0.5, 4, RASTER),
-    ("render", "rim_color", "triple_int", 0, 255, RASTER),
-    ("render", "invalid_color", "triple_int", 0, 255, RASTER),
-    ("render", "samples", "int", 1, 65536, REFERENCE),
-    ("render", "model", "enum", None, None, REFERENCE),
-    ("render", "fons_n", "int", 1, 64, REFERENCE),
-    ("render", "fons_m", "int", 1, 64, REFERENCE),
-    ("render", "seed", "int", 0, 2**63 - 1, REFERENCE),
-    ("render", "workers", "int", 1, 256, REFERENCE),
-    ("render", "accommodation", "enum", None, None, REFERENCE),
-    ("render", "background", "triple_int", 0, 255, {}),
-    ("render.scene", "position_m", "triple", -1e4, 1e4, SCENE_TABLE),
-    ("render.scene", "rotation_deg", "triple", -360, 360, SCENE_TABLE),
-    ("render.scene", "scale", "num", 1e-9, 1e9, SCENE_TABLE),
-    ("render.scene", "units", "enum", None, None, SCENE_TABLE),
-    ("render.scene", "path", "scene", None, None, SCENE_TABLE),
-]
+
+def _kind(k):
+    if k.kind == "text":
+        return TEXT_KINDS.get(k.key)
+    if k.kind == "triple" and k.integers:
+        return "triple_int"
+    return {"number": "num", "integer": "int", "boolean": "bool", "choice": "enum",
+            "pair": "pair", "triple": "triple"}[k.kind]
+
+
+FIELDS = [(k.table, k.key, _kind(k), k.lo, k.hi,
+           k.base or ({"render": {"renderer": k.renderer}} if k.renderer != "both" else {}))
+          for k in KEYS if _kind(k) is not None]
+# the surface keys of the other surface, and a table's own keys under a plain sphere
+FIELDS += [("lens.back", "conic", "num", -100, 100, SURFACES),
+           ("lens.back", "radius_mm", "num", -1e9, 1e9, SURFACES),
+           ("lens.front", "coefficients", "list", -1e12, 1e12, SURFACES)]
 
 
 def _bad_values(kind, lo, hi):
@@ -213,20 +139,20 @@ def corpus() -> list:
         "kind without rx": ({"eye": {"kind": "axial", "power_min_d": 60}}, "eye.kind"),
         "eye vertex distance without rx": ({"eye": {"vertex_distance_mm": 12}},
                                            "eye.vertex_distance_mm"),
-        "torus with explicit surfaces": (_merge(SURF_LENS, "lens", "torus", "x"),
+        "torus with explicit surfaces": (_merge(SURFACES, "lens", "torus", "x"),
                                          "lens.torus"),
-        "base curve with explicit surfaces": (_merge(SURF_LENS, "lens", "base_curve_d", 4.0),
+        "base curve with explicit surfaces": (_merge(SURFACES, "lens", "base_curve_d", 4.0),
                                               "lens.base_curve_d"),
-        "rx with explicit surfaces": (_merge(SURF_LENS, "lens", "rx", "-2.00"), "lens.rx"),
+        "rx with explicit surfaces": (_merge(SURFACES, "lens", "rx", "-2.00"), "lens.rx"),
         "front without back": ({"lens": {"front": {"type": "plane"},
                                          "center_thickness_mm": 2.0}}, "lens.back"),
         "age and amplitude": ({"eye": {"age": 40, "accommodation_max_d": 2}}, "eye.age"),
         "pupil and luminance": ({"eye": {"pupil_diameter_mm": 3, "luminance_cd_m2": 100}},
                                 "eye.pupil_diameter_mm"),
         "rx and powers": ({"eye": {"rx": "-1.00", "power_min_d": 60}}, "eye.power_min_d"),
-        "radius and curvature": (_merge(SURF_LENS, "lens.front", "curvature", 10.0),
+        "radius and curvature": (_merge(SURFACES, "lens.front", "curvature", 10.0),
                                  "lens.front.curvature"),
-        "zero radius": (_merge(SURF_LENS, "lens.front", "radius_mm", 0), "lens.front.radius_mm"),
+        "zero radius": (_merge(SURFACES, "lens.front", "radius_mm", 0), "lens.front.radius_mm"),
         "far before near": ({"render": {"near_m": 2.0, "far_m": 1.0}}, "render.far_m"),
         "aspect": ({"render": {"width": 16, "height": 4096}}, "render.width"),
         "point at the pupil": ({"points": [{"position_m": [0, 0, 0]}]}, "points[0].position_m"),

@@ -123,16 +123,21 @@ def _rederive(eye, lens, objects, res, fixation, rng, n_ok=2, n_fatal=1):
     for i in rng.permutation(np.flatnonzero(ok))[:n_ok]:
         finite = bool(objects.finite[i])
         start = res.chief.start[i]
-        bf = bundle_vergence(lens, start, res.chief.dir_in[i], finite, res.pupil[i],
-                             res.wave_eye.N[i], res.eye_x[i], radius=1e-5, strict=False)
-        if bf is None:         # a bundle ray grazes the rim: no independent truth here
+        fits = [bundle_vergence(lens, start, res.chief.dir_in[i], finite, res.pupil[i],
+                                res.wave_eye.N[i], res.eye_x[i], radius=r, strict=False)
+                for r in (2e-5, 1e-5)]
+        if any(f is None for f in fits):   # a bundle ray grazes the rim: no truth here
             continue
         out["vergence_checked"] += 1
-        k_bf = np.array(bf[:3])
+        # the fit's bias grows as radius^2: Richardson's extrapolation to radius 0, and
+        # what it removed as an estimate of what is left
+        k2, k1 = (np.array(f[:3]) for f in fits)
+        k_bf = (4.0 * k1 - k2) / 3.0
         k_en = np.array([k[i] for k in k_eng])
         dev = float(np.abs(k_bf - k_en).max())
         out["max_vergence_dev_d"] = max(out["max_vergence_dev_d"], dev)
-        if dev > VERGENCE_TOL_D + VERGENCE_TOL_REL * float(np.abs(k_bf).max()):
+        if dev > VERGENCE_TOL_D + VERGENCE_TOL_REL * float(np.abs(k_bf).max()) \
+                + float(np.abs(k1 - k2).max()):
             out["vergence_wrong"] += 1
             out["examples"].append(f"row {i}: wave at the eye {k_en} D, real rays {k_bf} D")
         # Eq. 13 on the measured wave, within the eye's amplitude
@@ -170,6 +175,9 @@ def _rederive(eye, lens, objects, res, fixation, rng, n_ok=2, n_fatal=1):
 def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: int = 100,
                         field_configs: int = 100, reference_configs: int = 20) -> dict:
     rng = np.random.default_rng(seed)
+    # the rows re-derived are drawn from a stream of their own, so that configuration c is
+    # the same whatever the checks drew before it (a failure can be replayed alone)
+    check_rng = np.random.default_rng([seed, 1])
     t0 = time.perf_counter()
     total = nan = wrong = crashes = ok_rows = 0
     slowest = (0.0, None)
@@ -198,7 +206,7 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         fixation = "rotating" if c % 2 else "fixed"
         try:
             res, n, bad, wr, st = _check_engine(eye, lens, obj, fixation)
-            rd = _rederive(eye, lens, obj, res, fixation, rng)
+            rd = _rederive(eye, lens, obj, res, fixation, check_rng)
         except Exception:  # a crash is what this benchmark counts
             crashes += 1
             crash_examples.append(traceback.format_exc(limit=3))

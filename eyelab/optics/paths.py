@@ -288,6 +288,10 @@ def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos
         rows_g, first = np.unique(cr[g], return_index=True)
         ab[rows_g] = c_ab[g[first]]
         its[rows_g] = c_its[g[first]]
+        # polish the accepted restarts to the main iteration's tolerance (path_tol)
+        polish = np.zeros(len(ab), bool)
+        polish[rows_g] = True
+        _newton(lens, target, objects, e0, ea, eb, ab, its, polish, wavelength_nm)
 
 
 def dirs_of_sub(e0, ea, eb, idx, ab):
