@@ -155,6 +155,14 @@ def _main(args) -> int:
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            raise
+        # a write that fails after the checks (a full disk, a vanished folder): one line;
+        # the atomic writes leave the old outputs in place
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        print(f"eyelab: error: cannot write {where}{e.strerror or e}", file=sys.stderr)
+        return 1
     return 1
 
 

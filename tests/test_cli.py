@@ -244,3 +244,27 @@ def test_a_device_is_never_replaced(tmp_path, capsys):
         assert main(argv) == 2
         assert "not a regular file" in capsys.readouterr().err
     assert stat.S_ISCHR(os.stat(os.devnull).st_mode)
+
+
+def test_a_full_disk_at_the_write_is_one_line_and_keeps_the_old_outputs(tmp_path, capsys,
+                                                                        monkeypatch):
+    import errno
+
+    import eyelab.fileio
+
+    out, rep = tmp_path / "o.png", tmp_path / "o.json"
+    out.write_bytes(b"old")
+    real = eyelab.fileio.atomic_path
+
+    def full(path, suffix=".tmp"):
+        if str(path).endswith(".json"):
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        return real(path, suffix)
+
+    monkeypatch.setattr(eyelab.fileio, "atomic_path", full)
+    rc = main(["render", "-o", str(out), "--report", str(rep), "--width", "32", "--height",
+               "24", "--samples", "1"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and len(err.splitlines()) == 1 and "No space left on device" in err
+    assert out.read_bytes() == b"old" and not rep.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["o.png"]
