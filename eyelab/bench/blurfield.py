@@ -24,6 +24,7 @@ from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.parallel import default_workers
+from eyelab.progress import bar as progress_bar
 
 GRIDS = [(128, 8, 8), (128, 16, 16), (256, 32, 32), (256, 64, 64)]
 PAPER_S = {"8x8x128": 0.3, "16x16x128": 1.0, "32x32x256": 7.0}
@@ -40,7 +41,9 @@ def run_blurfield_bench(repeats: int = 3, accuracy_points: int = 2000, seed: int
     lens = SpectacleLens.from_rx(rx)
     cam = fit_virtual_camera(lens, eye_camera(fov_y_deg=50.0, near=0.1, far=50.0)).camera
     rows = []
+    bar = progress_bar(len(GRIDS), "blur-field bench", "grid")
     for shape in GRIDS:
+        bar.update(1)
         times = []
         field = None
         for _ in range(repeats):
@@ -60,6 +63,7 @@ def run_blurfield_bench(repeats: int = 3, accuracy_points: int = 2000, seed: int
         if row["target_s"] is not None:
             row["meets_target"] = row["best_s"] <= row["target_s"]
         rows.append(row)
+    bar.close()
     share = sharing_error(compute_blur_field(eye, lens, cam, shape=(128, 32, 32)), eye, lens,
                           samples=300, seed=seed)
     # accuracy of the depth sampling: blur size looked up vs exact at random points, drawn

@@ -21,6 +21,7 @@ from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
 from eyelab.options import RasterQuality
+from eyelab.progress import bar as progress_bar
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene
 
@@ -62,11 +63,14 @@ def new_renderer_each(n: int, warmup: int = 10) -> dict:
     for _ in range(warmup):
         with RasterRenderer(q) as r:
             r.render(scene, _eye(0), lens, view)
+    bar = progress_bar(n, "memory: a new renderer each", "render")
     gc.collect()
     before, t = rss_mb(), time.perf_counter()
     for _ in range(n):
         with RasterRenderer(q) as r:
             r.render(scene, _eye(0), lens, view)
+        bar.update(1)
+    bar.close()
     gc.collect()
     return {"renders": n, "rss_growth_mb": rss_mb() - before, "rss_before_mb": before,
             "time_s": time.perf_counter() - t}
@@ -78,10 +82,13 @@ def new_eye_each(n: int, warmup: int = 20) -> dict:
     with RasterRenderer(RasterQuality(samples=2)) as r:
         for i in range(warmup):
             r.render(scene, _eye(i), lens, view)
+        bar = progress_bar(n, "memory: a new eye each", "render")
         gc.collect()
         before, t = rss_mb(), time.perf_counter()
         for i in range(n):
             r.render(scene, _eye(warmup + i), lens, view)
+            bar.update(1)
+        bar.close()
         gc.collect()
         out = {"renders": n, "rss_growth_mb": rss_mb() - before, "rss_before_mb": before,
                "time_s": time.perf_counter() - t,

@@ -20,6 +20,7 @@ from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
 from eyelab.options import RasterQuality
+from eyelab.progress import bar as progress_bar
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.scene import Scene, SceneMesh
 
@@ -61,6 +62,7 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     eye = Eye.from_rx(rx, accommodation_max=1.0)
     lens = SpectacleLens.from_rx(rx)
     rows = []
+    bar = progress_bar(len(triangles) * len(samples) + 2, "render bench", "row")
     for n in triangles:
         scene = boxes_scene(n)
         for s in samples:
@@ -74,15 +76,18 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
                                  "frame_s": dt, "fps": 1.0 / dt, "gl_render_s": gl,
                                  "overhead_s": dt - gl, "overhead_fraction": (dt - gl) / gl,
                                  "passes": rep["samples"]["done"], "stages_s": t})
+                bar.update(1)
     # what the skips save (10k triangles, S = 10)
     scene = boxes_scene(triangles[0])
     skips = {}
     sharp = Eye(accommodation_max=10.0)
     sharp_view = View(width=width, height=height, near=0.25, far=20.0)
     for skip in (True, False):
+        bar.update(1)
         with RasterRenderer(RasterQuality(samples=10, refine=False, skip_unneeded=skip)) as r:
             skips[f"all_zero_field_skip_{skip}"] = _frame(r, scene, sharp, None, sharp_view,
                                                           repeats)[0]
+    bar.close()
     view = View(width=width, height=height, near=0.1, far=20.0)
     with RasterRenderer(RasterQuality(samples=10, refine=False)) as r:
         skips["lens_in_view"] = _frame(r, scene, eye, lens, view, repeats)[0]
