@@ -45,11 +45,13 @@ def atomic_path(path, suffix: str = ".tmp"):
     """Yield a temporary file name beside ``path`` (ending in ``suffix``, so writers that
     pick a format by extension still can); when the block ends without an exception the
     file replaces ``path`` with the usual permissions (umask), otherwise it is removed.
-    Parent folders are created. The temporary's name starts with :data:`TMP_PREFIX`."""
+    Parent folders are created. The temporary's name starts with :data:`TMP_PREFIX`;
+    those a killed earlier write of the same file left are swept first."""
     p = Path(path)
     if p.exists() and not p.is_file():     # never rename over a device or a folder
         raise SpecError("output", f"{str(p)!r} is not a regular file")
     p.parent.mkdir(parents=True, exist_ok=True)
+    sweep_for(p)
     fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f"{TMP_PREFIX}{p.name}.", suffix=suffix)
     os.close(fd)
     try:

@@ -56,10 +56,10 @@ def test_atomic_group_writes_all_or_none_and_sweeps(tmp_path):
 
 
 @pytest.mark.slow
-def test_kill_9_during_render_and_demo_leaves_whole_files(tmp_path):
-    """`eyelab demo` and `eyelab render --report` killed (SIGKILL) at 24 random moments:
-    each final file is either absent or whole (the PNG decodes, the JSON parses), and the
-    next complete run leaves no temporary."""
+def test_kill_9_during_render_demo_and_bench_leaves_whole_files(tmp_path):
+    """`eyelab demo`, `eyelab render --report` and `eyelab bench` killed (SIGKILL) at 30
+    random moments: each final file is either absent or whole (the PNG decodes, the JSON
+    parses), and the next complete run leaves no temporary."""
     import json
     import os
     import random
@@ -77,10 +77,12 @@ def test_kill_9_during_render_and_demo_leaves_whole_files(tmp_path):
     size = ["--width", "160", "--height", "120", "--samples", "2"]
     cmds = {"demo": cli + ["demo", "-o", str(tmp_path / "d.png")] + size,
             "render": cli + ["render", "-o", str(tmp_path / "r.png"), "--report",
-                             str(tmp_path / "r.json")] + size}
+                             str(tmp_path / "r.json")] + size,
+            "bench": cli + ["bench", "optics", "--points", "100000", "--repeats", "2",
+                            "-o", str(tmp_path / "b.json")]}
     rng = random.Random(3)
-    for i in range(24):
-        name = ("demo", "render")[i % 2]
+    for i in range(30):
+        name = ("demo", "render", "bench")[i % 3]
         proc = subprocess.Popen(cmds[name], env=env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
         time.sleep(rng.uniform(1.0, 4.5))
@@ -89,7 +91,7 @@ def test_kill_9_during_render_and_demo_leaves_whole_files(tmp_path):
         for png in (tmp_path / "d.png", tmp_path / "r.png"):
             if png.exists():
                 assert mpimg.imread(png).shape[2] in (3, 4)
-        for js in (tmp_path / "d.json", tmp_path / "r.json"):
+        for js in (tmp_path / "d.json", tmp_path / "r.json", tmp_path / "b.json"):
             if js.exists():
                 json.loads(js.read_text())
     for cmd in cmds.values():
