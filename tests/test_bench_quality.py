@@ -38,6 +38,9 @@ def test_quick_stability_all_clear():
     res = run_stability_bench(**QUICK)
     assert res["engine_configurations"] >= 10_000
     assert res["all_clear"], res["summary"]
+    # every part ran: fields and reference renders too, rows re-derived both ways
+    assert res["blur_field_voxels"] > 0 and res["reference_pixels"] > 0
+    assert res["rederived"]["vergence_checked"] > 100 and res["rederived"]["missed_checked"] > 10
 
 
 def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):

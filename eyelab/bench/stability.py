@@ -251,12 +251,13 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
     for _ in range(field_configs):
         bar.update(1)
         eye = _random_eye(rng)
-        try:
+        try:       # only the lens may be refused; anything the field raises is a crash
             lens = _random_lens(rng) if rng.uniform() < 0.7 else None
-            f = compute_blur_field(eye, lens, shape=(8, 4, 4))
         except SpecError:
             refused += 1
             continue
+        try:
+            f = compute_blur_field(eye, lens, shape=(8, 4, 4))
         except Exception:
             field_crash += 1
             crash_examples.append(traceback.format_exc(limit=3))
@@ -276,11 +277,12 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         eye = _random_eye(rng)
         try:
             lens = _random_lens(rng) if rng.uniform() < 0.7 else None
-            img = ReferenceRenderer(ReferenceQuality(samples=4, workers=1)).render(
-                scene, eye, lens, View(width=16, height=12)).linear
         except SpecError:
             refused += 1
             continue
+        try:
+            img = ReferenceRenderer(ReferenceQuality(samples=4, workers=1)).render(
+                scene, eye, lens, View(width=16, height=16)).linear
         except Exception:
             ref_crash += 1
             crash_examples.append(traceback.format_exc(limit=3))
