@@ -14,13 +14,15 @@ from eyelab.resources import GIB, estimate_memory, memory_limit
 from eyelab.spec import parse_spec
 
 MEASURE = """
-import json, os, resource, sys
+import json, os, sys
 os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkOSOpenGLRenderWindow"
 from eyelab.jobs import render_spec
 from eyelab.spec import parse_spec
 spec = parse_spec(json.loads(sys.argv[1]))
 render_spec(spec)
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+# VmHWM: this program's own peak (ru_maxrss keeps the forking parent's across exec)
+hwm = [l for l in open("/proc/self/status") if l.startswith("VmHWM:")][0]
+print(int(hwm.split()[1]) * 1024)
 """
 
 
