@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from eyelab.color import CVD_KINDS
 from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, MAX_ACCOMMODATION_D
 from eyelab.optics.fresnel import COATINGS
-from eyelab.optics.materials import CATALOGUE
+from eyelab.optics.materials import ALIASES, CATALOGUE
 from eyelab.options import ACCOMMODATION_RULES, FIELD_ROUTES, MAX_PASSES, MODELS
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
@@ -117,7 +117,8 @@ KEYS = [
         range_text="the Rx grammar below"),
     Key("lens", "material", "text", "", '`"cr39"`', "a catalogue name or a table "
         "{n_d, v_d} (a lens from an Rx needs n_d ≥ 1.3; v_d ≥ 5 or inf)",
-        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + ", {n_d, v_d}",
+        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + " (aliases "
+        + ", ".join(f'`"{k}"`' for k in ALIASES if "-" not in k) + "), {n_d, v_d}",
         base=RX_LENS),
     Key("lens", "base_curve_d", "number", "D", "Vogel's rule", "front surface power (at "
         "the material's index); limited by the diameter's steepness", -20, 30,
@@ -288,6 +289,20 @@ TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
           "position_m)"}
 
 
+def materials_markdown() -> list:
+    """The material catalogue as a Markdown table (lines): n_d, V_d, n_e, V_e, source."""
+    out = ["Materials (`lens.material`; the data as published are exact, the others follow "
+           "from the Cauchy model through them):", "",
+           "| name | aliases | n_d | V_d | n_e | V_e | source |", "|---|---|---|---|---|---|---|"]
+    for name, m in CATALOGUE.items():
+        if name == "air":
+            continue
+        aliases = ", ".join(f"`{a}`" for a, t in ALIASES.items() if t == name)
+        out.append(f"| `{name}` | {aliases} | {m.n_d:.4f} | {m.v_d:.1f} | {m.n_e:.4f} | "
+                   f"{m.v_e:.1f} | {m.source} |")
+    return out
+
+
 def markdown() -> str:
     """The README's spec reference: one Markdown table per spec table."""
     out = []
@@ -310,6 +325,8 @@ def markdown() -> str:
             if table == "render":
                 cells.insert(1, k.renderer)
             out.append("| " + " | ".join(cells) + " |")
+        if table == "lens":
+            out += [""] + materials_markdown()
     return "\n".join(out)
 
 

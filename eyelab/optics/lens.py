@@ -29,8 +29,8 @@ from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
 
 #: Minimum centre thickness of minus lenses by material (m) (SCIENCE.md §7, lab practice).
 MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
-                        "polycarbonate": 1.5e-3, "1.60": 1.4e-3, "1.67": 1.2e-3,
-                        "1.74": 1.5e-3}
+                        "polycarbonate": 1.5e-3, "mr8": 1.4e-3, "mr7": 1.2e-3,
+                        "mr174": 1.5e-3}
 #: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
 MIN_EDGE_THICKNESS = 1.0e-3
 #: Lowest n_d of a lens made from a prescription (the lowest spectacle material is

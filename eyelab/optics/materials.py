@@ -7,7 +7,7 @@ B = ((n_d - 1) / V_d) / (lambda_F^-2 - lambda_C^-2) and A = n_d - B / lambda_d^2
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,6 +17,10 @@ from eyelab.errors import SpecError, check_range
 LAMBDA_F_NM = 486.13
 LAMBDA_D_NM = 587.56
 LAMBDA_C_NM = 656.27
+#: The e line and the F', C' lines that European (and Japanese) data use (V_e).
+LAMBDA_E_NM = 546.07
+LAMBDA_F_PRIME_NM = 479.99
+LAMBDA_C_PRIME_NM = 643.85
 #: Design wavelengths for the R, G, B channels (nm): C line, d line... green e line, F line.
 RGB_WAVELENGTHS_NM = (656.27, 546.07, 486.13)
 
@@ -32,11 +36,40 @@ class Material:
         Refractive index at the helium d line (587.56 nm), in [1, 2.5].
     v_d : float
         Abbe number; ``inf`` means no dispersion (n(lambda) = n_d).
+    source : str
+        Where the numbers come from (not part of the material's identity).
     """
 
     name: str
     n_d: float
     v_d: float = float("inf")
+    source: str = field(default="", compare=False, repr=False)
+
+    @classmethod
+    def from_e_line(cls, name: str, n_e: float, v_e: float, source: str = "") -> Material:
+        """A material given as manufacturers in Europe and Japan do: n_e (546.07 nm) and
+        V_e = (n_e - 1)/(n_F' - n_C') (F' 479.99, C' 643.85 nm). The same Cauchy model
+        n = A + B/lambda^2 through those data gives n_d and V_d (SCIENCE.md §6):
+        B = ((n_e - 1)/V_e)/(lambda_F'^-2 - lambda_C'^-2), A = n_e - B/lambda_e^2."""
+        lf, lc, le = LAMBDA_F_PRIME_NM / 1e3, LAMBDA_C_PRIME_NM / 1e3, LAMBDA_E_NM / 1e3
+        b = ((n_e - 1.0) / v_e) / (lf ** -2 - lc ** -2)
+        a = n_e - b / le ** 2
+
+        def n(wl_nm):
+            return a + b / (wl_nm / 1e3) ** 2
+
+        n_d = n(LAMBDA_D_NM)
+        return cls(name, n_d, (n_d - 1.0) / (n(LAMBDA_F_NM) - n(LAMBDA_C_NM)), source)
+
+    @property
+    def n_e(self) -> float:
+        return self.n(LAMBDA_E_NM)
+
+    @property
+    def v_e(self) -> float:
+        """Abbe number at the e line (inf for a non-dispersive material)."""
+        dn = self.n(LAMBDA_F_PRIME_NM) - self.n(LAMBDA_C_PRIME_NM)
+        return float("inf") if dn == 0 else (self.n_e - 1.0) / dn
 
     def __post_init__(self):
         object.__setattr__(self, "n_d", check_range(f"material[{self.name}].n_d", self.n_d,
@@ -67,20 +100,29 @@ class Material:
         return not np.isinf(self.v_d)
 
 
-#: Catalogue (SCIENCE.md §6, Duane's Ophthalmology ch. 51C Table 1 and lens-maker data).
+DUANE = "Duane's Ophthalmology ch. 51C, Table 1 (SCIENCE.md S35): n_d, V_d"
+MITSUI = ("Mitsui Chemicals, MR series product data (n_e, V_e; SCIENCE.md §6 notes that "
+          "the nominal 1.60/1.67/1.74 are n_e); n_d, V_d by Material.from_e_line")
+#: Catalogue: the name, the data as published and their source. The high-index
+#: thiourethanes are published as n_e / V_e rounded to 0.01 / 1, so their derived n_d is
+#: known to about +-0.005.
 CATALOGUE: dict[str, Material] = {
     m.name: m
     for m in (
-        Material("cr39", 1.498, 58.0),
-        Material("crown", 1.523, 58.6),
-        Material("trivex", 1.532, 44.0),
-        Material("polycarbonate", 1.586, 30.0),
-        Material("1.60", 1.600, 36.0),
-        Material("1.67", 1.670, 32.0),
-        Material("1.74", 1.740, 33.0),
+        Material("cr39", 1.498, 58.0, DUANE),
+        Material("crown", 1.523, 58.6, DUANE),
+        Material("trivex", 1.532, 44.0, "PPG Trivex data (SCIENCE.md S37, S38): n_d 1.532, "
+                 "V_d 43-45"),
+        Material("polycarbonate", 1.586, 30.0, DUANE),
+        Material.from_e_line("mr8", 1.60, 41.0, MITSUI + " (MR-8)"),
+        Material.from_e_line("mr7", 1.67, 31.0, MITSUI + " (MR-7)"),
+        Material.from_e_line("mr174", 1.74, 32.0, MITSUI + " (MR-174)"),
         Material("air", 1.0),
     )
 }
+#: Other names of catalogue materials: the nominal indices name the usual thiourethanes.
+ALIASES = {"1.60": "mr8", "1.67": "mr7", "1.74": "mr174", "pc": "polycarbonate",
+           "mr-8": "mr8", "mr-7": "mr7", "mr-174": "mr174", "cr-39": "cr39"}
 
 
 def get_material(spec, *, field: str = "lens.material") -> Material:
@@ -88,12 +130,13 @@ def get_material(spec, *, field: str = "lens.material") -> Material:
     if isinstance(spec, Material):
         return spec
     if isinstance(spec, str):
-        key = spec.strip().lower().replace("-", "").replace(" ", "")
-        key = {"cr39": "cr39", "pc": "polycarbonate"}.get(key, key)
-        if key in CATALOGUE:
+        key = spec.strip().lower().replace(" ", "")
+        key = ALIASES.get(key, key).replace("-", "")
+        if key in CATALOGUE and key != "air":
             return CATALOGUE[key]
-        raise SpecError(field, f"unknown material {spec!r}; allowed: {', '.join(CATALOGUE)} "
-                               "or a table {{n_d = ..., v_d = ...}}")
+        names = [k for k in CATALOGUE if k != "air"] + [k for k in ALIASES if "-" not in k]
+        raise SpecError(field, f"unknown material {spec!r}; allowed: {', '.join(names)} "
+                               "or a table {n_d = ..., v_d = ...}")
     if isinstance(spec, dict):
         unknown = set(spec) - {"n_d", "v_d", "name"}
         if unknown or "n_d" not in spec:
