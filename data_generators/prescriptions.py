@@ -29,7 +29,8 @@ SAMPLES: dict[str, dict] = {
         "lens": {"rx": "+3.00 DS", "material": "cr39"}},
     "presbyope-55": {
         "eye": {"rx": "+0.50 DS", "age": 55, "pupil_diameter_mm": 3.5},
-        "lens": {"rx": "+0.50 DS add +2.25", "material": "cr39"}},
+        "lens": {"rx": "+0.50 DS add +2.25", "design": "single-vision",
+                 "material": "cr39"}},
     "oblique-astigmat": {
         "eye": {"rx": "-1.00 -2.00 x 45", "age": 28, "pupil_diameter_mm": 5.0},
         "lens": {"rx": "-1.00 -2.00 x 45", "material": "1.60",

@@ -42,7 +42,10 @@ EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupi
             "chromatic"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
-             "front", "back", "torus", "coating"}
+             "front", "back", "torus", "coating", "design"}
+#: Lens designs an Rx with an add can be made into: its distance part, or its near
+#: prescription (sphere + add: reading glasses). Progressive designs are not built yet.
+LENS_DESIGNS = ("single-vision", "near")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
@@ -236,8 +239,10 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
     diam = _num(t, "diameter_mm", "lens", 10, 90)
     if "coating" in t:
         check_choice("lens.coating", t["coating"], COATINGS)
+    if "design" in t:
+        check_choice("lens.design", t["design"], LENS_DESIGNS)
     if "front" in t or "back" in t:
-        for key in ("rx", "base_curve_d", "torus"):
+        for key in ("rx", "base_curve_d", "torus", "design"):
             if key in t:
                 raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
         for key in ("front", "back"):
@@ -256,6 +261,7 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         rx = eye_rx
     else:
         raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
+    rx = _design_rx(rx, t.get("design"), "lens.rx" if "rx" in t else "eye.rx")
     try:
         return SpectacleLens.from_rx(
             rx, material=material, base_curve=_num(t, "base_curve_d", "lens", -20, 30),
@@ -266,6 +272,23 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         if e.field == "lens.rx" and "rx" not in t:     # the lens took the eye's Rx
             raise SpecError("eye.rx", f"(the lens is made for it) {e.message}") from None
         raise
+
+
+def _design_rx(rx: Prescription, design, where: str) -> Prescription:
+    """The single-vision Rx a lens is made for: an add is never ignored silently."""
+    if design is None:
+        if rx.add > 0:
+            raise SpecError("lens.design", f"{where} = {rx.format()!r} has an add: say "
+                            "design = \"single-vision\" (its distance part) or \"near\" "
+                            f"(sphere + add = {rx.sphere + rx.add:+.2f}: reading glasses); "
+                            "progressive lenses are not available yet")
+        return rx
+    if design == "near":
+        if rx.add == 0:
+            raise SpecError("lens.design", f"\"near\" needs an add in {where}, which "
+                                           f"{rx.format()!r} has not")
+        return rx.near()
+    return rx.distance()
 
 
 def parse_points(items) -> ObjectPoints:

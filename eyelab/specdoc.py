@@ -139,6 +139,11 @@ KEYS = [
     Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
         'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
         base=RX_LENS),
+    Key("lens", "design", "choice", "", "required when the Rx has an add", "what a "
+        "single-vision lens is made for when the Rx has an add: its distance part, or "
+        "sphere + add (reading glasses); never chosen silently", choices=("single-vision",
+                                                                          "near"),
+        base={"lens": {"rx": "+0.50 DS add +2.25"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
         "[lens.front] and [lens.back] (both, with `center_thickness_mm`)",
         range_text="a surface table"),

@@ -130,3 +130,27 @@ def test_trace_wavelengths_equals_one_trace_per_wavelength():
         for key in ("out_points", "out_dirs", "inside", "status"):
             np.testing.assert_array_equal(res[key], one[key])
     assert 0 < (many[0]["status"] != 0).sum() < len(d)
+
+
+def test_an_add_is_never_ignored():
+    """A single-vision lens from an Rx with an add needs lens.design; "near" puts the add
+    on the sphere: a point at the add's focus (1/2.25 m before the lens, 0.456 m from the
+    pupil) is sharp through it for an eye without accommodation and blurred through the
+    distance design, and the library refuses an add outright."""
+    from eyelab.spec import parse_spec
+
+    base = {"eye": {"rx": "+0.50 DS", "accommodation_max_d": 0.0},
+            "points": [{"distance_m": 1 / 2.25 + 0.012}, {"distance_m": "inf"}]}
+    with pytest.raises(SpecError) as e:
+        parse_spec(dict(base, lens={"rx": "+0.50 DS add +2.25"}))
+    assert e.value.field == "lens.design" and "+2.75" in e.value.message
+    blur = {}
+    for design in ("single-vision", "near"):
+        spec = parse_spec(dict(base, lens={"rx": "+0.50 DS add +2.25", "design": design}))
+        res = analyze_points(spec.eye, spec.lens, spec.points)
+        blur[design] = res.to_arcmin(res.blur_axes()[0])
+    assert blur["near"][0] < 1 < 10 < blur["single-vision"][0]     # arcmin, near point
+    assert blur["single-vision"][1] < 1 < 10 < blur["near"][1]     # and at infinity
+    with pytest.raises(SpecError, match="add"):
+        SpectacleLens.from_rx(Prescription(0.5, add=2.25))
+    SpectacleLens.from_rx(Prescription(0.5, add=2.25).near())

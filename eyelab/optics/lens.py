@@ -248,6 +248,10 @@ class SpectacleLens:
         0.9 of a hemisphere at the rim (the 'lenticular' limit); an explicit diameter that
         does not fit raises :class:`SpecError`.
         """
+        if rx.add > 0:
+            raise SpecError("lens.design", f"{rx.format()} has an add: a single-vision lens "
+                            "is made for rx.distance() or rx.near(), never silently for "
+                            "one of them (spec: lens.design)")
         mat = get_material(material)
         if not MIN_LENS_INDEX <= mat.n_d:
             raise SpecError("lens.material", f"a lens made from a prescription needs n_d in "

@@ -230,6 +230,14 @@ class Prescription:
     __str__ = format
 
     # ------------------------------------------------------------ transposition
+    def distance(self) -> Prescription:
+        """The distance part alone (the add dropped)."""
+        return Prescription(self.sphere, self.cylinder, self.axis, 0.0, self.eye)
+
+    def near(self) -> Prescription:
+        """The near prescription: the add on the sphere (single-vision reading lenses)."""
+        return Prescription(self.sphere + self.add, self.cylinder, self.axis, 0.0, self.eye)
+
     def transpose(self) -> Prescription:
         """The same correction in the other cylinder form: S+C / -C x A+-90 (in (0, 180])."""
         ax = (self.axis + 90.0) % 180.0
