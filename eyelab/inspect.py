@@ -472,11 +472,11 @@ def _edit(data: dict, name: str, v, model: InspectorModel) -> None:
     elif name == "age":
         eye.pop("accommodation_max_d", None)
         eye["age"] = int(round(float(v)))
-    elif name == "focus_d":
+    elif name == "focus_d":           # the eye's accommodation, one state for every job
         if float(v) < 0:
-            render.pop("focus_d", None)
+            eye.pop("accommodation_d", None)
         else:
-            render["focus_d"] = _snap(v, 0.25)
+            eye["accommodation_d"] = _snap(v, 0.25)
     elif name == "samples":
         render["samples"] = int(round(float(v)))
     elif name in ("chromatic", "reconstruct"):

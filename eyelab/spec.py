@@ -7,6 +7,7 @@ unless a key ends in ``_m``; D for powers; degrees for angles.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import tomllib
@@ -39,7 +40,7 @@ from eyelab.scene.scene import UNITS, SceneSource
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
             "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm",
-            "chromatic"}
+            "chromatic", "accommodation_d"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design"}
@@ -48,7 +49,10 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
 LENS_DESIGNS = ("single-vision", "near")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
-ANALYSIS_KEYS = {"wavelength_nm", "fixation", "accommodation_d"}
+ANALYSIS_KEYS = {"wavelength_nm", "fixation"}
+#: Keys that moved: where they are now (an old spec gets an error that says so).
+MOVED = {"analysis.accommodation_d": "eye.accommodation_d",
+         "render.focus_d": "eye.accommodation_d"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m"}
 
 
@@ -75,12 +79,15 @@ class RenderSpec:
             other = set(renderer_keys(self.renderer)) - set(renderer_keys(t["renderer"]))
             for k in other:
                 t.pop(k, None)
-        return parse_render(t, None)
+        new = parse_render(t, None)
+        # the eye's accommodation comes from [eye], not from this table: keep it
+        return dataclasses.replace(new, view=dataclasses.replace(
+            new.view, focus_d=self.view.focus_d))
 
 
 #: Keys of ``[render]`` that every renderer takes (the rest are renderers' quality options).
 RENDER_VIEW_KEYS = {"width": "width", "height": "height", "fov_y_deg": "fov_y_deg",
-                    "near_m": "near", "far_m": "far", "focus_d": "focus_d", "cvd": "cvd",
+                    "near_m": "near", "far_m": "far", "cvd": "cvd",
                     "cvd_severity": "cvd_severity", "gaze_deg": "gaze_deg"}
 #: Quality options that are display choices rather than spec keys.
 _NOT_SPEC_KEYS = {"progress"}
@@ -101,6 +108,10 @@ class Spec:
 def _check_keys(table, allowed, where):
     if not isinstance(table, dict):
         raise SpecError(where, f"must be a table, got {table!r}")
+    for key in table:
+        if f"{where}.{key}" in MOVED:
+            raise SpecError(f"{where}.{key}", f"moved to {MOVED[f'{where}.{key}']} (one eye "
+                            "state for analyze, render, inspect and batch alike)")
     unknown = sorted(set(table) - allowed, key=str)
     if unknown:
         near = difflib.get_close_matches(str(unknown[0]), sorted(allowed), n=1, cutoff=0.6)
@@ -159,6 +170,8 @@ def parse_eye(t: dict) -> Eye:
         kw["rotation_centre"] = _num(t, "rotation_centre_mm", "eye", 5, 20) * 1e-3
     if "chromatic" in t:
         kw["chromatic"] = check_bool("eye.chromatic", t["chromatic"])
+    if "accommodation_d" in t:
+        eye_accommodation(t)
     explicit = {"power_min_d", "astigmatism_d", "astigmatism_axis_deg"} & set(t)
     if "rx" in t:
         if explicit:
@@ -187,6 +200,15 @@ def parse_eye(t: dict) -> Eye:
     if "retina_distance_mm" in t:
         kw["retina_distance"] = _num(t, "retina_distance_mm", "eye", 15, 35) * 1e-3
     return Eye(**kw)
+
+
+def eye_accommodation(t: dict):
+    """``[eye] accommodation_d``: None for "auto" (best effort per point, Kakimoto Eq. 13)
+    or a fixed accommodation in D (0-25; an eye gives at most its amplitude)."""
+    acc = t.get("accommodation_d", "auto")
+    if isinstance(acc, str) and acc.strip().lower() == "auto":
+        return None
+    return check_range("eye.accommodation_d", acc, 0, MAX_ACCOMMODATION_D)
 
 
 def _surface(t, where) -> Surface:
@@ -434,11 +456,10 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     fix = an.get("fixation", "fixed")
     if fix not in ("fixed", "rotating"):
         raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
-    acc = an.get("accommodation_d", "auto")
-    acc = None if acc == "auto" else check_range("analysis.accommodation_d", acc, 0,
-                                                 MAX_ACCOMMODATION_D)
+    acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
+    render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
     return Spec(eye, lens, points, wl, fix, acc, source, render)
 
 

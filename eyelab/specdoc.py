@@ -110,6 +110,10 @@ KEYS = [
         1.2, 1.6),
     Key("eye", "rotation_centre_mm", "number", "mm", "13.5", "pupil to the centre of "
         "rotation", 5, 20),
+    Key("eye", "accommodation_d", "number", "D", '`"auto"`', "the eye's accommodation for "
+        'every job (analyze, render, inspect, batch): `"auto"` = best effort per point '
+        "(Kakimoto Eq. 13), or a fixed value (the eye gives at most its amplitude); was "
+        "`analysis.accommodation_d` and `render.focus_d`", 0, MAX_ACCOMMODATION_D),
     Key("eye", "chromatic", "boolean", "", "true", "the eye's own chromatic aberration "
         "(Thibos et al. 1992), refraction at the d line"),
     # ------------------------------------------------------------------ [lens]
@@ -179,13 +183,13 @@ KEYS = [
     Key("lens.back", "revolve", "choice", "", '`"y"`', "toric: the axis of revolution",
         choices=("x", "y"), base=TORIC),
     # -------------------------------------------------------------- [analysis]
-    Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength analysed",
-        380, 780),
-    Key("analysis", "fixation", "choice", "", '`"fixed"`', "pupil fixed at the origin "
-        "(Kakimoto) or rotating about the centre of rotation (the as-worn model)",
+    Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength `analyze` "
+        "traces (renders trace R, G, B at 656.27, 546.07, 486.13 nm)", 380, 780),
+    Key("analysis", "fixation", "choice", "", '`"fixed"`', "for `analyze`: pupil fixed at "
+        "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
+        "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",
         choices=("fixed", "rotating")),
-    Key("analysis", "accommodation_d", "number", "D", '`"auto"`', "a fixed accommodation, "
-        'or `"auto"`: best effort per point (Eq. 13)', 0, MAX_ACCOMMODATION_D),
+
     # -------------------------------------------------------------- [[points]]
     Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
         'pupil, or `"inf"`', 0.01, 1e7, base={"points": [{}]}),
@@ -211,8 +215,7 @@ KEYS = [
         0.001, 10),
     Key("render", "far_m", "number", "m", "100", "far clipping depth (> near_m)", 0.001,
         1e5, edges=False),
-    Key("render", "focus_d", "number", "D", "best effort per point", "fixed accommodation "
-        "(clamped to the eye's amplitude)", 0, MAX_ACCOMMODATION_D),
+
     Key("render", "cvd", "choice", "", "none", "colour-vision deficiency (Machado 2009)",
         choices=CVD_KINDS),
     Key("render", "cvd_severity", "number", "", "1", "its severity", 0, 1),

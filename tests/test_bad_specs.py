@@ -83,7 +83,7 @@ def test_values_at_the_documented_limits_are_accepted(tmp_path, capsys):
     Hofstetter's 18.5 D, which once overflowed the amplitude's range)."""
     from eyelab.spec import parse_spec
 
-    spec = parse_spec({"eye": {"age": 0}, "render": {"focus_d": 25, "far_m": 1e5}})
+    spec = parse_spec({"eye": {"age": 0, "accommodation_d": 25}, "render": {"far_m": 1e5}})
     assert spec.eye.accommodation_max == pytest.approx(18.5)
     parse_spec({"eye": {"age": 0, "amplitude_model": "max"}})
     parse_spec({"lens": {"rx": "-2.00", "material": {"n_d": 1.5, "v_d": "inf"}}})

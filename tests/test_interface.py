@@ -110,9 +110,9 @@ def test_every_option_is_reachable_from_a_spec():
         for f in cls.__dataclass_fields__:
             assert f in keys or f == "progress", (name, f)
     rs = parse_render({"renderer": "raster", "depth_mode": "linear", "field_shape": [16, 8, 8],
-                       "focus_d": 1.5, "skip_unneeded": False, "reconstruct": True})
+                       "skip_unneeded": False, "reconstruct": True})
     assert rs.quality.depth_mode == "linear" and rs.quality.field_shape == (16, 8, 8)
-    assert rs.view.focus_d == 1.5 and not rs.quality.skip_unneeded
+    assert not rs.quality.skip_unneeded
     with pytest.raises(SpecError) as e:
         parse_render({"renderer": "raster", "model": "fons"})
     assert e.value.field == "render.model" and "reference" in e.value.message
