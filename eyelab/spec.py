@@ -28,7 +28,7 @@ from eyelab.optics.eye import (
     watson_yellott_pupil,
 )
 from eyelab.optics.fresnel import COATINGS
-from eyelab.optics.lens import LensPose, SpectacleLens
+from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens, check_feasible
 from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
@@ -272,8 +272,10 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
                 raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
         if ct is None:
             raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
-        return SpectacleLens(_surface(t["front"], "lens.front"), _surface(t["back"], "lens.back"),
-                             ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
+        front, back = _surface(t["front"], "lens.front"), _surface(t["back"], "lens.back")
+        check_feasible(front, back, ct * 1e-3, (diam or 60.0) * 1e-3,
+                       min_edge=MIN_EDGE_THICKNESS)
+        return SpectacleLens(front, back, ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
                              coating=t.get("coating", "none"))
     if "torus" in t:
         check_choice("lens.torus", t["torus"], ("x", "y"))

@@ -128,7 +128,10 @@ KEYS = [
         "the material's index); limited by the diameter's steepness", -20, 30,
         base=RX_LENS, edges=False),
     Key("lens", "center_thickness_mm", "number", "mm", "material minimum (minus), 1 mm "
-        "edge (plus)", "centre thickness", 0.2, 30, base=RX_LENS),
+        "edge (plus)", "centre thickness; a lens is refused (with the thickness or diameter "
+        "that would work) unless its surfaces stay apart inside the diameter with an edge "
+        "of at least 1 mm, and a minus lens keeps its material's minimum centre",
+        0.2, 30, base=RX_LENS, edges=False),
     Key("lens", "diameter_mm", "number", "mm", "60 (less for strong lenses)", "round "
         "lens diameter", 10, 90, base=RX_LENS),
     Key("lens", "vertex_distance_mm", "number", "mm", "12", "back vertex to the cornea",
@@ -149,7 +152,8 @@ KEYS = [
                                                                           "near"),
         base={"lens": {"rx": "+0.50 DS add +2.25"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
-        "[lens.front] and [lens.back] (both, with `center_thickness_mm`)",
+        "[lens.front] and [lens.back] (both, with `center_thickness_mm`); a surface steeper "
+        "than a hemisphere inside the diameter is refused naming `diameter_mm`",
         range_text="a surface table"),
     Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
     # ------------------------------------------------ [lens.front] / [lens.back]
@@ -158,22 +162,22 @@ KEYS = [
     Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
         "`radius_mm`)", -200, 200, base={"lens": {"front": {"type": "sphere"},
                                                   "back": {"type": "plane"},
-                                                  "center_thickness_mm": 2.0}}),
+                                                  "center_thickness_mm": 2.0}}, edges=False),
     Key("lens.front", "radius_mm", "number", "mm", "none", "vertex radius, not 0 (or "
         "`curvature`)", -1e9, 1e9, base=SURFACES, edges=False),
     Key("lens.front", "conic", "number", "", "0", "conic constant", -100, 100,
-        base=SURFACES),
+        base=SURFACES, edges=False),
     Key("lens.front", "coefficients", "text", "1/m³, 1/m⁵, …", "[]", "aspheric "
         "coefficients [A4, A6, …] of the sag polynomial",
         range_text="numbers within ±1e12", base=SURFACES),
     Key("lens.back", "curvature_x", "number", "1/m", "0", "toric: curvature along x "
         "before rotation (or `radius_x_mm`)", -200, 200, base={"lens": {
             "front": {"type": "sphere"}, "back": {"type": "toric"},
-            "center_thickness_mm": 2.0}}),
+            "center_thickness_mm": 2.0}}, edges=False),
     Key("lens.back", "curvature_y", "number", "1/m", "0", "toric: curvature along y (or "
         "`radius_y_mm`)", -200, 200, base={"lens": {
             "front": {"type": "sphere"}, "back": {"type": "toric"},
-            "center_thickness_mm": 2.0}}),
+            "center_thickness_mm": 2.0}}, edges=False),
     Key("lens.back", "radius_x_mm", "number", "mm", "none", "toric: radius along x",
         -1e9, 1e9, base=TORIC, edges=False),
     Key("lens.back", "radius_y_mm", "number", "mm", "none", "toric: radius along y",

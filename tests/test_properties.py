@@ -67,8 +67,12 @@ def test_designed_lens_chain_never_produces_nan(rx, eye, material, pose, fixatio
        axis=st.floats(0, math.pi), n=st.floats(1.45, 1.95), t=st.floats(0.0005, 0.012),
        seed=st.integers(0, 2**31))
 def test_steep_high_index_lenses_flag_tir_and_misses(c1, c2, c3, axis, n, t, seed):
-    lens = SpectacleLens(Sphere(c1), Toric(c2, c3, axis), t, Material("x", n, 30.0),
-                         diameter=0.04)
+    try:
+        lens = SpectacleLens(Sphere(c1), Toric(c2, c3, axis), t, Material("x", n, 30.0),
+                             diameter=0.04)
+    except SpecError as e:    # surfaces that cross inside the diameter: no lens
+        assert e.field == "lens.center_thickness_mm" and "cross" in e.message
+        return
     res = analyze_points(Eye(), lens, _objects(seed, 60))
     _check_finite(res)
 

@@ -38,6 +38,48 @@ MIN_EDGE_THICKNESS = 1.0e-3
 MIN_LENS_INDEX = 1.3
 
 
+def check_feasible(front, back, center_thickness, diameter, *, min_edge=0.0,
+                   field="lens.center_thickness_mm", undefined_ok=False) -> None:
+    """Refuse (:class:`SpecError` naming ``field``) a lens whose surfaces meet or cross
+    inside its diameter, or whose rim is thinner than ``min_edge`` (m), saying what would
+    make it feasible: the centre thickness, or the diameter, that would. Thickness at lens
+    polar point (r, theta): t - sag_front + sag_back (sags positive toward the eye). A
+    surface steeper than a hemisphere inside the diameter has no sag there: refused
+    (naming ``lens.diameter_mm``) unless ``undefined_ok`` (the library's own check, which
+    lets such a surface miss rays with a status instead)."""
+    rr = np.linspace(0.0, diameter / 2, 49)[1:]
+    th = np.linspace(0.0, 2 * np.pi, 72, endpoint=False)
+    r, t = np.meshgrid(rr, th)
+    x, y = r * np.cos(t), r * np.sin(t)
+    with np.errstate(invalid="ignore"):
+        thick = center_thickness - front.sag(x, y) + back.sag(x, y)
+    undefined = ~np.isfinite(thick)
+    if undefined.any():
+        if not undefined_ok:
+            reach = rr[:np.argmax(undefined.any(axis=0))]
+            fix = f"reduce diameter_mm to <= {np.floor(2 * reach[-1] * 1e3):.0f}" \
+                if len(reach) else "use flatter surfaces"
+            raise SpecError("lens.diameter_mm", f"a surface is steeper than a hemisphere "
+                            f"inside the diameter (no surface beyond "
+                            f"{r[undefined].min() * 1e3:.1f} mm from the centre): {fix}")
+        thick = np.where(undefined, np.inf, thick)
+    need = np.where(r >= rr[-1] - 1e-12, min_edge, 0.0)      # min_edge on the rim
+    short = float((need - thick).max())
+    if short <= 0:
+        return
+    k = np.unravel_index((need - thick).argmax(), thick.shape)
+    # the largest diameter whose rim (and everything inside) would be thick enough
+    ok = [(thick[:, :i + 1] >= 0).all() and (thick[:, i] >= min_edge).all()
+          for i in range(len(rr))]
+    fits = [rr[i] for i in range(len(rr)) if ok[i]]
+    fix = f"increase center_thickness_mm to >= {(center_thickness + short) * 1e3:.2f}"
+    if fits and fits[-1] >= 0.005:
+        fix += f" or reduce diameter_mm to <= {np.floor(2 * fits[-1] * 1e3):.0f}"
+    what = "the surfaces cross" if thick.min() < 0 else "the edge is too thin"
+    raise SpecError(field, f"{what}: thickness {thick[k] * 1e3:.2f} mm at {r[k] * 1e3:.1f} mm "
+                           f"from the centre (at least {need[k] * 1e3:.2f} mm needed); {fix}")
+
+
 @dataclass(frozen=True)
 class LensPose:
     """Where the lens sits in front of the eye.
@@ -106,6 +148,27 @@ class SpectacleLens:
         if self.coating not in COATINGS:
             raise SpecError("lens.coating", f"must be one of {', '.join(map(repr, COATINGS))},"
                                             f" got {self.coating!r}")
+        self.check_feasible(min_edge=0.0)
+
+    # ------------------------------------------------------------- thickness
+    def thickness(self, r, theta) -> np.ndarray:
+        """Axial thickness (m) at lens-frame polar points (r m, theta rad): centre thickness
+        minus the front sag plus the back sag (sags positive toward the eye)."""
+        x, y = r * np.cos(theta), r * np.sin(theta)
+        return self.center_thickness - self.front.sag(x, y) + self.back.sag(x, y)
+
+    def edge_thickness(self, samples: int = 360) -> tuple:
+        """(thinnest, thickest) edge thickness on the rim (m) and the rim angles (rad) where
+        they are."""
+        th = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
+        e = self.thickness(np.full_like(th, self.diameter / 2), th)
+        return float(e.min()), float(e.max()), float(th[e.argmin()]), float(th[e.argmax()])
+
+    def check_feasible(self, min_edge: float = 0.0, field: str = "lens.center_thickness_mm"
+                       ) -> None:
+        """See :func:`check_feasible` (this lens's surfaces, thickness and diameter)."""
+        check_feasible(self.front, self.back, self.center_thickness, self.diameter,
+                       min_edge=min_edge, field=field, undefined_ok=True)
 
     # --------------------------------------------------------------- placement
     def placed_surfaces(self) -> tuple[PlacedSurface, PlacedSurface]:
@@ -302,4 +365,10 @@ class SpectacleLens:
             if abs(t_new - t) < 1e-10:
                 break
             t = t_new
+        if fixed_t:       # the wearer's lens: the material's minimum centre, a real edge
+            if rx.sphere + max(rx.cylinder, 0.0) < 0 and t < MIN_CENTER_THICKNESS[key]:
+                raise SpecError("lens.center_thickness_mm", f"{t * 1e3:.2f} mm is below "
+                                f"{mat.name}'s minimum for a minus lens: >= "
+                                f"{MIN_CENTER_THICKNESS[key] * 1e3:.1f} mm")
+            check_feasible(Asphere(c1), back, t, diameter, min_edge=MIN_EDGE_THICKNESS)
         return cls(Asphere(c1), back, t, mat, diameter, pose, rx, coating)
