@@ -19,11 +19,64 @@ def _v(a):
     return [float(x) for x in a]
 
 
-def _principal(wave, x_axis, i):
+def _principal(wave, x_axis, i, lens=None):
     k1, k2, ang = principal_angles(wave, x_axis)
-    return {"vergence_1_d": float(k1[i]), "vergence_2_d": float(k2[i]),
-            "direction_1_deg": float(np.degrees(ang[i])),
-            "mean_d": float(0.5 * (k1[i] + k2[i])), "cylinder_d": float(k2[i] - k1[i])}
+    out = {"vergence_1_d": float(k1[i]), "vergence_2_d": float(k2[i]),
+           "direction_1_deg": float(np.degrees(ang[i])),
+           "mean_d": float(0.5 * (k1[i] + k2[i])), "cylinder_d": float(k2[i] - k1[i])}
+    if lens is not None:
+        y_axis = np.cross(wave.N[i], x_axis[i])
+        e1 = math.cos(ang[i]) * x_axis[i] + math.sin(ang[i]) * y_axis
+        out["direction_1_tabo_deg"] = _tabo(_lens_angle(lens, e1))
+    return out
+
+
+def _lens_angle(lens, v) -> float:
+    """Angle (deg, [0, 360)) of the world vector ``v`` projected on the lens plane,
+    counter-clockwise from the lens's x (the wearer's right) seen from behind the wearer."""
+    local = np.asarray(lens.pose.rotation, float).T @ np.asarray(v, float)
+    return math.degrees(math.atan2(local[1], local[0])) % 360.0
+
+
+def _tabo(wearer_deg: float) -> float:
+    """An axis direction in the wearer's view (deg) as a TABO axis (examiner's view),
+    in (0, 180]."""
+    a = (180.0 - wearer_deg) % 180.0
+    return 180.0 if a == 0.0 else a
+
+
+def _prism(res, lens, i) -> dict:
+    """Prism at the chief ray's lens point: its deviation (prism dioptres, 100 tan of the
+    angle) and base direction (the way the light is bent), in the lens plane."""
+    d_in, d_out = res.chief.dir_in[i], res.chief.dir_out[i]
+    cosang = float(np.clip(d_in @ d_out, -1.0, 1.0))
+    delta = 100.0 * math.tan(math.acos(cosang))
+    dev = d_out - cosang * d_in
+    base = _lens_angle(lens, dev) if np.linalg.norm(dev) > 1e-15 else 0.0
+    return {"prism_d": delta, "base_deg": base,
+            "base_right_d": delta * math.cos(math.radians(base)),
+            "base_up_d": delta * math.sin(math.radians(base))}
+
+
+def _power_error(res, lens, objects, i) -> dict | None:
+    """The power the lens delivers along this line of sight (the vertex-sphere wave minus
+    the object's vergence there) less the prescription, as sphere / cylinder x TABO axis
+    (minus cylinder), in the wave's (eye x, y) frame."""
+    if lens.rx is None or res.wave_vertex_sphere is None:
+        return None
+    k11, k12, k22 = (float(k[i]) for k in res.wave_vertex_sphere.in_basis(res.eye_x))
+    vs_point = res.chief.exit[i] + 0.0
+    if np.isfinite(objects.distance[i]):
+        d = float(np.linalg.norm(objects.positions()[i] - vs_point))
+        obj = -1.0 / d
+    else:
+        obj = 0.0
+    err = np.array([[k11 - obj, k12], [k12, k22 - obj]]) - lens.rx.distance().power_matrix()
+    w, v = np.linalg.eigh(err)
+    sphere, cyl = float(w[1]), float(w[0] - w[1])
+    axis_w = math.degrees(math.atan2(v[1, 1], v[0, 1])) % 180.0   # where the power is sphere
+    return {"sphere_d": sphere, "cylinder_d": cyl, "axis_tabo_deg": _tabo(axis_w),
+            "mean_d": sphere + cyl / 2}
 
 
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
@@ -36,7 +89,8 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     """
     lens = None if no_lens else spec.lens
     res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
-                         fixation=spec.fixation, accommodation=spec.accommodation)
+                         fixation=spec.fixation, accommodation=spec.accommodation,
+                         vertex_sphere=spec.vertex_sphere)
     maj, mnr, ang = res.blur_axes()
     eye = spec.eye
     out_points = []
@@ -51,6 +105,8 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
                 "distance_m": dist if math.isfinite(dist) else "inf",
                 "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
                               float(np.degrees(math.atan2(d[1], -d[2])))],
+                "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
+                                    float(np.degrees(math.atan2(d[1], d[0])) % 360.0)],
             },
         }
         if st & int(Status.MISSED | Status.TIR | Status.NOT_CONVERGED | Status.BEHIND):
@@ -68,9 +124,14 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
                          "direction_in_glass": _v(ch.dir_glass[i])})
         entry["chief_ray"] = path
         entry["wavefront_at_eye"] = _principal(res.wave_eye, res.eye_x, i)
-        if res.wave_vertex_sphere is not None:
+        if lens is not None:
+            entry["wavefront_at_exit"] = _principal(res.wave_exit, res.eye_x, i, lens)
             entry["wavefront_at_vertex_sphere"] = _principal(res.wave_vertex_sphere,
-                                                             res.eye_x, i)
+                                                             res.eye_x, i, lens)
+            entry["prism"] = _prism(res, lens, i)
+            err = _power_error(res, lens, spec.points, i)
+            if err is not None:
+                entry["power_error"] = err
         entry["accommodation_d"] = float(res.accommodation[i])
         entry["blur"] = {
             "major_um": float(maj[i] * 1e6), "minor_um": float(mnr[i] * 1e6),
@@ -92,6 +153,10 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
                 "retina_distance_mm": eye.retina_distance * 1e3,
                 "far_point_vergence_d": [k1, k2]},
         "lens": None if lens is None else _lens_info(lens, spec.wavelength_nm),
+        "vertex_sphere": None if res.vertex_sphere is None else {
+            "centre": res.vertex_sphere["centre"],
+            "centre_mm": _v(np.asarray(res.vertex_sphere["centre_m"]) * 1e3),
+            "radius_mm": res.vertex_sphere["radius_m"] * 1e3},
         "wavelength_nm": spec.wavelength_nm,
         "fixation": spec.fixation,
         "accommodation": "best effort (Kakimoto Eq. 13)" if spec.accommodation is None
@@ -103,7 +168,9 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
 
 def _lens_info(lens, wl):
     f1, f2, a = lens.back_vertex_powers(wl)
+    e_min, e_max, _, _ = lens.edge_thickness()
     return {"rx": None if lens.rx is None else lens.rx.format(),
+            "edge_thickness_mm": [e_min * 1e3, e_max * 1e3],
             "material": lens.material.name, "n": lens.material.n(wl),
             "abbe": lens.material.v_d if lens.material.dispersive else "inf",
             "center_thickness_mm": lens.center_thickness * 1e3,
@@ -136,10 +203,16 @@ def format_report(rep: dict) -> str:
         lines.append("lens: none (naked eye)")
     else:
         ln = rep["lens"]
-        lines.append(f"lens: {ln['rx']} in {ln['material']} (n {ln['n']:.4f}), CT "
-                     f"{ln['center_thickness_mm']:.2f} mm, vertex {ln['vertex_distance_mm']:.1f} "
-                     f"mm, tilt {ln['pantoscopic_tilt_deg']:.1f} deg; traced back vertex powers "
+        made = ln["rx"] if ln["rx"] is not None else "explicit surfaces"
+        lines.append(f"lens: {made} in {ln['material']} (n {ln['n']:.4f}), CT "
+                     f"{ln['center_thickness_mm']:.2f} mm, edge "
+                     "{:.2f}-{:.2f} mm".format(*ln["edge_thickness_mm"])
+                     + f", vertex {ln['vertex_distance_mm']:.1f} mm, tilt "
+                     f"{ln['pantoscopic_tilt_deg']:.1f} deg; traced back vertex powers "
                      "{:+.4f} / {:+.4f} D".format(*ln["back_vertex_powers_d"]))
+        vs = rep["vertex_sphere"]
+        lines.append(f"vertex sphere: centred on the {vs['centre'].replace('_', ' ')}, radius "
+                     f"{vs['radius_mm']:.2f} mm")
     lines.append(f"wavelength {rep['wavelength_nm']} nm, fixation {rep['fixation']}, "
                  f"accommodation {rep['accommodation']}")
     for p in rep["points"]:
@@ -156,13 +229,23 @@ def format_report(rep: dict) -> str:
                          "({:+.2f}, {:+.2f}, {:+.2f}) mm; residual {:.1e} rad in {} it."
                          .format(*c["entry_mm"], *c["exit_mm"], c["path_residual_rad"],
                                  c["path_iterations"]))
-        for key, label in (("wavefront_at_eye", "wavefront at eye"),
-                           ("wavefront_at_vertex_sphere", "at vertex sphere")):
+        for key, label in (("wavefront_at_exit", "wavefront at lens exit"),
+                           ("wavefront_at_vertex_sphere", "at vertex sphere"),
+                           ("wavefront_at_eye", "at eye")):
             if key in p:
                 w = p[key]
                 lines.append(f"  {label}: vergences {w['vergence_1_d']:+.4f} D @ "
                              f"{w['direction_1_deg']:.1f} deg, {w['vergence_2_d']:+.4f} D "
                              f"(mean {w['mean_d']:+.4f}, cyl {w['cylinder_d']:+.4f})")
+        if "prism" in p:
+            pr = p["prism"]
+            lines.append(f"  prism {pr['prism_d']:.3f} Δ base {pr['base_deg']:.0f} deg "
+                         f"(right {pr['base_right_d']:+.3f}, up {pr['base_up_d']:+.3f} Δ)")
+        if "power_error" in p:
+            pe = p["power_error"]
+            lines.append(f"  power error vs the Rx: {pe['sphere_d']:+.3f} / "
+                         f"{pe['cylinder_d']:+.3f} x {pe['axis_tabo_deg']:.0f} "
+                         f"(mean {pe['mean_d']:+.3f} D)")
         b = p["blur"]
         lines.append(f"  accommodation {p['accommodation_d']:.3f} D; retinal blur ellipse "
                      f"{b['major_um']:.2f} x {b['minor_um']:.2f} um semi-axes "

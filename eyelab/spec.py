@@ -49,11 +49,11 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
 LENS_DESIGNS = ("single-vision", "near")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
-ANALYSIS_KEYS = {"wavelength_nm", "fixation"}
+ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 #: Keys that moved: where they are now (an old spec gets an error that says so).
 MOVED = {"analysis.accommodation_d": "eye.accommodation_d",
          "render.focus_d": "eye.accommodation_d"}
-POINT_KEYS = {"distance_m", "field_deg", "position_m"}
+POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
 
 
 @dataclass(frozen=True)
@@ -103,6 +103,7 @@ class Spec:
     accommodation: float | None = None
     source: str = "<built-in>"
     render: RenderSpec = field(default_factory=RenderSpec)
+    vertex_sphere: str = "rotation_centre"
 
 
 def _check_keys(table, allowed, where):
@@ -323,7 +324,7 @@ def parse_points(items) -> ObjectPoints:
         where = f"points[{i}]"
         _check_keys(p, POINT_KEYS, where)
         if "position_m" in p:
-            if "distance_m" in p or "field_deg" in p:
+            if "distance_m" in p or "field_deg" in p or "field_polar_deg" in p:
                 raise SpecError(f"{where}.position_m", "give position_m or distance_m + "
                                                        "field_deg, not both")
             pos = p["position_m"]
@@ -342,6 +343,20 @@ def parse_points(items) -> ObjectPoints:
             dist = math.inf
         else:
             dist = check_range(f"{where}.distance_m", dist, 0.01, 1e7)
+        if "field_polar_deg" in p:
+            if "field_deg" in p:
+                raise SpecError(f"{where}.field_polar_deg", "give field_deg or "
+                                                            "field_polar_deg, not both")
+            f = p["field_polar_deg"]
+            if not (isinstance(f, list) and len(f) == 2):
+                raise SpecError(f"{where}.field_polar_deg", f"must be [theta, phi] in degrees "
+                                                            f"(eccentricity, azimuth), got {f!r}")
+            th = math.radians(check_range(f"{where}.field_polar_deg[0]", f[0], 0, 80))
+            ph = math.radians(check_range(f"{where}.field_polar_deg[1]", f[1], -360, 360))
+            dirs.append(np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph),
+                                  -math.cos(th)]))
+            dists.append(dist)
+            continue
         f = p.get("field_deg", [0.0, 0.0])
         if not (isinstance(f, list) and len(f) == 2):
             raise SpecError(f"{where}.field_deg", f"must be [x, y] in degrees, got {f!r}")
@@ -459,10 +474,12 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     if fix not in ("fixed", "rotating"):
         raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
     acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
+    vsph = check_choice("analysis.vertex_sphere", an.get("vertex_sphere", "rotation_centre"),
+                        ("rotation_centre", "pupil"))
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
     render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
-    return Spec(eye, lens, points, wl, fix, acc, source, render)
+    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph)
 
 
 def load_spec(path: str | Path | None = None) -> Spec:

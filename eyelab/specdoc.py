@@ -193,12 +193,19 @@ KEYS = [
         "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
         "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",
         choices=("fixed", "rotating")),
-
+    Key("analysis", "vertex_sphere", "choice", "", '`"rotation_centre"`', "the sphere "
+        "through the lens's back vertex that `analyze` reports the wave on: centred on the "
+        "eye's centre of rotation (radius vertex distance + 13.5 mm: the designer's) or on "
+        "the pupil (radius the vertex distance)", choices=("rotation_centre", "pupil")),
     # -------------------------------------------------------------- [[points]]
     Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
         'pupil, or `"inf"`', 0.01, 1e7, base={"points": [{}]}),
     Key("points[0]", "field_deg", "pair", "deg", "[0, 0]", "field angles [x, y]: x > 0 "
         "to the wearer's right, y > 0 up", -80, 80, base={"points": [{}]}),
+    Key("points[0]", "field_polar_deg", "pair", "deg", "none", "the field as [θ, φ] instead: "
+        "eccentricity from straight ahead (0–80) and azimuth counter-clockwise from the "
+        "wearer's right (±360)", 0, 80, range_text="θ 0–80, φ ±360",
+        base={"points": [{}]}),
     Key("points[0]", "position_m", "triple", "m", "none", "the point [x, y, z] instead of "
         "distance and field (not [0, 0, 0])", -1e6, 1e6, base={"points": [{}]},
         edges=False),

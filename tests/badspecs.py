@@ -32,6 +32,8 @@ TEXT_KINDS = {"rx": "rx", "material": "material", "scene": "scene", "path": "sce
 
 
 def _kind(k):
+    if k.key == "field_polar_deg":
+        return "polar"
     if k.kind == "text":
         return TEXT_KINDS.get(k.key)
     if k.kind == "triple" and k.integers:
@@ -66,6 +68,9 @@ def _bad_values(kind, lo, hi):
     if kind == "pair":
         return [[0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0],
                 [0.0, HUGE], [hi + 1, 0.0], [0.0, lo - 1], ["1", 0.0]]
+    if kind == "polar":
+        return [[0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0],
+                [0.0, HUGE], [81.0, 0.0], [-1.0, 0.0], [0.0, 361.0], ["1", 0.0]]
     if kind == "triple":
         return [[0.0, 0.0], [0.0, 0.0, 0.0, 0.0], "0 0 1", [True, 0.0, 1.0],
                 [math.nan, 0.0, 1.0], [0.0, 0.0, HUGE], [hi * 2, 0.0, 1.0], ["1", 0.0, 1.0]]

@@ -36,6 +36,10 @@ class PointAnalysis:
     a, b : (n,) signed semi-axes of Eq. 8 (m), a for the larger curvature k'_1
     omega : (n,) rad, direction of k'_1 from eye x (Eq. 9's omega'_1)
     status : (n,) uint8
+    wave_exit : Wavefront just after the back surface, at the chief ray's exit point (None
+        without a lens)
+    vertex_sphere : {"centre": "rotation_centre" | "pupil", "centre_m": (3,), "radius_m"}
+        the sphere ``wave_vertex_sphere`` is taken on (None without a lens)
     """
 
     chief: ChiefRays
@@ -50,6 +54,8 @@ class PointAnalysis:
     omega: np.ndarray
     status: np.ndarray
     eye: Eye
+    wave_exit: Wavefront | None = None
+    vertex_sphere: dict | None = None
 
     @property
     def ok(self):
@@ -70,7 +76,8 @@ class PointAnalysis:
 
 
 def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: float = 587.56,
-                   fixation: str = "fixed", accommodation=None) -> PointAnalysis:
+                   fixation: str = "fixed", accommodation=None,
+                   vertex_sphere: str = "rotation_centre") -> PointAnalysis:
     """Trace the chain for every object point.
 
     Parameters
@@ -84,6 +91,10 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
         pupil lies rotation_centre before it (the lens designer's as-worn model).
     accommodation : None for the best effort per point (Eq. 13), or a fixed value in D
         (clipped to [0, accommodation_max]).
+    vertex_sphere : where the vertex-sphere wave is taken: "rotation_centre" (the lens
+        designer's sphere: centred on the eye's centre of rotation, radius vertex distance
+        + rotation_centre, through the lens's back vertex) or "pupil" (centred on the pupil
+        centre, radius the vertex distance).
     """
     if fixation not in ("fixed", "rotating"):
         from eyelab.errors import SpecError
@@ -93,12 +104,13 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
     target = cor if fixation == "rotating" else np.zeros(3)
     chief = find_chief_rays(lens, target, objects, wavelength_nm)
     return trace_chain(eye, lens, chief, objects, wavelength_nm=wavelength_nm,
-                       fixation=fixation, accommodation=accommodation)
+                       fixation=fixation, accommodation=accommodation,
+                       vertex_sphere=vertex_sphere)
 
 
 def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
                 wavelength_nm: float = 587.56, fixation: str = "fixed",
-                accommodation=None) -> PointAnalysis:
+                accommodation=None, vertex_sphere: str = "rotation_centre") -> PointAnalysis:
     """The wavefront part of :func:`analyze_points`, for chief rays already found
     (Table 1 from 'wavefront creation' to 'conoid sectioning')."""
     n = len(objects)
@@ -109,7 +121,12 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         pupil = cor - eye.rotation_centre * N_out
     else:
         pupil = np.zeros((n, 3))
-    vs_wave = None
+    vs_wave = exit_wave = vs_info = None
+    if vertex_sphere not in ("rotation_centre", "pupil"):
+        from eyelab.errors import SpecError
+
+        raise SpecError("analysis.vertex_sphere", f"must be 'rotation_centre' or 'pupil', "
+                                                  f"got {vertex_sphere!r}")
     if lens is None:
         dist = np.where(objects.finite, np.linalg.norm(chief.start - pupil, axis=1), np.inf)
         wave = Wavefront.spherical(N_out, dist)
@@ -120,15 +137,19 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         wave.refract(h_front, 1.0 / nl)
         wave.transfer(np.linalg.norm(h_back.points - h_front.points, axis=1))
         wave.refract(h_back, nl)
-        # vertex sphere: centre of rotation, radius = vertex distance + rotation centre
-        r_vs = lens.pose.vertex_distance + eye.rotation_centre
-        rel = h_back.points - cor
+        exit_wave = _copy(wave)
+        # vertex sphere: through the back vertex, centred on the centre of rotation (radius
+        # vertex distance + rotation centre) or on the pupil (radius vertex distance)
+        centre = cor if vertex_sphere == "rotation_centre" else np.zeros(3)
+        r_vs = lens.pose.vertex_distance + (eye.rotation_centre
+                                            if vertex_sphere == "rotation_centre" else 0.0)
+        vs_info = {"centre": vertex_sphere, "centre_m": centre, "radius_m": r_vs}
+        rel = h_back.points - centre
         bq = dot(rel, wave.N)
         disc = bq * bq - (dot(rel, rel) - r_vs * r_vs)
         s_vs = -bq - np.sqrt(np.maximum(disc, 0.0))
         s_vs = np.where(disc >= 0, s_vs, 0.0)
-        vs_wave = Wavefront(wave.N.copy(), wave.t1.copy(), wave.k11.copy(), wave.k12.copy(),
-                            wave.k22.copy(), wave.status.copy()).transfer(s_vs)
+        vs_wave = _copy(wave).transfer(s_vs)
         wave.transfer(dot(pupil - h_back.points, wave.N))
     status |= wave.status
     kbar = 0.5 * (wave.k11 + wave.k22)
@@ -155,7 +176,12 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         arr[bad] = 0.0
     mat[bad] = 0.0
     return PointAnalysis(chief, pupil, wave, vs_wave, acc, inside.t1, mat, a, b,
-                         np.mod(omega, np.pi), status, eye)
+                         np.mod(omega, np.pi), status, eye, exit_wave, vs_info)
+
+
+def _copy(w: Wavefront) -> Wavefront:
+    return Wavefront(w.N.copy(), w.t1.copy(), w.k11.copy(), w.k12.copy(), w.k22.copy(),
+                     w.status.copy())
 
 
 def principal_angles(wave: Wavefront, x_axis):
