@@ -42,7 +42,14 @@ def build_scene(source) -> Scene:
 
     src = source if isinstance(source, SceneSource) else SceneSource(str(source))
     if src.name in SCENES:
-        scene = SCENES[src.name]()
+        if src.name == "chart":
+            from eyelab.scene.library import chart_scene
+
+            scene = chart_scene(6.0 if src.chart_distance_m is None else src.chart_distance_m,
+                                contrast=1.0 if src.chart_contrast is None
+                                else src.chart_contrast)
+        else:
+            scene = SCENES[src.name]()
         if src.placed:
             m = src.matrix()
             scene = dataclasses.replace(scene, meshes=[x.transformed(m) for x in scene.meshes])

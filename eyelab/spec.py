@@ -403,7 +403,8 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
 
 
 #: Keys of a ``[render] scene`` table (a mesh file placed in the world).
-SCENE_KEYS = {"path", "position_m", "scale", "rotation_deg", "units"}
+SCENE_KEYS = {"path", "position_m", "scale", "rotation_deg", "units", "distance_m",
+              "contrast"}
 
 
 def parse_scene(value, background, base: Path | None) -> tuple:
@@ -451,7 +452,16 @@ def parse_scene(value, background, base: Path | None) -> tuple:
                                                  f"{background!r}")
         bg = tuple(check_int(f"render.background[{i}]", c, 0, 255)
                    for i, c in enumerate(background))
-    src = SceneSource(name, position_m=triple("position_m", -1e4, 1e4),
+    chart = {}
+    for key, lo, hi in (("distance_m", 0.1, 100.0), ("contrast", 0.0, 1.0)):
+        if key in table:
+            if name != "chart":
+                raise SpecError(f"render.scene.{key}", "only for the built-in chart "
+                                                       "(path = \"chart\")")
+            chart[key] = check_range(f"render.scene.{key}", table[key], lo, hi)
+    src = SceneSource(name, chart_distance_m=chart.get("distance_m"),
+                      chart_contrast=chart.get("contrast"),
+                      position_m=triple("position_m", -1e4, 1e4),
                       scale=check_range("render.scene.scale", table.get("scale", 1.0), 1e-9,
                                         1e9, lo_open=True),
                       rotation_deg=triple("rotation_deg", -360, 360), units=units,

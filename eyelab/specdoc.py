@@ -286,6 +286,11 @@ KEYS = [
     Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
         "reads; relative to the spec) or a built-in scene's name",
         range_text="an existing file or a built-in name"),
+    Key("render.scene", "distance_m", "number", "m", "6", 'the built-in chart\'s distance '
+        '(path = `"chart"` only)', 0.1, 100, base={"render": {"scene": {"path": "chart"}}}),
+    Key("render.scene", "contrast", "number", "", "1", "the built-in chart's Weber "
+        "contrast, in linear light (1: black letters)", 0, 1,
+        base={"render": {"scene": {"path": "chart"}}}),
     Key("render.scene", "units", "choice", "", '`"m"`', "the file's length unit",
         choices=tuple(UNITS), base={"render": {"scene": {"path": "room"}}}),
     Key("render.scene", "scale", "number", "", "1", "a further scale factor", 0, 1e9,

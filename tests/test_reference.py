@@ -53,7 +53,7 @@ def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
     from eyelab.optics.eye import ocular_lca
     from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 
-    scene = chart_scene(0.5, px_per_mm=4.0)
+    scene = chart_scene(0.5)
     w, h, fov = 96, 96, 8.0
     # the sharp image point-samples the texture: take it 3x finer and convolve there, so
     # that the comparison integrates the texture as the blurred rays do

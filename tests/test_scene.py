@@ -7,7 +7,7 @@ from eyelab.errors import SpecError
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye
 from eyelab.optics.prescription import Prescription
-from eyelab.scene.library import SCENES, chart_texture, room_scene
+from eyelab.scene.library import SCENES, room_scene
 from eyelab.scene.raycast import EmbreeIntersector, NumpyIntersector
 from eyelab.scene.refine import refine_for_fields
 from eyelab.scene.scene import Scene, SceneMesh, load_mesh, sample_texture
@@ -40,12 +40,46 @@ def test_sample_texture_conventions():
     assert sample_texture(tex, np.array([[0.25, 0.25]]))[0, 0] == 0
 
 
-def test_chart_letters_have_the_right_angular_size():
-    img, (w, h) = chart_texture(6.0, rows=(1.0,), px_per_mm=1.0)
-    ink = np.argwhere(img[..., 0] == 0)
-    height_mm = ink[:, 0].max() - ink[:, 0].min() + 1
-    want_mm = 6000 * np.tan(np.radians(50 / 60))      # 20/200: 50 arcmin at 6 m
-    assert height_mm == pytest.approx(want_mm, abs=5)
+@pytest.mark.parametrize("distance", [6.0, 0.4])
+def test_every_etdrs_row_has_its_exact_size_in_the_scene(distance):
+    """Rays from the eye over each row's first letter (embree, in the rendered scene): the
+    ink's vertical extent, as an angle, is 5 MAR (MAR = 10^logMAR arcmin) to 1 % on every
+    row, -0.3 to 1.0 logMAR."""
+    from eyelab.scene.library import ETDRS_ROWS, chart_scene, etdrs_layout
+    from eyelab.scene.raycast import EmbreeIntersector
+
+    scene = chart_scene(distance)
+    inter = EmbreeIntersector(scene)
+    layout = etdrs_layout(distance)
+    firsts = [row for row in layout[::5]]
+    assert [lm for _, lm, *_ in firsts] == list(ETDRS_ROWS)
+    for _letter, lm, x, y, size in firsts:
+        ys = y + np.linspace(-0.6, 0.6, 1201) * size        # 0.1 % of the letter per ray
+        xs = x + np.linspace(-0.45, 0.45, 31) * size
+        gx, gy = np.meshgrid(xs, ys)
+        d = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, -distance)], 1)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        hits = inter.intersect(np.zeros_like(d), d)
+        lum = hits.linear_colors(scene).mean(axis=1).reshape(gy.shape)
+        ink_rows = np.flatnonzero((lum < 0.5).any(axis=1))
+        top, bottom = gy[ink_rows.max(), 0], gy[ink_rows.min(), 0]
+        angle = np.degrees(np.arctan2(top, distance) - np.arctan2(bottom, distance)) * 60
+        want = 5 * 10 ** lm
+        assert angle == pytest.approx(want, rel=0.01), (lm, angle, want)
+
+
+def test_chart_contrast_and_letters():
+    from eyelab.color import decode_srgb
+    from eyelab.scene.library import SLOAN, chart_scene, sloan_letter
+
+    for c in SLOAN:      # every Sloan letter fills its box's height and width (C: open right)
+        g = sloan_letter(c, 100)
+        assert g[0].any() and g[-1].any() and g[:, 0].any(), c
+        assert g[:, -1].any() or (c == "C" and g[:, -15:].any()), c
+    low = chart_scene(6.0, contrast=0.1)
+    tex = low.meshes[1].texture                             # row 1.0 logMAR
+    ink = decode_srgb(tex.min(axis=(0, 1)).astype(np.uint8)[None])[0]
+    assert ink == pytest.approx(0.9, abs=0.005)            # Weber 10 % in linear light
 
 
 @pytest.mark.parametrize("name", SCENES)

@@ -1,9 +1,9 @@
 """Procedural scenes with known geometry (world frame of eyelab: eye at the origin looking
 along -z, x right, y up, metres).
 
-* :func:`chart_scene` — a tumbling-E acuity chart (ETDRS layout: 5 letters per row, rows
-  0.1 logMAR apart, letter height 5 MAR, spacing one letter width, row gap the next row's
-  height) at a chosen distance, letters of the correct angular size;
+* :func:`chart_scene` — an ETDRS acuity chart of Sloan letters (5 per row, rows 0.1 logMAR
+  apart from 1.0 to -0.3, letter height 5 MAR, spacing one letter width, row gap the next
+  row's height) at a chosen distance and contrast, each letter a quad of its exact size;
 * :func:`page_scene` — a page of text-like lines at reading distance;
 * :func:`tilted_page_scene` — a page from 6 to 11 cm, tilted (Kakimoto Fig. 12);
 * :func:`depth_ramp_scene` — a checkerboard floor receding from 0.3 m to 10 m;
@@ -48,39 +48,129 @@ def tumbling_e(size_px: int, orientation: int) -> np.ndarray:
     return np.kron(e, np.ones((size_px // 5, size_px // 5), bool))
 
 
+#: logMAR of the ETDRS rows, largest first (1.0 = 20/200 ... -0.3 = 20/10).
 ETDRS_ROWS = tuple(np.round(np.arange(1.0, -0.31, -0.1), 1))
+#: The ten Sloan letters of ETDRS charts.
+SLOAN = "CDHKNORSVZ"
 
 
-def chart_texture(distance_m: float, rows=ETDRS_ROWS, px_per_mm: float = 1.0, seed: int = 0):
-    """Chart image (uint8 RGB, black on white) and its physical size (w, h) in metres."""
+def sloan_letter(letter: str, px: int = 200) -> np.ndarray:
+    """A Sloan-style letter (True = ink) on a px x px image whose edges are the letter's
+    5 x 5 stroke box: strokes one fifth of the height wide, every letter touching all four
+    sides of the box (as Sloan's do), drawn with PIL at ``px`` pixels (anti-aliasing off:
+    an exact bilevel glyph). Letter shapes: bars, diagonals and rings of the 5 x 5 grid
+    (Sloan 1959's design grid); the curves are circular arcs."""
+    from PIL import Image, ImageDraw
+
+    u = px / 5.0
+    img = Image.new("1", (px, px), 0)
+    d = ImageDraw.Draw(img)
+
+    def bar(x0, y0, x1, y1):
+        d.rectangle([x0 * u, y0 * u, x1 * u - 1, y1 * u - 1], fill=1)
+
+    def poly(*pts):
+        d.polygon([(x * u, y * u) for x, y in pts], fill=1)
+
+    def ring(x0, y0, x1, y1, start=0, end=360):
+        d.arc([x0 * u, y0 * u, x1 * u - 1, y1 * u - 1], start, end, fill=1, width=int(u))
+
+    if letter == "H":
+        bar(0, 0, 1, 5), bar(4, 0, 5, 5), bar(0, 2, 5, 3)
+    elif letter == "Z":
+        bar(0, 0, 5, 1), bar(0, 4, 5, 5), poly((3.75, 1), (5, 1), (1.25, 4), (0, 4))
+    elif letter == "N":
+        bar(0, 0, 1, 5), bar(4, 0, 5, 5), poly((0, 0), (1.25, 0), (5, 5), (3.75, 5))
+    elif letter == "V":
+        poly((0, 0), (1.1, 0), (2.5, 3.9), (3.9, 0), (5, 0), (3.1, 5), (1.9, 5))
+    elif letter == "K":
+        bar(0, 0, 1, 5), poly((3.6, 0), (5, 0), (1, 3.2), (1, 2.0))
+        poly((2.0, 2.2), (3.0, 1.6), (5, 5), (3.6, 5))
+    elif letter == "O":
+        ring(0, 0, 5, 5)
+    elif letter == "C":
+        ring(0, 0, 5, 5, 40, 320)
+    elif letter == "D":
+        bar(0, 0, 1, 5), bar(0, 0, 2.5, 1), bar(0, 4, 2.5, 5)
+        ring(0, 0, 5, 5, 270, 90), bar(4, 2, 5, 3)
+    elif letter == "R":
+        bar(0, 0, 1, 5), bar(0, 0, 3.5, 1), bar(0, 2, 3.5, 3)
+        ring(2, 0, 5, 3, 270, 90), poly((2.4, 3), (3.6, 3), (5, 5), (3.8, 5))
+    elif letter == "S":
+        ring(0, 0, 5, 3, 90, 360), ring(0, 2, 5, 5, 270, 180)
+        bar(1.5, 2, 3.5, 3)
+    else:
+        raise ValueError(f"not a Sloan letter: {letter!r}")
+    return np.asarray(img, bool)
+
+
+def etdrs_layout(distance_m: float, rows=ETDRS_ROWS, seed: int = 0) -> list:
+    """The letters of an ETDRS chart at ``distance_m``: [(letter, logMAR, x, y, size)] in
+    metres (centre of each letter box, on the chart plane; y up from the chart's centre).
+    Letter height 5 MAR (MAR = 10^logMAR arcmin) at the chart distance, 5 letters per row,
+    one letter width between letters, the gap below a row the next row's letter height
+    (Ferris et al. 1982)."""
     rng = np.random.default_rng(seed)
-    mm = [distance_m * 1e3 * math.tan(math.radians(5 * 10 ** lm / 60.0)) for lm in rows]
-    width_mm = 10 * mm[0]
-    height_mm = sum(mm) * 2 + mm[0]
-    w = int(math.ceil(width_mm * px_per_mm))
-    h = int(math.ceil(height_mm * px_per_mm))
-    img = np.full((h, w, 3), 255, np.uint8)
-    y = int(mm[0] * 0.5 * px_per_mm)
-    for size in mm:
-        s = max(5, int(round(size * px_per_mm / 5)) * 5)
-        row_w = 9 * s
-        x = (w - row_w) // 2
-        for _ in range(5):
-            e = tumbling_e(s, int(rng.integers(4)))
-            img[y:y + s, x:x + s][e] = 0
-            x += 2 * s
-        y += 2 * s
-        if y + s > h:
-            break
-    return img, (w / px_per_mm / 1e3, h / px_per_mm / 1e3)
+    sizes = [distance_m * math.tan(math.radians(5 * 10 ** lm / 60.0)) for lm in rows]
+    gaps = [sizes[i + 1] if i + 1 < len(sizes) else sizes[i] for i in range(len(sizes))]
+    total = sum(sizes) + sum(gaps[:-1])
+    y = total / 2
+    out = []
+    for lm, size, gap in zip(rows, sizes, gaps, strict=True):
+        letters = rng.choice(list(SLOAN), 5, replace=False)
+        for k, letter in enumerate(letters):
+            out.append((str(letter), float(lm), (k - 2) * 2 * size, y - size / 2, size))
+        y -= size + gap
+    return out
 
 
-def chart_scene(distance_m: float = 6.0, *, px_per_mm: float | None = None) -> Scene:
-    """An acuity chart centred on the line of sight at ``distance_m``."""
-    ppm = px_per_mm or max(0.2, 12.0 / distance_m)
-    img, (w, h) = chart_texture(distance_m, px_per_mm=ppm)
-    quad = grid_quad("chart", (0, 0, -distance_m), (1, 0, 0), (0, 1, 0), w, h, texture=img)
-    return Scene([quad], name=f"chart_{distance_m:g}m")
+#: Pixels per letter of the glyph atlas, and the white margin around each glyph.
+GLYPH_PX = 200
+GLYPH_PAD = 8
+
+
+def chart_scene(distance_m: float = 6.0, *, contrast: float = 1.0, seed: int = 0,
+                rows=ETDRS_ROWS) -> Scene:
+    """An ETDRS chart centred on the line of sight at ``distance_m``: each letter a quad of
+    exactly its angular size (:func:`etdrs_layout`), textured from one atlas of the ten
+    Sloan letters (:data:`GLYPH_PX` texels per letter height), in front of a white board
+    (1e-4 of the distance behind the letters, so the letters' size is exact); one mesh per
+    row, so that a renderer filters each row's texture for its own size. ``contrast``:
+    Weber contrast of the letters (1: black; 0.1: a 10 % low-contrast chart), in linear
+    light."""
+    from eyelab.color import encode_srgb
+
+    ink = int(encode_srgb(np.array([1.0 - float(contrast)]))[0]) if contrast < 1 else 0
+    cell = GLYPH_PX + 2 * GLYPH_PAD
+    atlas = np.full((cell, cell * len(SLOAN), 3), 255, np.uint8)
+    for j, letter in enumerate(SLOAN):
+        glyph = sloan_letter(letter, GLYPH_PX)
+        view = atlas[GLYPH_PAD:GLYPH_PAD + GLYPH_PX,
+                     j * cell + GLYPH_PAD:j * cell + GLYPH_PAD + GLYPH_PX]
+        view[glyph] = ink
+    layout = etdrs_layout(distance_m, rows, seed)
+    rows_meshes, every = [], []
+    for r in range(0, len(layout), 5):    # one mesh per row: one texel density each
+        verts, faces, uvs = [], [], []
+        for n, (letter, _lm, x, y, s) in enumerate(layout[r:r + 5]):
+            j = SLOAN.index(letter)
+            u0 = (j * cell + GLYPH_PAD) / atlas.shape[1]
+            u1 = (j * cell + GLYPH_PAD + GLYPH_PX) / atlas.shape[1]
+            v0, v1 = GLYPH_PAD / cell, (GLYPH_PAD + GLYPH_PX) / cell
+            verts += [(x - s / 2, y - s / 2, -distance_m), (x + s / 2, y - s / 2, -distance_m),
+                      (x + s / 2, y + s / 2, -distance_m), (x - s / 2, y + s / 2, -distance_m)]
+            uvs += [(u0, 1 - v1), (u1, 1 - v1), (u1, 1 - v0), (u0, 1 - v0)]
+            faces += [(4 * n, 4 * n + 1, 4 * n + 2), (4 * n, 4 * n + 2, 4 * n + 3)]
+        rows_meshes.append(SceneMesh(f"chart_row_{layout[r][1]:+.1f}", np.array(verts),
+                                     np.array(faces), texture=atlas, uv=np.array(uvs)))
+        every += verts
+    xs, ys = np.array(every)[:, 0], np.array(every)[:, 1]
+    margin = layout[0][4]
+    board = grid_quad("chart_board", (0, (ys.max() + ys.min()) / 2, -distance_m * (1 + 1e-4)),
+                      (1, 0, 0), (0, 1, 0), xs.max() - xs.min() + 2 * margin,
+                      ys.max() - ys.min() + 2 * margin, nu=8, nv=8,
+                      colors=np.array([255, 255, 255], np.uint8))
+    return Scene([board, *rows_meshes], name=f"chart_{distance_m:g}m")
 
 
 def text_texture(w_px=512, h_px=700, seed=1):
@@ -150,14 +240,12 @@ def box(name, centre, size, color):
 
 def room_scene() -> Scene:
     """Floor, a chart on the back wall at 6 m, boxes from 0.3 to 4 m, a page at 0.4 m."""
-    img, (w, h) = chart_texture(6.0, px_per_mm=2.0)
     meshes = [
         grid_quad("floor", (0, -1.2, -3.2), (1, 0, 0), (0, 0, -1), 4.0, 6.4, nu=16, nv=48,
                   texture=checker_texture(8, 16, 90, 200)),
         grid_quad("wall", (0, 0.0, -6.4), (1, 0, 0), (0, 1, 0), 4.0, 2.4, nu=16, nv=12,
                   colors=np.array([225, 220, 205], np.uint8)),
-        grid_quad("chart", (0, 0.0, -6.0), (1, 0, 0), (0, 1, 0), w, h, nu=12, nv=12,
-                  texture=img),
+        *chart_scene(6.0).meshes,
         box("box_near", (0.25, -0.35, -0.6), (0.12, 0.12, 0.12), (200, 40, 40)),
         box("box_mid", (-0.5, -0.6, -1.5), (0.3, 0.3, 0.3), (40, 90, 200)),
         box("box_far", (0.8, -0.8, -4.0), (0.6, 0.6, 0.6), (40, 160, 60)),

@@ -183,7 +183,8 @@ class SceneSource:
     degrees, applied about the world axes in that order (x first); position_m : where the
     file's origin goes (m, eyelab's frame: the pupil at the origin, looking along -z, y
     up); background : sRGB (r, g, b) of what no mesh covers (None: the built-in scene's
-    own, white for a mesh file).
+    own, white for a mesh file); chart_distance_m / chart_contrast : the built-in chart's
+    distance (m, default 6) and Weber contrast (default 1).
 
     A vertex v of the file goes to ``R_z R_y R_x (units * scale * v) + position_m``.
     """
@@ -194,6 +195,8 @@ class SceneSource:
     rotation_deg: tuple = (0.0, 0.0, 0.0)
     units: str = "m"
     background: tuple | None = None
+    chart_distance_m: float | None = None
+    chart_contrast: float | None = None
 
     def __str__(self):
         return self.name
