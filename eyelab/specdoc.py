@@ -141,8 +141,10 @@ KEYS = [
     Key("lens", "wrap_deg", "number", "deg", "0", "face-form wrap", -30, 30, base=RX_LENS),
     Key("lens", "decentration_mm", "pair", "mm", "[0, 0]", "optical centre offset [x, y]",
         -20, 20, base=RX_LENS),
-    Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: the toric back surface's "
-        "revolution axis", choices=("x", "y"), base=RX_LENS),
+    Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: which torus the toric back "
+        'surface is: `"y"` sweeps the circle of the meridian across the cylinder axis (the '
+        "steeper one of a minus-cylinder back: a tyre, the usual form), `\"x\"` that of "
+        "the meridian along the axis (a barrel)", choices=("x", "y"), base=RX_LENS),
     Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
         'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
         base=RX_LENS),
@@ -184,8 +186,10 @@ KEYS = [
         -1e9, 1e9, base=TORIC, edges=False),
     Key("lens.back", "axis_deg", "number", "deg", "0", "toric: rotation of its x axis",
         -360, 360, base=TORIC),
-    Key("lens.back", "revolve", "choice", "", '`"y"`', "toric: the axis of revolution",
-        choices=("x", "y"), base=TORIC),
+    Key("lens.back", "revolve", "choice", "", '`"y"`', 'toric: `"y"` sweeps the y′ section '
+        "(curvature_y) about an axis parallel to y′ through the x′ centre of curvature — a "
+        "tyre when curvature_y is the steeper, a barrel when the flatter; `\"x\"` the same "
+        "with x′ and y′ exchanged", choices=("x", "y"), base=TORIC),
     # -------------------------------------------------------------- [analysis]
     Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength `analyze` "
         "traces (renders trace R, G, B at 656.27, 546.07, 486.13 nm)", 380, 780),
