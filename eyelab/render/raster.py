@@ -75,7 +75,9 @@ MIPMAP_BELOW_SAMPLES = 8
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
 #: virtual cameras, masks, reconstruction sigma maps). Enough for an inspector toggling
 #: between a few eyes, lenses and views; memory stays bounded whatever is rendered.
-CACHE_SIZES = {"fields": 8, "refined": 16, "texcoords": 4, "small": 32}
+#: Entries per cache: a scene's meshes must fit "refined" and "prefiltered" (the room has
+#: 21, the ETDRS chart 15), or every frame rebuilds them.
+CACHE_SIZES = {"fields": 8, "refined": 48, "prefiltered": 48, "texcoords": 4, "small": 32}
 
 
 class RasterRenderer(Renderer):
@@ -311,7 +313,7 @@ class RasterRenderer(Renderer):
         for m in meshes:
             f = 1 if mip else reduction_factor(m, cam, height)
             if f > 1:
-                m, _ = self._cached("refined", ("prefiltered", m.content_key, f),
+                m, _ = self._cached("prefiltered", ("prefiltered", m.content_key, f),
                                     lambda m=m, f=f: prefiltered(m, f), report,
                                     f"prefiltered_{m.name}")
             shown.append(m)
