@@ -240,3 +240,78 @@ def _torus_derivs(x, y, cs, cp):
     valid = (qp > 0) & (q > 0) & np.isfinite(c)
     z = zp + g
     return (z, g_x, zp1 + g_c * c_y, g_xx, g_xc * c_y, zp2 + g_cc * c_y**2 + g_c * c_yy, valid)
+
+
+class FreeForm(Surface):
+    """A free-form surface from a sag grid: the interpolating bicubic spline (scipy's
+    ``RectBivariateSpline``, degree 3 in x and y, no smoothing) through z[j, i] at
+    (x[i], y[j]), with its exact first and second derivatives, so normals and principal
+    curvatures are defined everywhere on the grid's rectangle and every part of the engine
+    (exact ray tracing, wavefront tracing, blur fields, lens meshes) can use it. Outside
+    the rectangle the sag is NaN and ``valid`` False (a miss, as beyond a sphere's
+    hemisphere).
+
+    x : (nx,) increasing, metres; y : (ny,) increasing, metres (at least 4 each);
+    z : (ny, nx) sag in metres, the vertex at (0, 0) normally (z(0, 0) = 0).
+    """
+
+    def __init__(self, x, y, z):
+        from scipy.interpolate import RectBivariateSpline
+
+        x = np.asarray(x, float)
+        y = np.asarray(y, float)
+        z = np.asarray(z, float)
+        if x.ndim != 1 or y.ndim != 1 or len(x) < 4 or len(y) < 4:
+            raise SpecError("surface.grid", "a free-form grid needs at least 4 x 4 points")
+        if z.shape != (len(y), len(x)):
+            raise SpecError("surface.sag", f"must be (ny, nx) = ({len(y)}, {len(x)}), got "
+                                           f"{z.shape}")
+        if not (np.all(np.diff(x) > 0) and np.all(np.diff(y) > 0)):
+            raise SpecError("surface.grid", "grid coordinates must increase")
+        if not np.all(np.isfinite(z)):
+            raise SpecError("surface.sag", "sag values must be finite")
+        self.x, self.y, self.z = x, y, z
+        for a in (self.x, self.y, self.z):
+            a.flags.writeable = False
+        # RectBivariateSpline takes z[i, j] at (x[i], y[j])
+        self._spline = RectBivariateSpline(x, y, z.T, kx=3, ky=3, s=0)
+
+    def __repr__(self):
+        from eyelab.cache import array_digest
+
+        return (f"FreeForm({len(self.x)}x{len(self.y)} grid, x [{self.x[0]:g}, {self.x[-1]:g}]"
+                f", y [{self.y[0]:g}, {self.y[-1]:g}] m, sag {array_digest(self.z)[:12]})")
+
+    @property
+    def content_key(self) -> str:
+        from eyelab.cache import array_digest
+
+        return array_digest(np.concatenate([self.x, self.y, self.z.ravel()]))
+
+    @property
+    def seed_curvature(self) -> float:
+        d = self.derivatives(np.zeros(1), np.zeros(1))
+        return float(0.5 * (d.zxx[0] + d.zyy[0])) if d.valid[0] else 0.0
+
+    def derivatives(self, x, y) -> SagDerivatives:
+        x = np.asarray(x, float)
+        y = np.asarray(y, float)
+        shape = np.broadcast(x, y).shape
+        x, y = (np.broadcast_to(a, shape).ravel() for a in (x, y))
+        valid = ((x >= self.x[0]) & (x <= self.x[-1]) & (y >= self.y[0]) & (y <= self.y[-1])
+                 & np.isfinite(x) & np.isfinite(y))
+        xs, ys = np.where(valid, x, 0.0), np.where(valid, y, 0.0)
+        ev = self._spline.ev
+        out = [ev(xs, ys, dx=dx, dy=dy) for dx, dy in ((0, 0), (1, 0), (0, 1), (2, 0),
+                                                         (1, 1), (0, 2))]
+        out = [np.where(valid, o, np.nan).reshape(shape) for o in out]
+        return SagDerivatives(*out, valid.reshape(shape))
+
+    @classmethod
+    def from_surface(cls, surface: Surface, half_width: float, n: int = 41) -> FreeForm:
+        """The free-form sampling of another surface on an n x n grid over the square of
+        side 2 ``half_width`` (m) — a tool to test the free-form path against exact
+        shapes."""
+        g = np.linspace(-half_width, half_width, n)
+        gx, gy = np.meshgrid(g, g)
+        return cls(g, g, surface.sag(gx, gy))
