@@ -54,6 +54,14 @@ def _build_parser() -> argparse.ArgumentParser:
 
     inspector.add_parser(sub)
     batch.add_parser(sub)
+    mp = sub.add_parser("maps", help="as-worn maps of the spec's lens: mean power error and "
+                        "cylinder over gaze directions (PNG contour maps, JSON)")
+    mp.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    mp.add_argument("-o", "--output", default="eyelab-maps.png", help="PNG file")
+    mp.add_argument("--json", help="also write the maps as JSON here")
+    mp.add_argument("--half-angle", type=float, default=30.0,
+                    help="gazes within +-this many degrees (default 30)")
+    mp.add_argument("--points", type=int, default=31, help="gazes per axis (default 31)")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
     be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
                                      "memory", "inspect", "batch"))
@@ -144,6 +152,8 @@ def _main(args) -> int:
             return _bench(args)
         if args.command in ("render", "demo"):
             return _render(args)
+        if args.command == "maps":
+            return _maps(args)
         if args.command == "inspect":
             from eyelab.apps.inspector import run
 
@@ -244,6 +254,38 @@ def _render(args) -> int:
         warnings = dict.fromkeys(w for r in rep["panels"].values() for w in r["warnings"])
         for warning in warnings:
             print(f"eyelab: warning: {warning}", file=sys.stderr)
+    return 0
+
+
+def _maps(args) -> int:
+    from eyelab.fileio import atomic_group, check_distinct, check_output, json_default
+    from eyelab.maps import as_worn_maps, maps_summary, plot_maps
+    from eyelab.spec import load_spec
+
+    spec = load_spec(args.spec)
+    if not args.output.lower().endswith(".png"):
+        raise SpecError("--output", f"must be a .png file, got {args.output!r}")
+    check_output("--output", args.output)
+    if args.json:
+        check_output("--json", args.json)
+        check_distinct(**{"--output": args.output, "--json": args.json})
+    if spec.lens is None:
+        raise SpecError("lens", "the spec has no lens to map")
+    maps = as_worn_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle, n=args.points,
+                        wavelength_nm=spec.wavelength_nm)
+    title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
+    writers = {args.output: lambda tmp: plot_maps(maps, tmp, title)}
+    if args.json:
+        text = json.dumps(maps.to_json(), indent=1, default=json_default)
+
+        def write_json(tmp):
+            with open(tmp, "w") as fh:
+                fh.write(text)
+
+        writers[args.json] = write_json
+    atomic_group(writers)
+    print("\n".join(maps_summary(maps)))
+    print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
 
 

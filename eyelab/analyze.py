@@ -10,7 +10,12 @@ import math
 
 import numpy as np
 
-from eyelab.optics.analysis import analyze_points, principal_angles, status_text
+from eyelab.optics.analysis import (
+    analyze_points,
+    power_error,
+    principal_angles,
+    status_text,
+)
 from eyelab.optics.trace import Status
 from eyelab.spec import Spec
 
@@ -64,19 +69,10 @@ def _power_error(res, lens, objects, i) -> dict | None:
     (minus cylinder), in the wave's (eye x, y) frame."""
     if lens.rx is None or res.wave_vertex_sphere is None:
         return None
-    k11, k12, k22 = (float(k[i]) for k in res.wave_vertex_sphere.in_basis(res.eye_x))
-    vs_point = res.chief.exit[i] + 0.0
-    if np.isfinite(objects.distance[i]):
-        d = float(np.linalg.norm(objects.positions()[i] - vs_point))
-        obj = -1.0 / d
-    else:
-        obj = 0.0
-    err = np.array([[k11 - obj, k12], [k12, k22 - obj]]) - lens.rx.distance().power_matrix()
-    w, v = np.linalg.eigh(err)
-    sphere, cyl = float(w[1]), float(w[0] - w[1])
-    axis_w = math.degrees(math.atan2(v[1, 1], v[0, 1])) % 180.0   # where the power is sphere
-    return {"sphere_d": sphere, "cylinder_d": cyl, "axis_tabo_deg": _tabo(axis_w),
-            "mean_d": sphere + cyl / 2}
+    e = power_error(res, lens.rx, objects)
+    return {"sphere_d": float(e["sphere_d"][i]), "cylinder_d": float(e["cylinder_d"][i]),
+            "axis_tabo_deg": _tabo(float(e["axis_wearer_deg"][i])),
+            "mean_d": float(e["mean_d"][i])}
 
 
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:

@@ -196,3 +196,34 @@ def principal_angles(wave: Wavefront, x_axis):
 
 def status_text(code) -> str:
     return Status.describe(int(code))
+
+
+def power_error(res: PointAnalysis, rx, objects: ObjectPoints) -> dict:
+    """The power a lens delivers along each line of sight — the vertex-sphere wave's
+    curvature matrix less the object's vergence at the vertex-sphere point — minus the
+    prescription ``rx`` (its distance part), as minus-cylinder sphere / cylinder x axis
+    in the wave's (eye x, y) frame (the as-worn power error of lens design).
+
+    Returns arrays (n,): sphere_d, cylinder_d (<= 0), axis_wearer_deg ([0, 180), counter-
+    clockwise from the wearer's right seen from behind), mean_d (sphere + cylinder/2);
+    NaN where a row has no light path."""
+    k11, k12, k22 = res.wave_vertex_sphere.in_basis(res.eye_x)
+    n = len(k11)
+    pos = objects.positions()
+    with np.errstate(divide="ignore"):
+        d = np.linalg.norm(pos - res.chief.exit, axis=1)
+        obj = np.where(objects.finite, -1.0 / d, 0.0)
+    f = rx.distance().power_matrix()
+    e11, e12, e22 = k11 - obj - f[0, 0], k12 - f[0, 1], k22 - obj - f[1, 1]
+    mean = 0.5 * (e11 + e22)
+    half = np.sqrt((0.5 * (e11 - e22)) ** 2 + e12 ** 2)
+    sphere, cyl = mean + half, -2.0 * half
+    # the axis: the direction of the larger eigenvalue (where the power is the sphere)
+    axis = np.degrees(0.5 * np.arctan2(2 * e12, e11 - e22)) % 180.0
+    bad = (res.status & np.uint8(FATAL)) != 0
+    out = {"sphere_d": sphere, "cylinder_d": cyl, "axis_wearer_deg": axis,
+           "mean_d": sphere + cyl / 2}
+    for v in out.values():
+        v[bad] = np.nan
+    assert len(sphere) == n
+    return out

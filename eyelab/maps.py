@@ -1,0 +1,191 @@
+"""As-worn maps of a spectacle lens: what a lens designer reads first.
+
+For the lens in its worn pose, the eye turns about its centre of rotation to look along a
+grid of gaze directions (``analysis.fixation = "rotating"``); along each line of sight
+the wave on the vertex sphere is compared with the prescription for the object seen in
+that direction (:func:`eyelab.optics.analysis.power_error`): the mean power error and the
+cylinder (unwanted astigmatism) with its axis, plus the prism. The surfaces' own mean
+curvature and cylinder, in dioptres at the lens's index, are mapped at the points where
+the lines of sight cross them, for comparison.
+
+Object distances follow a documented model: straight ahead and above, infinity; below,
+the object vergence grows linearly with the downward gaze angle to ``near_vergence_d``
+at ``near_gaze_deg`` down and stays there (reading below the horizon).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.analysis import analyze_points, power_error
+from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.trace import FATAL
+
+#: The object-distance model's defaults: 2.5 D (0.4 m) reached 25 deg below straight ahead.
+NEAR_VERGENCE_D = 2.5
+NEAR_GAZE_DEG = 25.0
+
+
+@dataclass
+class AsWornMaps:
+    """Maps over gaze angles (ny, nx): gaze_x_deg (nx,) to the wearer's right, gaze_y_deg
+    (ny,) up; mean_error_d, cylinder_d (<= 0), axis_tabo_deg, sphere_error_d, prism_d,
+    object_vergence_d; front/back surface mean power and cylinder (D) where the line of
+    sight crosses them; ok (bool) where a light path exists."""
+
+    gaze_x_deg: np.ndarray
+    gaze_y_deg: np.ndarray
+    mean_error_d: np.ndarray
+    cylinder_d: np.ndarray
+    axis_tabo_deg: np.ndarray
+    sphere_error_d: np.ndarray
+    prism_d: np.ndarray
+    object_vergence_d: np.ndarray
+    surface: dict = field(default_factory=dict)
+    ok: np.ndarray | None = None
+    model: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        def grid(a):
+            return [[None if not np.isfinite(v) else float(v) for v in row] for row in a]
+
+        out = {"gaze_x_deg": self.gaze_x_deg.tolist(), "gaze_y_deg": self.gaze_y_deg.tolist(),
+               "object_distance_model": self.model}
+        for k in ("mean_error_d", "cylinder_d", "axis_tabo_deg", "sphere_error_d", "prism_d",
+                  "object_vergence_d"):
+            out[k] = grid(getattr(self, k))
+        out["surface"] = {k: grid(v) for k, v in self.surface.items()}
+        return out
+
+
+def object_vergence(gaze_y_deg, near_vergence_d=NEAR_VERGENCE_D,
+                    near_gaze_deg=NEAR_GAZE_DEG):
+    """The model's object vergence (D, >= 0 here: 1/distance) for a gaze ``gaze_y_deg``
+    up (negative: down)."""
+    down = np.clip(-np.asarray(gaze_y_deg, float) / near_gaze_deg, 0.0, 1.0)
+    return down * near_vergence_d
+
+
+def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
+                 near_vergence_d: float = NEAR_VERGENCE_D,
+                 near_gaze_deg: float = NEAR_GAZE_DEG, wavelength_nm: float = 587.56
+                 ) -> AsWornMaps:
+    """The as-worn maps of ``lens`` (made for ``lens.rx``) on an n x n grid of gazes within
+    +-``half_angle_deg``. Gaze (gx, gy) is the direction unit(tan gx, tan gy, -1) from the
+    centre of rotation."""
+    if lens is None or lens.rx is None:
+        raise SpecError("lens.rx", "as-worn maps compare the lens with its prescription: "
+                                   "make the lens from an Rx")
+    half = check_range("maps.half_angle_deg", half_angle_deg, 1.0, 60.0)
+    if not (isinstance(n, int) and 3 <= n <= 201):
+        raise SpecError("maps.n", f"must be an integer in [3, 201], got {n!r}")
+    check_range("maps.near_vergence_d", near_vergence_d, 0.0, 10.0)
+    check_range("maps.near_gaze_deg", near_gaze_deg, 1.0, 60.0)
+    g = np.linspace(-half, half, n)
+    gx, gy = np.meshgrid(g, g)
+    vg = object_vergence(gy, near_vergence_d, near_gaze_deg).ravel()
+    d = np.stack([np.tan(np.radians(gx.ravel())), np.tan(np.radians(gy.ravel())),
+                  -np.ones(gx.size)], -1)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+    with np.errstate(divide="ignore"):
+        dist_cor = np.where(vg > 0, 1.0 / vg, np.inf)
+    # objects on the gaze line from the centre of rotation, at the model's distance from
+    # the pupil (rotation_centre before the centre)
+    pos = cor + d * np.where(np.isfinite(dist_cor), dist_cor + eye.rotation_centre,
+                             1.0)[:, None]
+    rel = np.where(np.isfinite(dist_cor)[:, None], pos, d)
+    objects = ObjectPoints(rel / np.linalg.norm(rel, axis=1, keepdims=True),
+                           np.where(np.isfinite(dist_cor), np.linalg.norm(pos, axis=1),
+                                    np.inf))
+    res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
+                         fixation="rotating")
+    err = power_error(res, lens.rx, objects)
+    ok = (res.status & np.uint8(FATAL)) == 0
+    cosang = np.clip(np.einsum("ij,ij->i", res.chief.dir_in, res.chief.dir_out), -1, 1)
+    prism = np.where(ok, 100.0 * np.tan(np.arccos(cosang)), np.nan)
+    axis_tabo = (180.0 - err["axis_wearer_deg"]) % 180.0
+    axis_tabo = np.where(axis_tabo == 0.0, 180.0, axis_tabo)
+    surf = _surface_maps(lens, res, ok, wavelength_nm)
+
+    def shape(a):
+        return np.asarray(a, float).reshape(n, n)
+
+    return AsWornMaps(g.copy(), g.copy(), shape(err["mean_d"]), shape(err["cylinder_d"]),
+                      shape(axis_tabo), shape(err["sphere_d"]), shape(prism), shape(vg),
+                      {k: shape(v) for k, v in surf.items()}, ok.reshape(n, n),
+                      {"above": "infinity", "below": f"vergence rising linearly to "
+                       f"{near_vergence_d:g} D at {near_gaze_deg:g} deg down, constant "
+                       "below", "near_vergence_d": near_vergence_d,
+                       "near_gaze_deg": near_gaze_deg})
+
+
+def _surface_maps(lens, res, ok, wavelength_nm) -> dict:
+    """Each surface's mean power and cylinder (D, (n - 1) x curvature at the lens index)
+    where the lines of sight cross it."""
+    n_l = lens.material.n(wavelength_nm)
+    out = {}
+    front, back = lens.placed_surfaces()
+    for name, ps, hit in (("front", front, res.chief.entry), ("back", back, res.chief.exit)):
+        local = (hit - np.asarray(ps.translation)) @ np.asarray(ps.rotation)
+        k1, k2, *_ = ps.surface.principal_curvatures(local[:, 0], local[:, 1])
+        scale = (n_l - 1.0) * (1.0 if name == "front" else -1.0)
+        p1, p2 = k1 * scale, k2 * scale
+        out[f"{name}_mean_power_d"] = np.where(ok, 0.5 * (p1 + p2), np.nan)
+        out[f"{name}_cylinder_d"] = np.where(ok, -np.abs(p1 - p2), np.nan)
+    return out
+
+
+def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
+    """Contour maps as lens designers read them: mean power error and cylinder (0.25 D
+    steps), with the gaze grid in degrees, as a PNG at ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
+    for ax, key, label in ((axes[0], "mean_error_d", "mean power error (D)"),
+                           (axes[1], "cylinder_d", "cylinder (D)")):
+        z = np.ma.masked_invalid(getattr(maps, key))
+        span = float(np.nanmax(np.abs(getattr(maps, key)))) if z.count() else 1.0
+        # designers' 0.25 D contours, finer where the whole map is within a dioptre
+        step = next((s for s in (0.05, 0.1, 0.25, 0.5) if span / s <= 12), 1.0)
+        top = step * max(1, math.ceil(span / step))
+        if key == "mean_error_d":
+            lv, cmap = np.arange(-top, top + step / 2, step), "RdBu_r"
+        else:
+            lv, cmap = np.arange(-top, step / 2, step), "magma"
+        cs = ax.contourf(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, cmap=cmap,
+                         extend="both")
+        ax.contour(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, colors="k",
+                   linewidths=0.4)
+        fig.colorbar(cs, ax=ax, shrink=0.85)
+        ax.set_title(label)
+        ax.set_xlabel("gaze right (deg)")
+        ax.set_ylabel("gaze up (deg)")
+        ax.set_aspect("equal")
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=100, format="png")
+    plt.close(fig)
+
+
+def maps_summary(maps: AsWornMaps) -> list:
+    """Lines a designer reads first: the extremes and the central value."""
+    c = len(maps.gaze_y_deg) // 2
+    lines = [f"gaze +-{maps.gaze_x_deg[-1]:g} deg, {len(maps.gaze_x_deg)}^2 points; object "
+             f"distances: {maps.model['above']} above, {maps.model['below']}"]
+    for key, label in (("mean_error_d", "mean power error"), ("cylinder_d", "cylinder")):
+        z = getattr(maps, key)
+        lines.append(f"{label}: centre {z[c, c]:+.3f} D, range {np.nanmin(z):+.3f} .. "
+                     f"{np.nanmax(z):+.3f} D")
+    lines.append(f"prism: up to {np.nanmax(maps.prism_d):.2f} Δ; "
+                 f"{int((~maps.ok).sum())} gazes without a path through the lens")
+    if not math.isfinite(float(np.nanmax(maps.prism_d))):
+        lines.append("no gaze passes the lens")
+    return lines
