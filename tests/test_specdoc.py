@@ -104,4 +104,4 @@ def test_the_readme_tables_are_generated():
     begin, end = "<!-- spec-reference: begin", "<!-- spec-reference: end -->"
     block = README[README.index(begin):README.index(end)]
     block = block[block.index("\n") + 1:].strip()
-    assert block == markdown().strip(), "run: python -m eyelab.specdoc, paste into README"
+    assert block == markdown().strip(), "run: python -m eyelab.specdoc --readme README.md"
