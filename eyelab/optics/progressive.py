@@ -1,0 +1,187 @@
+"""Progressive addition lenses: a free-form front surface with an umbilic corridor.
+
+The front surface is the single-vision design's sphere (curvature c0, base curve) plus a
+progressive term, in lens-local coordinates (x to the wearer's right, y up, metres; the
+fitting cross at the origin):
+
+    z(x, y) = sphere(c0; x, y) + g(y) + a(y) q(x - u(y))
+
+* a(y): the added curvature (1/m), add / (n - 1) times a quintic smoothstep s(t) of
+  t = -y / corridor (0 at the fitting cross, 1 at the corridor's foot), constant beyond;
+* u(y) = -inset s(t) for a right eye (the near zone moves nasally; +inset for a left eye);
+* q(x') = the integral of the integral of exp(-x'^2 / (2 w^2)): q(0) = q'(0) = 0,
+  q''(x') = exp(-x'^2 / 2w^2), so the added curvature across the corridor is a(y) on the
+  umbilic line and fades to 0 beside it over the half-width w — the design's softness
+  (a large w: a soft design with wide zones and gentle gradients; a small w: hard);
+* g''(y) = a(y): along the line x = u(y) the added curvature is a(y) in both directions
+  (an umbilic, to the first order in u'), and beside it the cross derivative
+  z_xy = a'(y) q'(x') grows as a'(y) x': the cylinder rises twice as fast across the
+  corridor as the power along it (Minkwitz's theorem, SCIENCE.md §8).
+
+The add is set on the as-worn near reference point by a short correction loop: the
+power delivered there (the vertex-sphere wave for a near object, as `eyelab maps`
+computes it) is compared with distance Rx + add, and a(y) rescaled.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import erf
+
+from eyelab.errors import SpecError, check_range
+from eyelab.optics.surfaces import Asphere, FreeForm
+
+
+@dataclass(frozen=True)
+class ProgressiveDesign:
+    """The design parameters (lengths in m): add (D), corridor (fitting cross to the top
+    of the near zone), inset (nasal shift of the near zone), softness (lateral half-width
+    w of the added power), near reference point 2 mm below the corridor's foot, distance
+    reference point 4 mm above the fitting cross; eye "R" or "L" (which side is nasal)."""
+
+    add: float
+    corridor: float = 0.014
+    inset: float = 0.0025
+    softness: float = 0.008
+    eye: str = "R"
+
+    def __post_init__(self):
+        check_range("lens.add", self.add, 0.25, 4.0)
+        check_range("lens.corridor_mm", self.corridor * 1e3, 10.0, 22.0)
+        check_range("lens.inset_mm", self.inset * 1e3, 0.0, 5.0)
+        check_range("lens.softness_mm", self.softness * 1e3, 3.0, 30.0)
+        if self.eye not in ("R", "L"):
+            raise SpecError("lens.eye", f"must be 'R' or 'L', got {self.eye!r}")
+
+    @property
+    def near_point(self) -> tuple:
+        """(x, y) of the near reference point on the lens, m."""
+        return (self.nasal * self.inset, -self.corridor - 0.002)
+
+    @property
+    def distance_point(self) -> tuple:
+        return (0.0, 0.004)
+
+    @property
+    def nasal(self) -> float:
+        """+1 if the nose is toward +x (a left eye), -1 for a right eye."""
+        return -1.0 if self.eye == "R" else 1.0
+
+
+def _smooth(t):
+    t = np.clip(t, 0.0, 1.0)
+    return t ** 3 * (10.0 - 15.0 * t + 6.0 * t * t)
+
+
+def progressive_sag(c0: float, a_max: float, design: ProgressiveDesign, x, y):
+    """The front surface's sag (m) at lens points (x, y), m."""
+    s = _smooth(-np.asarray(y, float) / design.corridor)
+    a = a_max * s
+    u = design.nasal * design.inset * s
+    w = design.softness
+    xp = np.asarray(x, float) - u
+    q = xp * w * math.sqrt(math.pi / 2) * erf(xp / (w * math.sqrt(2))) \
+        + w * w * (np.exp(-xp ** 2 / (2 * w * w)) - 1.0)
+    return Asphere(c0).sag(x, y) + _g(y, a_max, design) + a * q
+
+
+def _g(y, a_max, design):
+    """g(y) with g'' = a(y), g(0) = g'(0) = 0: the double integral of the smoothstep
+    profile, closed form (the profile is a polynomial in t; constant beyond the foot)."""
+    y = np.asarray(y, float)
+    L = design.corridor
+    t = np.clip(-y / L, 0.0, 1.0)
+    # the double integral of 10t^3 - 15t^4 + 6t^5 in t: t^5/2 - t^6/2 + t^7/7
+    inner = L * L * (t ** 5 / 2 - t ** 6 / 2 + t ** 7 / 7)
+    beyond = np.maximum(-y - L, 0.0)
+    # below the foot: a = a_max: continue with slope g'(L) and curvature a_max
+    slope_at_foot = L * (10 / 4 - 15 / 5 + 6 / 6)          # integral of s over [0, 1], x L
+    out = inner + slope_at_foot * beyond + 0.5 * beyond ** 2
+    return a_max * out
+
+
+def progressive_lens(rx, add: float, *, material="cr39", design: ProgressiveDesign | None = None,
+                     pose=None, diameter: float = 0.060, grid: int = 121, wavelength_nm=587.56,
+                     iterations: int = 3):
+    """A progressive lens for the distance prescription ``rx`` (its add, if any, must equal
+    ``add``): the single-vision design for the distance power (:meth:`SpectacleLens.from_rx`)
+    whose spherical front becomes the progressive free-form (sampled on a ``grid`` x
+    ``grid`` quintic spline over the lens), with the added curvature rescaled until the
+    as-worn power at the near reference point is distance + add. Returns (lens, design,
+    report)."""
+    from eyelab.optics.lens import SpectacleLens
+
+    design = design or ProgressiveDesign(add)
+    if abs(design.add - add) > 1e-9:
+        raise SpecError("lens.add", "the design's add differs from the prescription's")
+    base = SpectacleLens.from_rx(rx.distance(), material=material, diameter=diameter,
+                                 pose=pose)
+    c0 = base.front.curvature
+    n_l = base.material.n(wavelength_nm)
+    a_max = add / (n_l - 1.0)
+    g = np.linspace(-diameter / 2, diameter / 2, grid)
+    gx, gy = np.meshgrid(g, g)
+    report = {"iterations": []}
+    lens = None
+    for _ in range(iterations):
+        front = FreeForm(g, g, progressive_sag(c0, a_max, design, gx, gy))
+        # thicker where the added power thins the lens: keep the minimum edge
+        lens = _with_front(base, front)
+        got = as_worn_add(lens, design, rx, wavelength_nm)
+        report["iterations"].append({"a_max_per_m": a_max, "add_as_worn_d": got})
+        if abs(got - add) < 0.005:
+            break
+        a_max *= add / got
+    report["design"] = {"add_d": add, "corridor_mm": design.corridor * 1e3,
+                        "inset_mm": design.inset * 1e3, "softness_mm": design.softness * 1e3,
+                        "eye": design.eye, "near_point_mm": [v * 1e3 for v in design.near_point],
+                        "distance_point_mm": [v * 1e3 for v in design.distance_point]}
+    return lens, design, report
+
+
+def _with_front(base, front):
+    from eyelab.optics.lens import MIN_EDGE_THICKNESS, SpectacleLens
+
+    th = np.linspace(0, 2 * np.pi, 181)
+    r = base.diameter / 2
+    x, y = r * np.cos(th), r * np.sin(th)
+    edge = base.center_thickness - front.sag(x, y) + base.back.sag(x, y)
+    t = base.center_thickness + max(0.0, MIN_EDGE_THICKNESS - float(np.nanmin(edge)))
+    return SpectacleLens(front, base.back, t, base.material, base.diameter, base.pose,
+                         base.rx, base.coating)
+
+
+def gaze_through(lens, point, eye_rotation_centre=0.0135):
+    """The unit gaze direction from the centre of rotation toward lens point (x, y) (m,
+    on the front surface, lens frame)."""
+    front, _ = lens.placed_surfaces()
+    x, y = point
+    p_local = np.array([x, y, float(front.surface.sag(np.array([x]), np.array([y]))[0])])
+    p = np.asarray(front.rotation) @ p_local + np.asarray(front.translation)
+    d = p - np.array([0.0, 0.0, eye_rotation_centre])
+    return d / np.linalg.norm(d)
+
+
+def as_worn_add(lens, design, rx, wavelength_nm=587.56, near_distance=0.4):
+    """The as-worn add: mean power delivered along the gaze through the near reference
+    point (object at ``near_distance`` m from the pupil) minus that through the distance
+    reference point (object at infinity), as the maps compute them."""
+    from eyelab.optics.analysis import analyze_points, power_error
+    from eyelab.optics.eye import Eye
+    from eyelab.optics.paths import ObjectPoints
+
+    eye = Eye()
+    out = []
+    for point, dist in ((design.distance_point, math.inf), (design.near_point, near_distance)):
+        d = gaze_through(lens, point, eye.rotation_centre)
+        cor = np.array([0.0, 0.0, eye.rotation_centre])
+        if math.isinf(dist):
+            obj = ObjectPoints(d[None], np.array([np.inf]))
+        else:
+            obj = ObjectPoints.from_positions((cor + d * (dist + eye.rotation_centre))[None])
+        res = analyze_points(eye, lens, obj, wavelength_nm=wavelength_nm, fixation="rotating")
+        out.append(float(power_error(res, rx.distance(), obj)["mean_d"][0]))
+    return out[1] - out[0]
