@@ -104,7 +104,8 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
                                     np.inf))
     res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
                          fixation="rotating")
-    err = power_error(res, lens.rx, objects)
+    err = power_error(res, lens.rx, objects,
+                      add_fraction=vg / near_vergence_d if near_vergence_d > 0 else None)
     ok = (res.status & np.uint8(FATAL)) == 0
     cosang = np.clip(np.einsum("ij,ij->i", res.chief.dir_in, res.chief.dir_out), -1, 1)
     prism = np.where(ok, 100.0 * np.tan(np.arccos(cosang)), np.nan)

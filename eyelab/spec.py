@@ -43,10 +43,13 @@ EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupi
             "chromatic", "accommodation_d"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
-             "front", "back", "torus", "coating", "design"}
-#: Lens designs an Rx with an add can be made into: its distance part, or its near
-#: prescription (sphere + add: reading glasses). Progressive designs are not built yet.
-LENS_DESIGNS = ("single-vision", "near")
+             "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
+             "softness_mm"}
+#: Lens designs an Rx with an add can be made into: its distance part, its near
+#: prescription (sphere + add: reading glasses), or a progressive addition lens.
+LENS_DESIGNS = ("single-vision", "near", "progressive")
+#: Keys only a progressive design takes.
+PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
@@ -264,6 +267,9 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         check_choice("lens.coating", t["coating"], COATINGS)
     if "design" in t:
         check_choice("lens.design", t["design"], LENS_DESIGNS)
+    for key in PROGRESSIVE_KEYS:
+        if key in t and t.get("design") != "progressive":
+            raise SpecError(f"lens.{key}", "only with design = \"progressive\"")
     if "front" in t or "back" in t:
         for key in ("rx", "base_curve_d", "torus", "design"):
             if key in t:
@@ -286,6 +292,8 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         rx = eye_rx
     else:
         raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
+    if t.get("design") == "progressive":
+        return _progressive(t, rx, material, pose, diam)
     rx = _design_rx(rx, t.get("design"), "lens.rx" if "rx" in t else "eye.rx")
     try:
         return SpectacleLens.from_rx(
@@ -299,14 +307,36 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         raise
 
 
+def _progressive(t, rx, material, pose, diam) -> SpectacleLens:
+    """A progressive lens for the Rx's distance part and add (:mod:`eyelab.optics.
+    progressive`); the design's lengths from the spec."""
+    from eyelab.optics.progressive import ProgressiveDesign, progressive_lens
+
+    if rx.add <= 0:
+        raise SpecError("lens.design", f"a progressive lens needs an add in the Rx; "
+                                       f"{rx.format()!r} has none")
+    for key in ("base_curve_d", "center_thickness_mm", "torus"):
+        if key in t:
+            raise SpecError(f"lens.{key}", "not used by the progressive design (its front "
+                                           "is the free-form, its thickness automatic)")
+    design = ProgressiveDesign(
+        rx.add, corridor=_num(t, "corridor_mm", "lens", 10, 22, 14.0) * 1e-3,
+        inset=_num(t, "inset_mm", "lens", 0, 5, 2.5) * 1e-3,
+        softness=_num(t, "softness_mm", "lens", 3, 30, 8.0) * 1e-3,
+        eye="L" if rx.eye == "L" else "R")
+    lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design, pose=pose,
+                                  diameter=(diam or 60.0) * 1e-3)
+    return lens
+
+
 def _design_rx(rx: Prescription, design, where: str) -> Prescription:
     """The single-vision Rx a lens is made for: an add is never ignored silently."""
     if design is None:
         if rx.add > 0:
             raise SpecError("lens.design", f"{where} = {rx.format()!r} has an add: say "
-                            "design = \"single-vision\" (its distance part) or \"near\" "
-                            f"(sphere + add = {rx.sphere + rx.add:+.2f}: reading glasses); "
-                            "progressive lenses are not available yet")
+                            "design = \"progressive\", \"single-vision\" (its distance "
+                            f"part) or \"near\" (sphere + add = {rx.sphere + rx.add:+.2f}: "
+                            "reading glasses)")
         return rx
     if design == "near":
         if rx.add == 0:

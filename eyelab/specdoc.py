@@ -148,11 +148,20 @@ KEYS = [
     Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
         'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
         base=RX_LENS),
-    Key("lens", "design", "choice", "", "required when the Rx has an add", "what a "
-        "single-vision lens is made for when the Rx has an add: its distance part, or "
-        "sphere + add (reading glasses); never chosen silently", choices=("single-vision",
-                                                                          "near"),
+    Key("lens", "design", "choice", "", "required when the Rx has an add", "what the lens "
+        "is when the Rx has an add: a progressive addition lens, a single-vision lens for "
+        "its distance part, or one for sphere + add (reading glasses); never chosen "
+        "silently", choices=("progressive", "single-vision", "near"),
         base={"lens": {"rx": "+0.50 DS add +2.25"}}),
+    Key("lens", "corridor_mm", "number", "mm", "14", "progressive: fitting cross to the "
+        "foot of the corridor (near reference point 2 mm below)", 10, 22,
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "inset_mm", "number", "mm", "2.5", "progressive: nasal shift of the near "
+        "zone (nasal: the eye from the Rx's R/L, right by default)", 0, 5,
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "softness_mm", "number", "mm", "8", "progressive: lateral half-width over "
+        "which the add fades beside the corridor (small: a hard design)", 3, 30,
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
         "[lens.front] and [lens.back] (both, with `center_thickness_mm`); a surface steeper "
         "than a hemisphere inside the diameter is refused naming `diameter_mm`",

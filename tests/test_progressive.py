@@ -102,3 +102,20 @@ def test_design_parameters_are_checked():
         ProgressiveDesign(2.0, corridor=0.05)
     with pytest.raises(SpecError, match="lens.add"):
         ProgressiveDesign(6.0)
+
+
+def test_the_spec_builds_progressive_lenses_and_refuses_misuse():
+    from eyelab.errors import SpecError
+    from eyelab.optics.surfaces import FreeForm
+    from eyelab.spec import parse_spec
+
+    spec = parse_spec({"lens": {"rx": "L -2.00 DS add +2.00", "design": "progressive",
+                                "corridor_mm": 16, "inset_mm": 2.0}})
+    assert isinstance(spec.lens.front, FreeForm) and spec.lens.rx.add == 2.0
+    for lens, field in (({"rx": "-2.00", "design": "progressive"}, "lens.design"),
+                        ({"rx": "-2.00 add 2", "corridor_mm": 14}, "lens.corridor_mm"),
+                        ({"rx": "-2.00 add 2", "design": "progressive",
+                          "base_curve_d": 4}, "lens.base_curve_d")):
+        with pytest.raises(SpecError) as e:
+            parse_spec({"lens": lens})
+        assert e.value.field == field

@@ -198,11 +198,13 @@ def status_text(code) -> str:
     return Status.describe(int(code))
 
 
-def power_error(res: PointAnalysis, rx, objects: ObjectPoints) -> dict:
+def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None) -> dict:
     """The power a lens delivers along each line of sight — the vertex-sphere wave's
     curvature matrix less the object's vergence at the vertex-sphere point — minus the
-    prescription ``rx`` (its distance part), as minus-cylinder sphere / cylinder x axis
-    in the wave's (eye x, y) frame (the as-worn power error of lens design).
+    prescription ``rx`` for that line: its distance part plus ``add_fraction`` (n,) of its
+    add (default: the object's vergence over 2.5 D, at most 1 — all of the add at 0.4 m),
+    as minus-cylinder sphere / cylinder x axis in the wave's (eye x, y) frame (the
+    as-worn power error of lens design).
 
     Returns arrays (n,): sphere_d, cylinder_d (<= 0), axis_wearer_deg ([0, 180), counter-
     clockwise from the wearer's right seen from behind), mean_d (sphere + cylinder/2);
@@ -214,7 +216,12 @@ def power_error(res: PointAnalysis, rx, objects: ObjectPoints) -> dict:
         d = np.linalg.norm(pos - res.chief.exit, axis=1)
         obj = np.where(objects.finite, -1.0 / d, 0.0)
     f = rx.distance().power_matrix()
-    e11, e12, e22 = k11 - obj - f[0, 0], k12 - f[0, 1], k22 - obj - f[1, 1]
+    if add_fraction is None:
+        add_fraction = np.clip(-obj / 2.5, 0.0, 1.0)
+    add = rx.add * np.asarray(add_fraction, float)
+    e11 = k11 - obj - f[0, 0] - add
+    e12 = k12 - f[0, 1]
+    e22 = k22 - obj - f[1, 1] - add
     mean = 0.5 * (e11 + e22)
     half = np.sqrt((0.5 * (e11 - e22)) ** 2 + e12 ** 2)
     sphere, cyl = mean + half, -2.0 * half
