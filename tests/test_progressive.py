@@ -4,6 +4,7 @@ by real-ray pencils; Minkwitz's 2:1 astigmatism gradient beside the corridor."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.progressive import ProgressiveDesign, gaze_through, progressive_lens
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -119,3 +122,31 @@ def test_the_spec_builds_progressive_lenses_and_refuses_misuse():
         with pytest.raises(SpecError) as e:
             parse_spec({"lens": lens})
         assert e.value.field == field
+
+
+def test_the_view_through_the_pal_reproduces_kakimoto_fig_11():
+    """A -2.00 D presbyope (amplitude 0.5 D) through her progressive lens: distance sharp
+    through the top, 0.4 m sharp through the near reference point, 0.4 m blurred through
+    the lower sides and infinity blurred through the near zone (retinal blur, arcmin)."""
+    from eyelab.spec import load_spec
+
+    spec = load_spec(str(ROOT / "docs" / "gallery" / "pal.toml"))
+    eye, lens = spec.eye, spec.lens
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+
+    def blur(point, dist):
+        d = gaze_through(lens, point, eye.rotation_centre)
+        if math.isinf(dist):
+            obj = ObjectPoints(d[None], np.array([np.inf]))
+        else:
+            obj = ObjectPoints.from_positions((cor + d * (dist + eye.rotation_centre))[None])
+        r = analyze_points(eye, lens, obj, fixation="rotating")
+        assert r.status[0] == 0
+        return float(r.to_arcmin(r.blur_axes()[0])[0])
+
+    design = ProgressiveDesign(2.0)
+    xn, yn = design.near_point
+    assert blur(design.distance_point, math.inf) < 0.5
+    assert blur((xn, yn), 0.4) < 1.5
+    assert blur((0.012, yn), 0.4) > 5.0 and blur((-0.015, yn), 0.4) > 5.0
+    assert blur((xn, yn), math.inf) > 5.0
