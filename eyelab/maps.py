@@ -48,6 +48,9 @@ class AsWornMaps:
     surface: dict = field(default_factory=dict)
     ok: np.ndarray | None = None
     model: dict = field(default_factory=dict)
+    #: Reference points as gaze angles (right, up; deg): a progressive lens's fitting
+    #: cross, distance and near reference points.
+    marks: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         def grid(a):
@@ -59,6 +62,7 @@ class AsWornMaps:
                   "object_vergence_d"):
             out[k] = grid(getattr(self, k))
         out["surface"] = {k: grid(v) for k, v in self.surface.items()}
+        out["marks_gaze_deg"] = {k: list(v) for k, v in self.marks.items()}
         return out
 
 
@@ -112,6 +116,16 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     axis_tabo = (180.0 - err["axis_wearer_deg"]) % 180.0
     axis_tabo = np.where(axis_tabo == 0.0, 180.0, axis_tabo)
     surf = _surface_maps(lens, res, ok, wavelength_nm)
+    marks = {}
+    if getattr(lens.design, "near_point", None) is not None:
+        from eyelab.optics.progressive import gaze_through
+
+        for name, point in (("fitting cross", (0.0, 0.0)),
+                            ("distance reference", lens.design.distance_point),
+                            ("near reference", lens.design.near_point)):
+            v = gaze_through(lens, point, eye.rotation_centre)
+            marks[name] = (math.degrees(math.atan2(v[0], -v[2])),
+                           math.degrees(math.atan2(v[1], -v[2])))
 
     def shape(a):
         return np.asarray(a, float).reshape(n, n)
@@ -122,7 +136,7 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
                       {"above": "infinity", "below": f"vergence rising linearly to "
                        f"{near_vergence_d:g} D at {near_gaze_deg:g} deg down, constant "
                        "below", "near_vergence_d": near_vergence_d,
-                       "near_gaze_deg": near_gaze_deg})
+                       "near_gaze_deg": near_gaze_deg}, marks)
 
 
 def _surface_maps(lens, res, ok, wavelength_nm) -> dict:
@@ -166,6 +180,11 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
         ax.contour(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, colors="k",
                    linewidths=0.4)
         fig.colorbar(cs, ax=ax, shrink=0.85)
+        for (name, (mx, my)), marker in zip(maps.marks.items(), ("+", "o", "o"),
+                                            strict=False):
+            ax.plot(mx, my, marker, color="k", mfc="none", ms=9, mew=1.5)
+            ax.annotate(name, (mx, my), textcoords="offset points", xytext=(6, 4),
+                        fontsize=7)
         ax.set_title(label)
         ax.set_xlabel("gaze right (deg)")
         ax.set_ylabel("gaze up (deg)")

@@ -141,6 +141,9 @@ class SpectacleLens:
     pose: LensPose = field(default_factory=LensPose)
     rx: Prescription | None = None
     coating: str = "none"
+    #: How the lens was designed beyond its surfaces (a progressive design's reference
+    #: points), metadata for reports and maps.
+    design: object = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         check_range("lens.center_thickness_mm", self.center_thickness * 1e3, 0.2, 30.0)

@@ -129,7 +129,7 @@ def progressive_lens(rx, add: float, *, material="cr39", design: ProgressiveDesi
     for _ in range(iterations):
         front = FreeForm(g, g, progressive_sag(c0, a_max, design, gx, gy))
         # thicker where the added power thins the lens: keep the minimum edge
-        lens = _with_front(base, front, rx)
+        lens = _with_front(base, front, rx, design)
         got = as_worn_add(lens, design, rx, wavelength_nm)
         report["iterations"].append({"a_max_per_m": a_max, "add_as_worn_d": got})
         if abs(got - add) < 0.005:
@@ -142,7 +142,7 @@ def progressive_lens(rx, add: float, *, material="cr39", design: ProgressiveDesi
     return lens, design, report
 
 
-def _with_front(base, front, rx):
+def _with_front(base, front, rx, design=None):
     from eyelab.optics.lens import MIN_EDGE_THICKNESS, SpectacleLens
 
     th = np.linspace(0, 2 * np.pi, 181)
@@ -151,7 +151,7 @@ def _with_front(base, front, rx):
     edge = base.center_thickness - front.sag(x, y) + base.back.sag(x, y)
     t = base.center_thickness + max(0.0, MIN_EDGE_THICKNESS - float(np.nanmin(edge)))
     return SpectacleLens(front, base.back, t, base.material, base.diameter, base.pose,
-                         rx, base.coating)
+                         rx, base.coating, design)
 
 
 def gaze_through(lens, point, eye_rotation_centre=0.0135):
