@@ -150,3 +150,34 @@ def test_the_view_through_the_pal_reproduces_kakimoto_fig_11():
     assert blur((xn, yn), 0.4) < 1.5
     assert blur((0.012, yn), 0.4) > 5.0 and blur((-0.015, yn), 0.4) > 5.0
     assert blur((xn, yn), math.inf) > 5.0
+
+
+def test_the_raster_blur_field_follows_the_gaze_through_the_pal():
+    """The raster renderer's through-lens blur field for three gazes of the room
+    (docs/gallery/pal_views.png): looking 5 deg up the 6 m chart is sharp; 28 deg down
+    (the near zone) the 0.4 m page is nearly sharp while from the top it was blurred; 28
+    down and 25 right (the lower side) the page is blurred (major semi-axis, arcmin)."""
+    from eyelab.imaging import new_report
+    from eyelab.jobs import build_scene
+    from eyelab.options import RasterQuality
+    from eyelab.render.raster import RasterRenderer
+    from eyelab.spec import load_spec
+
+    spec = load_spec(str(ROOT / "docs" / "gallery" / "pal.toml"))
+    scene = build_scene("room")
+    q = RasterQuality(samples=1, chromatic=False, field_shape=(96, 24, 24))
+    a = math.radians(30.0)
+    page = np.array([0.0, -math.sin(a) * 0.4, -math.cos(a) * 0.4])   # the room's page
+    chart = np.array([0.0, 0.0, -6.0])
+    blur = {}
+    with RasterRenderer(q) as r:
+        for gaze in ((0.0, 5.0), (-5.0, -28.0), (25.0, -28.0)):
+            view = spec.render.with_changes(gaze_deg=list(gaze), width=320, height=240).view
+            geo = r._geometry(scene, spec.eye, spec.lens, view, q, new_report("raster", view, q),
+                              refine=False)
+            f = geo[4][0]
+            blur[gaze] = {name: float(f.sample(f.major_arcmin[..., None], p[None])[0, 0])
+                          for name, p in (("page", page), ("chart", chart))}
+    assert blur[(0.0, 5.0)]["chart"] < 0.5 and blur[(0.0, 5.0)]["page"] > 8.0
+    assert blur[(-5.0, -28.0)]["page"] < 3.0
+    assert blur[(25.0, -28.0)]["page"] > 5.0
