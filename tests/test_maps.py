@@ -85,3 +85,19 @@ def test_maps_command_writes_png_and_json(tmp_path, capsys):
     assert "mean power error" in capsys.readouterr().out
     assert main(["maps", "-o", str(png), "--points", "1000"]) == 2
     assert "maps.n" in capsys.readouterr().err
+
+
+def test_maps_as_pyvista_data_and_isolines():
+    from eyelab.render.maps import map_isolines, maps_to_pyvista
+
+    spec = load_spec(ROOT / "docs" / "gallery" / "pal.toml")
+    maps = as_worn_maps(spec.eye, spec.lens, n=11)
+    img = maps_to_pyvista(maps)
+    assert img.dimensions == (11, 11, 1)
+    np.testing.assert_allclose(img.point_data["cylinder_d"].reshape(11, 11), maps.cylinder_d)
+    # the point at gaze (x, y) holds the map's [j, i] value
+    i, j = 8, 3
+    pid = img.find_closest_point((maps.gaze_x_deg[i], maps.gaze_y_deg[j], 0.0))
+    assert img.point_data["mean_error_d"][pid] == pytest.approx(maps.mean_error_d[j, i])
+    lines = map_isolines(maps, "cylinder_d", 0.5)
+    assert lines.n_points > 0
