@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from eyelab.constants import TOL
-from eyelab.optics.trace import Status
+from eyelab.optics.trace import FATAL, Status
 from eyelab.vecmath import any_tangent, cross, dot
 
 
@@ -129,13 +129,14 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
     ab = np.zeros((n, 2))
     its = np.zeros(n, int)
     _newton(lens, target, objects, e0, ea, eb, ab, its, ~behind, wavelength_nm)
+    r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
     if search:
-        r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
         lost = ~behind & ~_is_path(res, r, objects, pos)
         if lost.any():
             _search(lens, target, objects, e0, ea, eb, ab, its, np.flatnonzero(lost),
                     wavelength_nm, pos)
-    r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
+            r, res = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm,
+                               ea, eb)
     rn = np.linalg.norm(r, axis=1)
     status |= res["status"]
     notconv = ~(rn <= TOL.path_fail) & ~behind
@@ -176,8 +177,6 @@ def _dirs(e0, ea, eb, ab):
 def _is_path(res, r, objects, pos):
     """Rows whose reverse ray passes the lens, points at the object (within
     TOL.path_fail) and has the object in front of it."""
-    from eyelab.optics.trace import FATAL
-
     passed = (res["status"] & np.uint8(FATAL)) == 0
     rn = np.linalg.norm(r, axis=1)
     in_front = np.where(objects.finite, dot(pos - res["out_points"], res["out_dirs"]) > 0,
@@ -187,13 +186,20 @@ def _is_path(res, r, objects, pos):
 
 def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
             max_iter=None):
-    """Newton iterations in place on ``ab`` (n, 2) for the rows of ``active``."""
-    n = len(ab)
+    """Newton iterations in place on ``ab`` (n, 2) for the rows of ``active`` (only those
+    rows are traced)."""
     h = TOL.path_fd_step
-    r, _ = _residual(lens, target, _dirs(e0, ea, eb, ab), objects, wavelength_nm, ea, eb)
-    rn = np.linalg.norm(r, axis=1)
-    active = active & (rn > TOL.path_tol)
-    rn = np.where(np.isfinite(rn), rn, np.inf)
+    active = active.copy()
+    r = np.zeros((len(ab), 2))
+    rn = np.full(len(ab), np.inf)
+    idx = np.flatnonzero(active)
+    if len(idx):
+        sub = ObjectPoints(objects.direction[idx], objects.distance[idx])
+        r[idx], _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], ab[idx]),
+                              sub, wavelength_nm, ea[idx], eb[idx])
+        rn[idx] = np.linalg.norm(r[idx], axis=1)
+        active[idx] = rn[idx] > TOL.path_tol
+        rn = np.where(np.isfinite(rn), rn, np.inf)
     for _ in range(max_iter or TOL.path_max_iter):
         if not active.any():
             break
@@ -203,9 +209,9 @@ def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
         for k in range(2):
             dab = np.zeros((len(idx), 2))
             dab[:, k] = h
-            rp, _ = _residual(lens, target[idx], dirs_of_sub(e0, ea, eb, idx, ab[idx] + dab),
+            rp, _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], ab[idx] + dab),
                               sub, wavelength_nm, ea[idx], eb[idx])
-            rm, _ = _residual(lens, target[idx], dirs_of_sub(e0, ea, eb, idx, ab[idx] - dab),
+            rm, _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], ab[idx] - dab),
                               sub, wavelength_nm, ea[idx], eb[idx])
             cols.append((rp - rm) / (2 * h))
         j00, j10 = cols[0][:, 0], cols[0][:, 1]
@@ -221,7 +227,7 @@ def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
         lam = np.ones(len(idx))
         for _half in range(5):
             trial = ab[idx] + lam[:, None] * step
-            rt, _ = _residual(lens, target[idx], dirs_of_sub(e0, ea, eb, idx, trial), sub,
+            rt, _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], trial), sub,
                               wavelength_nm, ea[idx], eb[idx])
             rtn = np.linalg.norm(rt, axis=1)
             worse = ~(rtn < rn[idx]) & (lam > 1 / 16)
@@ -233,7 +239,6 @@ def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
         rn[idx] = np.where(np.isfinite(rtn), rtn, np.inf)
         its[idx] += 1
         active[idx] = (rn[idx] > TOL.path_tol) & ok & np.isfinite(rn[idx])
-    assert n == len(ab)
 
 
 def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos,
@@ -243,8 +248,6 @@ def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos
     ones (smallest angular residual), all restarts of a chunk of rows in one vectorised
     iteration; the first restart of a row that ends on a light path replaces its direction
     (``ab`` and ``its`` in place)."""
-    from eyelab.optics.trace import FATAL
-
     front, _ = lens.placed_surfaces()
     rad = lens.diameter / 2
     u = np.linspace(-rad, rad, SEARCH_GRID)
@@ -255,6 +258,7 @@ def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos
     local = np.stack([gu[keep], gv[keep], front.surface.sag(gu[keep], gv[keep])], 1)
     disc = local @ np.asarray(front.rotation, float).T + np.asarray(front.translation, float)
     m = len(disc)
+    found = np.zeros(len(ab), bool)
     for a in range(0, len(rows), chunk):
         idx = rows[a:a + chunk]
         k = len(idx)
@@ -288,12 +292,6 @@ def _search(lens, target, objects, e0, ea, eb, ab, its, rows, wavelength_nm, pos
         rows_g, first = np.unique(cr[g], return_index=True)
         ab[rows_g] = c_ab[g[first]]
         its[rows_g] = c_its[g[first]]
-        # polish the accepted restarts to the main iteration's tolerance (path_tol)
-        polish = np.zeros(len(ab), bool)
-        polish[rows_g] = True
-        _newton(lens, target, objects, e0, ea, eb, ab, its, polish, wavelength_nm)
-
-
-def dirs_of_sub(e0, ea, eb, idx, ab):
-    d = e0[idx] + ab[:, :1] * ea[idx] + ab[:, 1:] * eb[idx]
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
+        found[rows_g] = True
+    # polish the accepted restarts to the main iteration's tolerance (path_tol)
+    _newton(lens, target, objects, e0, ea, eb, ab, its, found, wavelength_nm)
