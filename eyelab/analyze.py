@@ -12,10 +12,12 @@ import numpy as np
 
 from eyelab.optics.analysis import (
     analyze_points,
+    chief_prism,
     power_error,
     principal_angles,
     status_text,
 )
+from eyelab.optics.prescription import tabo_axis
 from eyelab.optics.trace import Status
 from eyelab.spec import Spec
 
@@ -32,7 +34,7 @@ def _principal(wave, x_axis, i, lens=None):
     if lens is not None:
         y_axis = np.cross(wave.N[i], x_axis[i])
         e1 = math.cos(ang[i]) * x_axis[i] + math.sin(ang[i]) * y_axis
-        out["direction_1_tabo_deg"] = _tabo(_lens_angle(lens, e1))
+        out["direction_1_tabo_deg"] = tabo_axis(_lens_angle(lens, e1) % 180.0)
     return out
 
 
@@ -43,36 +45,14 @@ def _lens_angle(lens, v) -> float:
     return math.degrees(math.atan2(local[1], local[0])) % 360.0
 
 
-def _tabo(wearer_deg: float) -> float:
-    """An axis direction in the wearer's view (deg) as a TABO axis (examiner's view),
-    in (0, 180]."""
-    a = (180.0 - wearer_deg) % 180.0
-    return 180.0 if a == 0.0 else a
-
-
-def _prism(res, lens, i) -> dict:
-    """Prism at the chief ray's lens point: its deviation (prism dioptres, 100 tan of the
-    angle) and base direction (the way the light is bent), in the lens plane."""
-    d_in, d_out = res.chief.dir_in[i], res.chief.dir_out[i]
-    cosang = float(np.clip(d_in @ d_out, -1.0, 1.0))
-    delta = 100.0 * math.tan(math.acos(cosang))
-    dev = d_out - cosang * d_in
+def _prism(delta, dev, lens) -> dict:
+    """One row of :func:`~eyelab.optics.analysis.chief_prism`: prism dioptres and the
+    base direction (the way the light is bent) in the lens plane."""
+    delta = float(delta)
     base = _lens_angle(lens, dev) if np.linalg.norm(dev) > 1e-15 else 0.0
     return {"prism_d": delta, "base_deg": base,
             "base_right_d": delta * math.cos(math.radians(base)),
             "base_up_d": delta * math.sin(math.radians(base))}
-
-
-def _power_error(res, lens, objects, i) -> dict | None:
-    """The power the lens delivers along this line of sight (the vertex-sphere wave minus
-    the object's vergence there) less the prescription, as sphere / cylinder x TABO axis
-    (minus cylinder), in the wave's (eye x, y) frame."""
-    if lens.rx is None or res.wave_vertex_sphere is None:
-        return None
-    e = power_error(res, lens.rx, objects)
-    return {"sphere_d": float(e["sphere_d"][i]), "cylinder_d": float(e["cylinder_d"][i]),
-            "axis_tabo_deg": _tabo(float(e["axis_wearer_deg"][i])),
-            "mean_d": float(e["mean_d"][i])}
 
 
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
@@ -89,6 +69,10 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
                          vertex_sphere=spec.vertex_sphere)
     maj, mnr, ang = res.blur_axes()
     eye = spec.eye
+    if lens is not None:
+        prism, deviation = chief_prism(res)
+        # the power error against the prescription (none for surface-by-surface lenses)
+        err = None if lens.rx is None else power_error(res, lens.rx, spec.points)
     out_points = []
     for i in range(len(spec.points)):
         st = int(res.status[i])
@@ -124,10 +108,13 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
             entry["wavefront_at_exit"] = _principal(res.wave_exit, res.eye_x, i, lens)
             entry["wavefront_at_vertex_sphere"] = _principal(res.wave_vertex_sphere,
                                                              res.eye_x, i, lens)
-            entry["prism"] = _prism(res, lens, i)
-            err = _power_error(res, lens, spec.points, i)
+            entry["prism"] = _prism(prism[i], deviation[i], lens)
             if err is not None:
-                entry["power_error"] = err
+                entry["power_error"] = {
+                    "sphere_d": float(err["sphere_d"][i]),
+                    "cylinder_d": float(err["cylinder_d"][i]),
+                    "axis_tabo_deg": tabo_axis(float(err["axis_wearer_deg"][i])),
+                    "mean_d": float(err["mean_d"][i])}
         entry["accommodation_d"] = float(res.accommodation[i])
         entry["blur"] = {
             "major_um": float(maj[i] * 1e6), "minor_um": float(mnr[i] * 1e6),

@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
-from eyelab.optics.analysis import analyze_points, power_error
+from eyelab.optics.analysis import analyze_points, chief_prism, power_error
 from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.prescription import tabo_axis
 from eyelab.optics.trace import FATAL
 
 #: The object-distance model's defaults: 2.5 D (0.4 m) reached 25 deg below straight ahead.
@@ -111,10 +112,8 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     err = power_error(res, lens.rx, objects,
                       add_fraction=vg / near_vergence_d if near_vergence_d > 0 else None)
     ok = (res.status & np.uint8(FATAL)) == 0
-    cosang = np.clip(np.einsum("ij,ij->i", res.chief.dir_in, res.chief.dir_out), -1, 1)
-    prism = np.where(ok, 100.0 * np.tan(np.arccos(cosang)), np.nan)
-    axis_tabo = (180.0 - err["axis_wearer_deg"]) % 180.0
-    axis_tabo = np.where(axis_tabo == 0.0, 180.0, axis_tabo)
+    prism = np.where(ok, chief_prism(res)[0], np.nan)
+    axis_tabo = tabo_axis(err["axis_wearer_deg"])
     surf = _surface_maps(lens, res, ok, wavelength_nm)
     marks = {}
     if getattr(lens.design, "near_point", None) is not None:

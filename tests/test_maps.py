@@ -53,8 +53,7 @@ def test_map_values_agree_with_real_ray_pencils(spec_path):
                     for r in (2e-5, 1e-5)]
             k2, k1 = (np.array(x[:3]) for x in fits)
             kxx, kxy, kyy = (4 * k1 - k2) / 3
-            o = -1.0 / np.linalg.norm(obj.positions()[0] - res.chief.exit[0]) if vg > 0 \
-                else 0.0
+            o = -1.0 / np.linalg.norm(obj.positions()[0] - vs_point) if vg > 0 else 0.0
             add = lens.rx.add * vg / 2.5
             e = np.array([[kxx - o, kxy], [kxy, kyy - o]]) - f - add * np.eye(2)
             w = np.linalg.eigvalsh(e)

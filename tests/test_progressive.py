@@ -49,7 +49,7 @@ def _pencil_power(lens, point, distance):
             for r in (2e-5, 1e-5)]
     k2, k1 = (np.array(f[:3]) for f in fits)
     kxx, _, kyy = (4 * k1 - k2) / 3
-    o = 0.0 if math.isinf(distance) else -1.0 / np.linalg.norm(obj.positions()[0] - q)
+    o = 0.0 if math.isinf(distance) else -1.0 / np.linalg.norm(obj.positions()[0] - vs)
     return 0.5 * (kxx + kyy) - o
 
 

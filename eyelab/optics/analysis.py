@@ -38,8 +38,9 @@ class PointAnalysis:
     status : (n,) uint8
     wave_exit : Wavefront just after the back surface, at the chief ray's exit point (None
         without a lens)
-    vertex_sphere : {"centre": "rotation_centre" | "pupil", "centre_m": (3,), "radius_m"}
-        the sphere ``wave_vertex_sphere`` is taken on (None without a lens)
+    vertex_sphere : {"centre": "rotation_centre" | "pupil", "centre_m": (3,), "radius_m",
+        "points_m": (n, 3)} the sphere ``wave_vertex_sphere`` is taken on and where each
+        chief ray meets it (None without a lens)
     """
 
     chief: ChiefRays
@@ -137,7 +138,7 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         wave.refract(h_front, 1.0 / nl)
         wave.transfer(np.linalg.norm(h_back.points - h_front.points, axis=1))
         wave.refract(h_back, nl)
-        exit_wave = _copy(wave)
+        exit_wave = wave.copy()
         # vertex sphere: through the back vertex, centred on the centre of rotation (radius
         # vertex distance + rotation centre) or on the pupil (radius vertex distance)
         centre = cor if vertex_sphere == "rotation_centre" else np.zeros(3)
@@ -149,7 +150,8 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         disc = bq * bq - (dot(rel, rel) - r_vs * r_vs)
         s_vs = -bq - np.sqrt(np.maximum(disc, 0.0))
         s_vs = np.where(disc >= 0, s_vs, 0.0)
-        vs_wave = _copy(wave).transfer(s_vs)
+        vs_info["points_m"] = h_back.points + s_vs[:, None] * wave.N
+        vs_wave = wave.copy().transfer(s_vs)
         wave.transfer(dot(pupil - h_back.points, wave.N))
     status |= wave.status
     kbar = 0.5 * (wave.k11 + wave.k22)
@@ -179,11 +181,6 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
                          np.mod(omega, np.pi), status, eye, exit_wave, vs_info)
 
 
-def _copy(w: Wavefront) -> Wavefront:
-    return Wavefront(w.N.copy(), w.t1.copy(), w.k11.copy(), w.k12.copy(), w.k22.copy(),
-                     w.status.copy())
-
-
 def principal_angles(wave: Wavefront, x_axis):
     """Principal curvatures k1 >= k2 (1/m = D in air) and the angle (rad, [0, pi)) of e1
     from ``x_axis`` (n, 3), measured toward N x x_axis (counter-clockwise seen from behind
@@ -200,7 +197,8 @@ def status_text(code) -> str:
 
 def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None) -> dict:
     """The power a lens delivers along each line of sight — the vertex-sphere wave's
-    curvature matrix less the object's vergence at the vertex-sphere point — minus the
+    curvature matrix less the object's vergence at the chief ray's vertex-sphere point —
+    minus the
     prescription ``rx`` for that line: its distance part plus ``add_fraction`` (n,) of its
     add (default: the object's vergence over 2.5 D, at most 1 — all of the add at 0.4 m),
     as minus-cylinder sphere / cylinder x axis in the wave's (eye x, y) frame (the
@@ -210,10 +208,9 @@ def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None
     clockwise from the wearer's right seen from behind), mean_d (sphere + cylinder/2);
     NaN where a row has no light path."""
     k11, k12, k22 = res.wave_vertex_sphere.in_basis(res.eye_x)
-    n = len(k11)
     pos = objects.positions()
     with np.errstate(divide="ignore"):
-        d = np.linalg.norm(pos - res.chief.exit, axis=1)
+        d = np.linalg.norm(pos - res.vertex_sphere["points_m"], axis=1)
         obj = np.where(objects.finite, -1.0 / d, 0.0)
     f = rx.distance().power_matrix()
     if add_fraction is None:
@@ -232,5 +229,14 @@ def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None
            "mean_d": sphere + cyl / 2}
     for v in out.values():
         v[bad] = np.nan
-    assert len(sphere) == n
     return out
+
+
+def chief_prism(res: PointAnalysis) -> tuple:
+    """Prism at each chief ray's passage through the lens: (prism dioptres (n,): 100 tan of
+    the angle between the ray before and after the lens; deviation (n, 3): the
+    component of the outgoing direction across the incoming one, the way the light is bent
+    toward the base)."""
+    d_in, d_out = res.chief.dir_in, res.chief.dir_out
+    cosang = np.clip(dot(d_in, d_out), -1.0, 1.0)
+    return 100.0 * np.tan(np.arccos(cosang)), d_out - cosang[:, None] * d_in

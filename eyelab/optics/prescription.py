@@ -118,6 +118,15 @@ def _parse_terms(tokens, text, field):
     return eye, powers, axis, add, err
 
 
+def tabo_axis(wearer_deg):
+    """Axis directions in the wearer's view (deg, counter-clockwise from the wearer's right
+    seen from behind) as TABO axes (the examiner's view), in (0, 180]: 180 - A, 0 -> 180.
+    Scalar or array."""
+    a = (180.0 - np.asarray(wearer_deg, float)) % 180.0
+    a = np.where(a == 0.0, 180.0, a)
+    return float(a) if a.ndim == 0 else a
+
+
 @dataclass(frozen=True)
 class Prescription:
     """A spectacle prescription.

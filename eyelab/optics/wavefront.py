@@ -102,6 +102,11 @@ class Wavefront:
         kuv = c * s * (self.k22 - self.k11) + (c * c - s * s) * self.k12
         return kuu, kuv, kvv
 
+    def copy(self) -> Wavefront:
+        """An independent copy (every array copied)."""
+        return Wavefront(self.N.copy(), self.t1.copy(), self.k11.copy(), self.k12.copy(),
+                         self.k22.copy(), self.status.copy())
+
     def transfer(self, distance):
         """Propagate by ``distance`` (n,) or scalar, metres, in a homogeneous medium.
 
