@@ -96,17 +96,9 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     d = np.stack([np.tan(np.radians(gx.ravel())), np.tan(np.radians(gy.ravel())),
                   -np.ones(gx.size)], -1)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    cor = np.array([0.0, 0.0, eye.rotation_centre])
     with np.errstate(divide="ignore"):
-        dist_cor = np.where(vg > 0, 1.0 / vg, np.inf)
-    # objects on the gaze line from the centre of rotation, at the model's distance from
-    # the pupil (rotation_centre before the centre)
-    pos = cor + d * np.where(np.isfinite(dist_cor), dist_cor + eye.rotation_centre,
-                             1.0)[:, None]
-    rel = np.where(np.isfinite(dist_cor)[:, None], pos, d)
-    objects = ObjectPoints(rel / np.linalg.norm(rel, axis=1, keepdims=True),
-                           np.where(np.isfinite(dist_cor), np.linalg.norm(pos, axis=1),
-                                    np.inf))
+        dist = np.where(vg > 0, 1.0 / vg, np.inf)          # from the turned pupil
+    objects = ObjectPoints.along_gazes(d, dist, eye.rotation_centre)
     res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
                          fixation="rotating")
     err = power_error(res, lens.rx, objects,

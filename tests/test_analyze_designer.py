@@ -11,17 +11,15 @@ import numpy as np
 import pytest
 
 from eyelab.analyze import analyze_spec, format_report
-from eyelab.bench.bruteforce import bundle_vergence
+from eyelab.bench.bruteforce import extrapolated_vergence
 from eyelab.optics.analysis import analyze_points
 from eyelab.spec import load_spec, parse_spec
 
 
 def _extrapolated(lens, res, i, pupil, n_chief):
-    fits = [bundle_vergence(lens, res.chief.start[i], res.chief.dir_in[i],
-                            bool(np.isfinite(res.chief.object_distance_to_entry[i])), pupil,
-                            n_chief, res.eye_x[i], radius=r) for r in (2e-5, 1e-5)]
-    k2, k1 = (np.array(f[:3]) for f in fits)
-    return (4 * k1 - k2) / 3, [f[3] for f in fits]
+    return extrapolated_vergence(lens, res.chief.start[i], res.chief.dir_in[i],
+                                 bool(np.isfinite(res.chief.object_distance_to_entry[i])),
+                                 pupil, n_chief, res.eye_x[i])
 
 
 def test_default_spec_exit_wave_and_prism_against_real_rays():

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eyelab.bench.bruteforce import bundle_vergence
+from eyelab.bench.bruteforce import extrapolated_vergence
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints
@@ -32,11 +32,8 @@ def _pencil_power(lens, point, distance):
     sphere (Richardson-extrapolated fits), less the object's vergence there."""
     eye = Eye()
     cor = np.array([0.0, 0.0, eye.rotation_centre])
-    d = gaze_through(lens, point, eye.rotation_centre)
-    if math.isinf(distance):
-        obj = ObjectPoints(d[None], np.array([np.inf]))
-    else:
-        obj = ObjectPoints.from_positions((cor + d * (distance + eye.rotation_centre))[None])
+    obj = ObjectPoints.along_gazes(gaze_through(lens, point, eye.rotation_centre), distance,
+                                   eye.rotation_centre)
     res = analyze_points(eye, lens, obj, fixation="rotating")
     assert res.status[0] == 0
     q, n_out = res.chief.exit[0], res.chief.dir_out[0]
@@ -44,11 +41,9 @@ def _pencil_power(lens, point, distance):
     rel = q - cor
     b = rel @ n_out
     vs = q + (-b - math.sqrt(b * b - (rel @ rel - r_vs ** 2))) * n_out
-    fits = [bundle_vergence(lens, res.chief.start[0], res.chief.dir_in[0],
-                            not math.isinf(distance), vs, n_out, res.eye_x[0], radius=r)
-            for r in (2e-5, 1e-5)]
-    k2, k1 = (np.array(f[:3]) for f in fits)
-    kxx, _, kyy = (4 * k1 - k2) / 3
+    (kxx, _, kyy), _ = extrapolated_vergence(lens, res.chief.start[0], res.chief.dir_in[0],
+                                             not math.isinf(distance), vs, n_out,
+                                             res.eye_x[0])
     o = 0.0 if math.isinf(distance) else -1.0 / np.linalg.norm(obj.positions()[0] - vs)
     return 0.5 * (kxx + kyy) - o
 
@@ -132,14 +127,10 @@ def test_the_view_through_the_pal_reproduces_kakimoto_fig_11():
 
     spec = load_spec(str(ROOT / "docs" / "gallery" / "pal.toml"))
     eye, lens = spec.eye, spec.lens
-    cor = np.array([0.0, 0.0, eye.rotation_centre])
 
     def blur(point, dist):
-        d = gaze_through(lens, point, eye.rotation_centre)
-        if math.isinf(dist):
-            obj = ObjectPoints(d[None], np.array([np.inf]))
-        else:
-            obj = ObjectPoints.from_positions((cor + d * (dist + eye.rotation_centre))[None])
+        obj = ObjectPoints.along_gazes(gaze_through(lens, point, eye.rotation_centre), dist,
+                                       eye.rotation_centre)
         r = analyze_points(eye, lens, obj, fixation="rotating")
         assert r.status[0] == 0
         return float(r.to_arcmin(r.blur_axes()[0])[0])

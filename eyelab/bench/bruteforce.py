@@ -155,3 +155,17 @@ def search_path(lens, target, position, finite, direction, *, grid=41, starts=3,
         if best < tol:
             return True, best
     return False, best
+
+
+def extrapolated_vergence(lens, start, dir_in, finite, pupil, n_chief, x_axis, *,
+                          radii=(2e-5, 1e-5), strict=True):
+    """:func:`bundle_vergence` at two bundle radii r and r/2, extrapolated to radius 0
+    (Richardson: the fit's bias grows as radius^2): ((kxx, kxy, kyy) (3,), the largest
+    change the extrapolation made — an estimate of the error left), or None when a bundle
+    ray fails in the lens and ``strict`` is False."""
+    fits = [bundle_vergence(lens, start, dir_in, finite, pupil, n_chief, x_axis, radius=r,
+                            strict=strict) for r in radii]
+    if any(f is None for f in fits):
+        return None
+    k2, k1 = (np.array(f[:3]) for f in fits)
+    return (4.0 * k1 - k2) / 3.0, float(np.abs(k1 - k2).max())

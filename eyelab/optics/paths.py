@@ -45,6 +45,21 @@ class ObjectPoints:
         d = np.stack([np.tan(fx), np.tan(fy), -np.ones_like(fx)], -1).reshape(-1, 3)
         return cls(d / np.linalg.norm(d, axis=1, keepdims=True), dist.ravel().copy())
 
+    @classmethod
+    def along_gazes(cls, directions, distances, rotation_centre: float):
+        """Objects seen by an eye that turns about its centre of rotation (rotation_centre m
+        behind the pupil, on +z): along each unit gaze ``directions`` (n, 3) from that
+        centre, ``distances`` (n,) m from the turned pupil (inf: at infinity, parallel to
+        the gaze)."""
+        d = np.atleast_2d(np.asarray(directions, float))
+        dist = np.broadcast_to(np.asarray(distances, float), (len(d),))
+        fin = np.isfinite(dist)
+        cor = np.array([0.0, 0.0, rotation_centre])
+        pos = cor + d * np.where(fin, dist + rotation_centre, 1.0)[:, None]
+        rel = np.where(fin[:, None], pos, d)
+        return cls(rel / np.linalg.norm(rel, axis=1, keepdims=True),
+                   np.where(fin, np.linalg.norm(pos, axis=1), np.inf))
+
     def __len__(self):
         return len(self.distance)
 

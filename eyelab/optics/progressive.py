@@ -176,12 +176,8 @@ def as_worn_add(lens, design, rx, wavelength_nm=587.56, near_distance=0.4):
     eye = Eye()
     out = []
     for point, dist in ((design.distance_point, math.inf), (design.near_point, near_distance)):
-        d = gaze_through(lens, point, eye.rotation_centre)
-        cor = np.array([0.0, 0.0, eye.rotation_centre])
-        if math.isinf(dist):
-            obj = ObjectPoints(d[None], np.array([np.inf]))
-        else:
-            obj = ObjectPoints.from_positions((cor + d * (dist + eye.rotation_centre))[None])
+        obj = ObjectPoints.along_gazes(gaze_through(lens, point, eye.rotation_centre), dist,
+                                       eye.rotation_centre)
         res = analyze_points(eye, lens, obj, wavelength_nm=wavelength_nm, fixation="rotating")
         out.append(float(power_error(res, rx.distance(), obj)["mean_d"][0]))
     return out[1] - out[0]
