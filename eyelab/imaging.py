@@ -47,6 +47,14 @@ def check_int(field_name: str, value, lo: int, hi: int) -> int:
     return int(value)
 
 
+def check_rgb(field_name: str, value) -> tuple:
+    """An sRGB colour [r, g, b] of integers 0-255 as a tuple, or a :class:`SpecError`
+    naming the field (or the element)."""
+    if not (isinstance(value, (tuple, list)) and len(value) == 3):
+        raise SpecError(field_name, f"must be [r, g, b] in 0-255, got {value!r}")
+    return tuple(check_int(f"{field_name}[{i}]", v, 0, 255) for i, v in enumerate(value))
+
+
 def check_bool(field_name: str, value) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise SpecError(field_name, f"must be true or false, got {value!r}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 from eyelab.errors import SpecError, check_range
-from eyelab.imaging import check_bool, check_choice, check_int
+from eyelab.imaging import check_bool, check_choice, check_int, check_rgb
 
 #: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
 MAX_PASSES = 256
@@ -79,12 +79,7 @@ class RasterQuality:
         check_int("render.lens_grid_px", self.lens_grid_px, 1, 64)
         check_range("render.env_oversample", self.env_oversample, 0.5, 4)
         for name in ("rim_color", "invalid_color"):
-            c = getattr(self, name)
-            if not (isinstance(c, (tuple, list)) and len(c) == 3):
-                raise SpecError(f"render.{name}", f"must be [r, g, b] in 0-255, got {c!r}")
-            for i, v in enumerate(c):
-                check_int(f"render.{name}[{i}]", v, 0, 255)
-            object.__setattr__(self, name, tuple(int(v) for v in c))
+            object.__setattr__(self, name, check_rgb(f"render.{name}", getattr(self, name)))
 
 
 @dataclass(frozen=True)

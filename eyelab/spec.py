@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.errors import SpecError, check_range
-from eyelab.imaging import View, check_bool, check_choice, check_int
+from eyelab.imaging import View, check_bool, check_choice, check_rgb
 from eyelab.optics.eye import (
     AMPLITUDE_MODELS,
     EYE_KINDS,
@@ -147,9 +147,10 @@ def parse_eye(t: dict) -> Eye:
                                                    "amplitude for that age)")
     if "kind" in t:
         check_choice("eye.kind", t["kind"], EYE_KINDS)
+    if "vertex_distance_mm" in t:
+        _num(t, "vertex_distance_mm", "eye", 5, 30)          # a bad value first
     for key in ("kind", "vertex_distance_mm"):
         if key in t and "rx" not in t:
-            _num(t, key, "eye", 5, 30) if key == "vertex_distance_mm" else None
             raise SpecError(f"eye.{key}", "only used with eye.rx (the explicit powers "
                                           "define the eye as written)")
     kw = {}
@@ -174,8 +175,6 @@ def parse_eye(t: dict) -> Eye:
         kw["rotation_centre"] = _num(t, "rotation_centre_mm", "eye", 5, 20) * 1e-3
     if "chromatic" in t:
         kw["chromatic"] = check_bool("eye.chromatic", t["chromatic"])
-    if "accommodation_d" in t:
-        eye_accommodation(t)
     explicit = {"power_min_d", "astigmatism_d", "astigmatism_axis_deg"} & set(t)
     if "rx" in t:
         if explicit:
@@ -439,7 +438,8 @@ SCENE_KEYS = {"path", "position_m", "scale", "rotation_deg", "units", "distance_
 
 def parse_scene(value, background, base: Path | None) -> tuple:
     """``[render] scene`` (a built-in name, a mesh path, or a table {path, position_m,
-    scale, rotation_deg, units}) and ``[render] background`` -> (:class:`SceneSource`,
+    scale, rotation_deg, units; distance_m, contrast for the built-in chart}) and
+    ``[render] background`` -> (:class:`SceneSource`,
     the value with its path resolved, as the spec table keeps it)."""
     table = value if isinstance(value, dict) else {"path": value}
     if not isinstance(value, (str, dict)):
@@ -475,13 +475,7 @@ def parse_scene(value, background, base: Path | None) -> tuple:
 
     units = table.get("units", "m")
     check_choice("render.scene.units", units, tuple(UNITS))
-    bg = None
-    if background is not None:
-        if not (isinstance(background, list) and len(background) == 3):
-            raise SpecError("render.background", f"must be [r, g, b] in 0-255, got "
-                                                 f"{background!r}")
-        bg = tuple(check_int(f"render.background[{i}]", c, 0, 255)
-                   for i, c in enumerate(background))
+    bg = None if background is None else check_rgb("render.background", background)
     chart = {}
     for key, lo, hi in (("distance_m", 0.1, 100.0), ("contrast", 0.0, 1.0)):
         if key in table:
