@@ -42,14 +42,10 @@ def build_scene(source) -> Scene:
 
     src = source if isinstance(source, SceneSource) else SceneSource(str(source))
     if src.name in SCENES:
-        if src.name == "chart":
-            from eyelab.scene.library import chart_scene
-
-            scene = chart_scene(6.0 if src.chart_distance_m is None else src.chart_distance_m,
-                                contrast=1.0 if src.chart_contrast is None
-                                else src.chart_contrast)
-        else:
-            scene = SCENES[src.name]()
+        # the chart's own parameters, where the spec gave them (only the chart takes them)
+        params = {k: v for k, v in (("distance_m", src.chart_distance_m),
+                                    ("contrast", src.chart_contrast)) if v is not None}
+        scene = SCENES[src.name](**params)
         if src.placed:
             m = src.matrix()
             scene = dataclasses.replace(scene, meshes=[x.transformed(m) for x in scene.meshes])
