@@ -138,7 +138,8 @@ KEYS = [
         5, 30, base=RX_LENS),
     Key("lens", "pantoscopic_tilt_deg", "number", "deg", "0", "lower rim toward the "
         "cheeks", -30, 30, base=RX_LENS),
-    Key("lens", "wrap_deg", "number", "deg", "0", "face-form wrap", -30, 30, base=RX_LENS),
+    Key("lens", "wrap_deg", "number", "deg", "0", "face-form wrap: the +x rim (a "
+        "right lens's temporal rim) toward the face", -30, 30, base=RX_LENS),
     Key("lens", "decentration_mm", "pair", "mm", "[0, 0]", "optical centre offset [x, y]",
         -20, 20, base=RX_LENS),
     Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: which torus the toric back "

@@ -154,3 +154,13 @@ def test_an_add_is_never_ignored():
     with pytest.raises(SpecError, match="add"):
         SpectacleLens.from_rx(Prescription(0.5, add=2.25))
     SpectacleLens.from_rx(Prescription(0.5, add=2.25).near())
+
+
+def test_tilt_and_wrap_turn_the_documented_rims_toward_the_face():
+    """Pantoscopic tilt: the lower rim toward the cheeks; wrap: the +x rim (a right lens's
+    temporal rim) toward the face — the eye is at z = 0, the lens at z < 0."""
+    rim = 0.025
+    for pose, point in ((LensPose(pantoscopic_tilt_deg=10.0), (0.0, -rim, 0.0)),
+                        (LensPose(wrap_deg=10.0), (rim, 0.0, 0.0))):
+        z = (pose.rotation @ np.array(point) + pose.translation)[2]
+        assert z == pytest.approx(-0.012 + rim * math.sin(math.radians(10.0)), abs=1e-12)

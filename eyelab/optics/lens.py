@@ -8,9 +8,10 @@ z = +z_r.
 Lens frame: origin at the back vertex, z along the lens's optical axis toward the eye,
 x, y as in the world when the lens is not tilted. Lens frame -> world:
 p_w = R p_l + t with t = (decentration_x, decentration_y, -vertex_distance) and
-R = R_y(wrap) R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the
-cheeks, wrap turns the temporal (+x for this frame) rim toward the face. The rotation is
-about the back vertex. The front surface's vertex is at z_l = -center_thickness.
+R = R_y(-wrap) R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the
+cheeks, wrap turns the +x rim (the temporal rim of a right eye's lens) toward the face; a
+left eye's lens of a face-form frame has the opposite wrap (:mod:`eyelab.binocular`). The
+rotation is about the back vertex. The front surface's vertex is at z_l = -center_thickness.
 """
 
 from __future__ import annotations
@@ -104,7 +105,7 @@ class LensPose:
     @property
     def rotation(self) -> np.ndarray:
         a = -math.radians(self.pantoscopic_tilt_deg)
-        b = math.radians(self.wrap_deg)
+        b = -math.radians(self.wrap_deg)
         rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
         ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
         return ry @ rx
