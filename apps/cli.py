@@ -93,6 +93,9 @@ def _build_parser() -> argparse.ArgumentParser:
 
 #: [render] keys whose command-line flag has another name.
 _FLAGS = {"gaze_deg": "gaze"}
+#: binocular.output's choices (eyelab.binocular.OUTPUTS; listed here so that building the
+#: parser imports nothing heavy).
+BINOCULAR_OUTPUTS = ("side-by-side", "crossed", "anaglyph", "right", "left")
 
 
 def _render_overrides(parser) -> None:
@@ -108,7 +111,12 @@ def _render_overrides(parser) -> None:
     add_quiet(parser)
     parser.add_argument("--gaze", type=float, nargs=2, metavar=("RIGHT", "UP"),
                         help="override render.gaze_deg: the eye turned this many degrees "
-                        "right and up behind the lens")
+                        "right and up behind the lens (both eyes' cyclopean gaze, binocular)")
+    parser.add_argument("--binocular", nargs="?", const="spec", metavar="OUTPUT",
+                        choices=("spec", *BINOCULAR_OUTPUTS),
+                        help="two eyes: a spec without [binocular] gets both eyes from [eye] "
+                        "and [lens] (PD 64 mm); OUTPUT overrides binocular.output: "
+                        + ", ".join(BINOCULAR_OUTPUTS))
 
 
 def add_quiet(parser) -> None:
@@ -197,12 +205,29 @@ def _analyze(args) -> int:
     return 0
 
 
+def _load_for_render(args):
+    """The spec, made binocular by ``--binocular`` (its output overridden by the flag's
+    value) when asked."""
+    from dataclasses import replace
+
+    from eyelab.spec import load_spec, parse_spec, read_spec_data
+
+    spec = load_spec(args.spec)
+    if args.binocular is None:
+        return spec
+    if spec.binocular is None:
+        data, source, base = read_spec_data(args.spec)
+        data["binocular"] = {}
+        spec = parse_spec(data, source, base)
+    if args.binocular != "spec":
+        spec = replace(spec, binocular=replace(spec.binocular, output=args.binocular))
+    return spec
+
+
 def _render(args) -> int:
     from dataclasses import replace
 
-    from eyelab.spec import load_spec
-
-    spec = load_spec(args.spec)
+    spec = _load_for_render(args)
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     from eyelab.fileio import check_distinct, check_output
@@ -231,7 +256,32 @@ def _render(args) -> int:
     from eyelab.jobs import demo, json_writer, png_writer, render_spec
 
     # outputs as one set: all written to temporaries, then renamed back to back
-    if args.command == "render":
+    if args.command == "render" and spec.binocular is not None:
+        from eyelab.jobs import render_binocular_spec
+
+        res = render_binocular_spec(spec, no_lens=args.no_lens)
+        mode = spec.binocular.output
+        image = res.srgb(mode)
+        writers = {args.output: png_writer(image)}
+        if args.report:
+            writers[args.report] = json_writer(res.report)
+        atomic_group(writers)
+        b = res.report["binocular"]
+        print(f"wrote {args.output} ({image.shape[1]}x{image.shape[0]}, {mode}; "
+              f"accommodation {b['accommodation_d']:.2f} D, {b['accommodation_rule']})")
+        for side, info in b["eyes"].items():
+            rep = res.report[side]
+            print(f"  {side} eye: gaze ({info['gaze_deg'][0]:+.2f}, {info['gaze_deg'][1]:+.2f})"
+                  f" deg, blur at fixation {info['blur_at_fixation_arcmin'][0]:.2f}' x "
+                  f"{info['blur_at_fixation_arcmin'][1]:.2f}', {rep['renderer']} "
+                  f"{rep['timings_s']['total']:.2f} s")
+        if b["prism_at_fixation"] is not None:
+            p = b["prism_at_fixation"]["binocular"]
+            print(f"  induced prism at fixation: {p['horizontal']}, {p['vertical']}")
+        warnings = dict.fromkeys(w for s in ("right", "left") for w in res.report[s]["warnings"])
+        for warning in warnings:
+            print(f"eyelab: warning: {warning}", file=sys.stderr)
+    elif args.command == "render":
         res = render_spec(spec, no_lens=args.no_lens)
         writers = {args.output: png_writer(res.srgb)}
         if args.report:

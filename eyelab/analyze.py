@@ -61,34 +61,41 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     Units in keys: ``_mm``, ``_um``, ``_arcmin``, ``_deg``, ``_d`` (dioptres).
     Directions and vergences are given in the eye's (x, y) frame of §4.4.1: x horizontal
     (the wearer's right for a straight-ahead gaze), y up, angles counter-clockwise seen
-    from behind the wearer.
+    from behind the wearer. A binocular spec gives :func:`analyze_binocular_spec`'s report.
     """
+    if spec.binocular is not None:
+        return analyze_binocular_spec(spec, no_lens=no_lens)
     lens = None if no_lens else spec.lens
     res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
                          fixation=spec.fixation, accommodation=spec.accommodation,
                          vertex_sphere=spec.vertex_sphere)
+    report = {"source": spec.source}
+    report.update(_eye_report(spec.eye, lens, res, spec.points, spec))
+    return report
+
+
+def _object(points, i) -> dict:
+    dist = float(points.distance[i])
+    d = points.direction[i]
+    return {"distance_m": dist if math.isfinite(dist) else "inf",
+            "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
+                          float(np.degrees(math.atan2(d[1], -d[2])))],
+            "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
+                                float(np.degrees(math.atan2(d[1], d[0])) % 360.0)]}
+
+
+def _eye_report(eye, lens, res, points, spec) -> dict:
+    """One eye's part of the report: eye, lens, vertex sphere, settings and points (the
+    points' objects as this eye's frame holds them)."""
     maj, mnr, ang = res.blur_axes()
-    eye = spec.eye
     if lens is not None:
         prism, deviation = chief_prism(res)
         # the power error against the prescription (none for surface-by-surface lenses)
-        err = None if lens.rx is None else power_error(res, lens.rx, spec.points)
+        err = None if lens.rx is None else power_error(res, lens.rx, points)
     out_points = []
-    for i in range(len(spec.points)):
+    for i in range(len(points)):
         st = int(res.status[i])
-        dist = float(spec.points.distance[i])
-        d = spec.points.direction[i]
-        entry = {
-            "index": i,
-            "status": status_text(st),
-            "object": {
-                "distance_m": dist if math.isfinite(dist) else "inf",
-                "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
-                              float(np.degrees(math.atan2(d[1], -d[2])))],
-                "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
-                                    float(np.degrees(math.atan2(d[1], d[0])) % 360.0)],
-            },
-        }
+        entry = {"index": i, "status": status_text(st), "object": _object(points, i)}
         if st & int(Status.MISSED | Status.TIR | Status.NOT_CONVERGED | Status.BEHIND):
             entry["reason"] = _reason(st)
             out_points.append(entry)
@@ -127,8 +134,7 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
         }
         out_points.append(entry)
     k1, k2 = eye.refraction()
-    report = {
-        "source": spec.source,
+    return {
         "eye": {"power_min_d": eye.power_min, "astigmatism_d": eye.astigmatism,
                 "astigmatism_axis_deg": eye.astigmatism_axis_deg,
                 "accommodation_max_d": eye.accommodation_max,
@@ -146,7 +152,38 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
         else spec.accommodation,
         "points": out_points,
     }
-    return report
+
+
+def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
+    """Both eyes of a binocular spec (:mod:`eyelab.binocular`): the points are in the head
+    frame (the cyclopean pupil at the origin); each eye's report as :func:`analyze_spec`
+    gives it (objects in that eye's frame), with one accommodative response per point
+    (the less-blurred-eye rule, or ``eye.accommodation_d``) and the binocular prism
+    (total horizontal base out, vertical imbalance) at each point."""
+    from eyelab.binocular import SIDES, analyze_binocular, prism_rows
+
+    b = spec.binocular
+    an = analyze_binocular(b, spec.points, wavelength_nm=spec.wavelength_nm,
+                           fixation=spec.fixation, accommodation=spec.accommodation,
+                           vertex_sphere=spec.vertex_sphere, no_lens=no_lens)
+    eyes = {s: _eye_report(b.eye(s), None if no_lens else b.lens(s), an[s], an["points"][s],
+                           spec) for s in SIDES}
+    points = []
+    for i in range(len(spec.points)):
+        row = {"index": i, "object": _object(spec.points, i),
+               "accommodation_d": float(an["accommodation_d"][i]),
+               "driving_eye": str(an["driving_eye"][i])}
+        prism = None if no_lens else prism_rows(b, an, i)
+        if prism is not None:
+            row["prism"] = prism
+        points.append(row)
+    return {"source": spec.source, "binocular": {
+        "monocular_pd_mm": [v * 1e3 for v in b.monocular_pd],
+        "frame_pd_mm": None if b.frame_pd is None or no_lens else b.frame_pd * 1e3,
+        "fixation": spec.fixation,
+        "accommodation": "fixed" if spec.accommodation is not None else
+        "less-blurred eye (Toor et al. 2018)"},
+        "points": points, "eyes": eyes}
 
 
 def _lens_info(lens, wl):
@@ -176,7 +213,38 @@ def _reason(st):
 
 def format_report(rep: dict) -> str:
     """Human-readable text of a report from :func:`analyze_spec`."""
-    lines = [f"eyelab analyze — {rep['source']}"]
+    if "binocular" in rep:
+        return _format_binocular(rep)
+    return "\n".join([f"eyelab analyze — {rep['source']}", *_format_eye(rep)])
+
+
+def _format_binocular(rep: dict) -> str:
+    b = rep["binocular"]
+    lines = [f"eyelab analyze — {rep['source']} (binocular)",
+             "monocular PDs {:.1f} / {:.1f} mm (right / left)".format(*b["monocular_pd_mm"])
+             + ("" if b["frame_pd_mm"] is None else f", frame PD {b['frame_pd_mm']:.1f} mm")
+             + f"; fixation {b['fixation']}; accommodation {b['accommodation']}"]
+    for p in rep["points"]:
+        o = p["object"]
+        dist = o["distance_m"] if o["distance_m"] == "inf" else f"{o['distance_m']:g} m"
+        line = (f"point {p['index']}: {dist} at ({o['field_deg'][0]:+.1f}, "
+                f"{o['field_deg'][1]:+.1f}) deg from the cyclopean eye: accommodation "
+                f"{p['accommodation_d']:.3f} D ({p['driving_eye']})")
+        if "prism" in p:
+            pr = p["prism"]
+            line += (f"; induced prism {pr['binocular']['horizontal']}, "
+                     f"{pr['binocular']['vertical']} (right {pr['right']['prism_d']:.2f} Δ "
+                     f"base {pr['right']['base_deg']:.0f} deg, left {pr['left']['prism_d']:.2f}"
+                     f" Δ base {pr['left']['base_deg']:.0f} deg)")
+        lines.append(line)
+    for side, eye_rep in rep["eyes"].items():
+        lines.append(f"\n— {side} eye —")
+        lines.extend(_format_eye(eye_rep))
+    return "\n".join(lines)
+
+
+def _format_eye(rep: dict) -> list:
+    lines = []
     e = rep["eye"]
     lines.append(f"eye: P_min {e['power_min_d']:.3f} D, astigmatism {e['astigmatism_d']:.3f} D "
                  f"@ {e['astigmatism_axis_deg']:.1f} deg, amplitude {e['accommodation_max_d']:.2f} "
@@ -234,4 +302,4 @@ def format_report(rep: dict) -> str:
                      f"{b['major_um']:.2f} x {b['minor_um']:.2f} um semi-axes "
                      f"({b['major_arcmin']:.2f}' x {b['minor_arcmin']:.2f}'), major axis "
                      f"{b['major_axis_deg']:.1f} deg")
-    return "\n".join(lines)
+    return lines

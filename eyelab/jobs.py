@@ -99,18 +99,36 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
         return r.render(scene, spec.eye, None if no_lens else spec.lens, rs.view)
 
 
-def demo(spec):
-    """Three views of the spec's scene: the uncorrected eye, the eye with its lens, and an
-    emmetrope of the same accommodation and pupil. Returns (image, report)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
+    """Both eyes of a binocular spec (:func:`eyelab.binocular.render_binocular`) with the
+    spec's renderer, view and quality; ``renderer`` reuses an open renderer of that kind.
+    Returns a :class:`~eyelab.binocular.BinocularResult`."""
+    from eyelab.binocular import render_binocular
 
     rs = spec.render
     scene = build_scene(rs.scene)
-    emmetrope = dataclasses.replace(spec.eye, power_min=spec.eye.emmetropic_power,
-                                    astigmatism=0.0)
+    if renderer is not None:
+        return render_binocular(renderer, scene, spec.binocular, rs.view, rs.quality,
+                                no_lens=no_lens)
+    with make_renderer(rs.renderer, rs.quality) as r:
+        return render_binocular(r, scene, spec.binocular, rs.view, no_lens=no_lens)
+
+
+def _emmetrope(eye):
+    """The eye made emmetropic (same accommodation, pupil and chromatic aberration)."""
+    return dataclasses.replace(eye, power_min=eye.emmetropic_power, astigmatism=0.0)
+
+
+def demo(spec):
+    """Three views of the spec's scene: the uncorrected eye, the eye with its lens, and an
+    emmetrope of the same accommodation and pupil (a binocular spec: a row per eye, each
+    column rendered binocularly — vergence and one accommodation for both eyes). Returns
+    (image, report)."""
+    rs = spec.render
+    scene = build_scene(rs.scene)
+    if spec.binocular is not None:
+        return _demo_binocular(spec, scene)
+    emmetrope = _emmetrope(spec.eye)
     panels = []
     reports = {}
     with make_renderer(rs.renderer, rs.quality) as r:
@@ -122,18 +140,62 @@ def demo(spec):
             res = r.render(scene, eye, lens, rs.view)
             panels.append((label, res.srgb))
             reports[label] = res.report
-    h, w = panels[0][1].shape[:2]
-    fig = plt.figure(figsize=(len(panels) * w / 100, h / 100 + 0.5), dpi=100)
-    for i, (label, img) in enumerate(panels):
-        ax = fig.add_axes([i / len(panels), 0, 1 / len(panels), h / (h + 50)])
-        ax.imshow(img)
-        ax.set_axis_off()
-        fig.text((i + 0.5) / len(panels), 1 - 25 / (h + 50), label, ha="center", va="center",
-                 fontsize=14)
+    rx = None if spec.lens is None or spec.lens.rx is None else spec.lens.rx.format()
+    return panel_figure([panels]), {
+        "scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
+        "eye": dataclasses.asdict(spec.eye), "emmetrope": dataclasses.asdict(emmetrope),
+        "panels": reports}
+
+
+def _demo_binocular(spec, scene):
+    from eyelab.binocular import SIDES, render_binocular
+
+    rs = spec.render
+    b = spec.binocular
+    emm = dataclasses.replace(b.without_lenses(), right=_emmetrope(b.right),
+                              left=_emmetrope(b.left))
+    configs = [("uncorrected", b.without_lenses()), ("with the lenses", b),
+               ("emmetropes", emm)]
+    if b.right_lens is None:
+        configs.pop(1)
+    rows = {s: [] for s in SIDES}
+    reports, binocular = {}, {}
+    with make_renderer(rs.renderer, rs.quality) as r:
+        for label, wearer in configs:
+            res = render_binocular(r, scene, wearer, rs.view)
+            binocular[label] = res.report["binocular"]
+            for side in SIDES:
+                rows[side].append((f"{side} eye, {label}", getattr(res, side).srgb))
+                reports[f"{side} eye, {label}"] = res.report[side]
+    rx = {s: None if b.lens(s) is None or b.lens(s).rx is None else b.lens(s).rx.format()
+          for s in SIDES}
+    return panel_figure([rows["right"], rows["left"]]), {
+        "scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
+        "eye": {s: dataclasses.asdict(b.eye(s)) for s in SIDES}, "binocular": binocular,
+        "panels": reports}
+
+
+def panel_figure(rows: list) -> np.ndarray:
+    """(H, W, 3) uint8 image of labelled panels: ``rows`` of [(label, (h, w, 3) uint8)],
+    every panel the same size, a 50-pixel label band above each."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h, w = rows[0][0][1].shape[:2]
+    ncol, nrow = max(len(r) for r in rows), len(rows)
+    band = h + 50
+    fig = plt.figure(figsize=(ncol * w / 100, nrow * band / 100), dpi=100)
+    for j, row in enumerate(rows):
+        for i, (label, img) in enumerate(row):
+            bottom = (nrow - 1 - j) * band / (nrow * band)
+            ax = fig.add_axes([i / ncol, bottom, 1 / ncol, h / (nrow * band)])
+            ax.imshow(img)
+            ax.set_axis_off()
+            fig.text((i + 0.5) / ncol, bottom + (h + 25) / (nrow * band), label,
+                     ha="center", va="center", fontsize=14)
     fig.canvas.draw()
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)
-    rx = None if spec.lens is None or spec.lens.rx is None else spec.lens.rx.format()
-    return image, {"scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
-                   "eye": dataclasses.asdict(spec.eye),
-                   "emmetrope": dataclasses.asdict(emmetrope), "panels": reports}
+    return image

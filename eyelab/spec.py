@@ -50,6 +50,7 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
 LENS_DESIGNS = ("single-vision", "near", "progressive")
 #: Keys only a progressive design takes.
 PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm")
+SIDES = ("right", "left")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
@@ -57,6 +58,9 @@ ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 MOVED = {"analysis.accommodation_d": "eye.accommodation_d",
          "render.focus_d": "eye.accommodation_d"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
+BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_m", "output"}
+#: Keys a side's table ([eye.right], [lens.left], ...) may not hold: one value for both.
+SHARED_ONLY = {"eye": ("accommodation_d",), "lens": ()}
 
 
 @dataclass(frozen=True)
@@ -107,6 +111,9 @@ class Spec:
     source: str = "<built-in>"
     render: RenderSpec = field(default_factory=RenderSpec)
     vertex_sphere: str = "rotation_centre"
+    #: Two eyes (:class:`eyelab.binocular.Binocular`) when the spec has [binocular] or
+    #: per-eye tables; ``eye`` and ``lens`` are then the right eye's.
+    binocular: object = None
 
 
 def _check_keys(table, allowed, where):
@@ -248,7 +255,10 @@ def _surface(t, where) -> Surface:
     raise SpecError(f"{where}.type", f"must be one of sphere, plane, asphere, toric; got {kind!r}")
 
 
-def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
+def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
+    """The [lens] table -> :class:`SpectacleLens` (``eye_rx``: the eye's Rx, the lens's
+    when it has none; ``side``: "R"/"L", the eye a progressive design is made for when the
+    Rx does not say)."""
     _check_keys(t, LENS_KEYS, "lens")
     dec = t.get("decentration_mm", [0.0, 0.0])
     if not (isinstance(dec, list) and len(dec) == 2):
@@ -292,7 +302,7 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
     else:
         raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
     if t.get("design") == "progressive":
-        return _progressive(t, rx, material, pose, diam)
+        return _progressive(t, rx, material, pose, diam, side)
     rx = _design_rx(rx, t.get("design"), "lens.rx" if "rx" in t else "eye.rx")
     try:
         return SpectacleLens.from_rx(
@@ -306,7 +316,7 @@ def parse_lens(t: dict, eye_rx=None) -> SpectacleLens:
         raise
 
 
-def _progressive(t, rx, material, pose, diam) -> SpectacleLens:
+def _progressive(t, rx, material, pose, diam, side=None) -> SpectacleLens:
     """A progressive lens for the Rx's distance part and add (:mod:`eyelab.optics.
     progressive`); the design's lengths from the spec."""
     from eyelab.optics.progressive import ProgressiveDesign, progressive_lens
@@ -322,7 +332,7 @@ def _progressive(t, rx, material, pose, diam) -> SpectacleLens:
         rx.add, corridor=_num(t, "corridor_mm", "lens", 10, 22, 14.0) * 1e-3,
         inset=_num(t, "inset_mm", "lens", 0, 5, 2.5) * 1e-3,
         softness=_num(t, "softness_mm", "lens", 3, 30, 8.0) * 1e-3,
-        eye="L" if rx.eye == "L" else "R")
+        eye=side or ("L" if rx.eye == "L" else "R"))
     lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design, pose=pose,
                                   diameter=(diam or 60.0) * 1e-3)
     return lens
@@ -494,17 +504,24 @@ def parse_scene(value, background, base: Path | None) -> tuple:
 
 
 def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:
-    _check_keys(data, {"eye", "lens", "analysis", "points", "render"}, "spec")
+    _check_keys(data, {"eye", "lens", "analysis", "points", "render", "binocular"}, "spec")
     eye_t = data.get("eye", {})
-    eye = parse_eye(eye_t)
-    lens = None
-    if "lens" in data:
-        eye_rx = _rx(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
-        lens = parse_lens(data["lens"], eye_rx)
+    bino = None
+    if "binocular" in data or _has_sides(eye_t) or _has_sides(data.get("lens")):
+        bino = parse_binocular(data)
+        eye, lens = bino.right, bino.right_lens
+        eye_t = {k: v for k, v in eye_t.items() if k not in SIDES}
+    else:
+        eye = parse_eye(eye_t)
+        lens = None
+        if "lens" in data:
+            eye_rx = _rx(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
+            lens = parse_lens(data["lens"], eye_rx)
     an = data.get("analysis", {})
     _check_keys(an, ANALYSIS_KEYS, "analysis")
     wl = _num(an, "wavelength_nm", "analysis", 380, 780, 587.56)
-    fix = an.get("fixation", "fixed")
+    # two eyes fixate each point (vergence) unless the spec says otherwise
+    fix = an.get("fixation", "fixed" if bino is None else "rotating")
     if fix not in ("fixed", "rotating"):
         raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
     acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
@@ -513,7 +530,125 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
     render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
-    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph)
+    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino)
+
+
+def _has_sides(t) -> bool:
+    return isinstance(t, dict) and any(s in t for s in SIDES)
+
+
+def _split_sides(t, where) -> tuple:
+    """(shared keys, {side: that side's table}) of an [eye] or [lens] table."""
+    if t is None:
+        return None, {}
+    if not isinstance(t, dict):
+        raise SpecError(where, f"must be a table, got {t!r}")
+    sides = {}
+    for side in SIDES:
+        st = t.get(side, {})
+        if not isinstance(st, dict):
+            raise SpecError(f"{where}.{side}", f"must be a table of {where} keys, got {st!r}")
+        for key in SHARED_ONLY[where]:
+            if key in st:
+                raise SpecError(f"{where}.{side}.{key}", f"one value for both eyes: give it "
+                                                         f"in [{where}]")
+        sides[side] = st
+    return {k: v for k, v in t.items() if k not in SIDES}, sides
+
+
+def _for_side(where, side, own, fn):
+    """``fn()``, with an error in a key the side's own table holds renamed to it."""
+    try:
+        return fn()
+    except SpecError as e:
+        head, _, rest = e.field.partition(".")
+        key = rest.split("[")[0].split(".")[0]
+        if head == where and key in own:
+            raise SpecError(f"{where}.{side}.{rest}", e.message) from None
+        raise
+
+
+def parse_binocular(data: dict):
+    """A spec with two eyes -> :class:`eyelab.binocular.Binocular`.
+
+    ``[eye]`` and ``[lens]`` hold what both sides share; ``[eye.right]``, ``[eye.left]``,
+    ``[lens.right]``, ``[lens.left]`` any key of their table for one side (over the
+    shared value); ``[binocular]`` the pupillary distances, the frame PD, the fixation
+    distance and the output. Each lens's optical centre goes ``frame_pd_mm`` / 2 from the
+    midline (in front of its pupil without it), plus any ``decentration_mm`` written
+    (world frame: x to the wearer's right); ``wrap_deg`` is face-form for both lenses (the
+    left lens's pose takes its mirror image); a progressive design gets its side's inset.
+    """
+    from eyelab.binocular import OUTPUTS, Binocular
+
+    bt = data.get("binocular", {})
+    _check_keys(bt, BINOCULAR_KEYS, "binocular")
+    if "pd_mm" in bt and "monocular_pd_mm" in bt:
+        raise SpecError("binocular.pd_mm", "give either pd_mm or monocular_pd_mm, not both")
+    if "monocular_pd_mm" in bt:
+        m = bt["monocular_pd_mm"]
+        if not (isinstance(m, list) and len(m) == 2):
+            raise SpecError("binocular.monocular_pd_mm", f"must be [right, left] in mm, "
+                                                         f"got {m!r}")
+        mpd = tuple(check_range(f"binocular.monocular_pd_mm[{i}]", v, 20, 40) * 1e-3
+                    for i, v in enumerate(m))
+    else:
+        pd = _num(bt, "pd_mm", "binocular", 40, 80, 64.0) * 1e-3
+        mpd = (pd / 2, pd / 2)
+    fpd = _num(bt, "frame_pd_mm", "binocular", 40, 80)
+    fix = bt.get("fixation_distance_m", "inf")
+    if isinstance(fix, str) and fix.strip().lower() in ("inf", "infinity"):
+        fix = math.inf
+    else:
+        fix = check_range("binocular.fixation_distance_m", fix, 0.1, 1e7)
+    output = check_choice("binocular.output", bt.get("output", "side-by-side"), OUTPUTS)
+    eye_shared, eye_sides = _split_sides(data.get("eye", {}), "eye")
+    lens_shared, lens_sides = _split_sides(data.get("lens"), "lens")
+    eyes, lenses = {}, {}
+    for side in SIDES:
+        letter = side[0].upper()
+        et = {**eye_shared, **eye_sides[side]}
+        eyes[side] = _for_side("eye", side, eye_sides[side], lambda et=et: parse_eye(et))
+        eye_rx = None
+        if "rx" in et:
+            where = f"eye.{side}.rx" if "rx" in eye_sides[side] else "eye.rx"
+            eye_rx = _rx(et["rx"], where)
+            _check_side(eye_rx, side, where)
+        if lens_shared is None:
+            lenses[side] = None
+            continue
+        own = lens_sides[side]
+        lt = {**lens_shared, **own}
+        if "rx" in lt:
+            where = f"lens.{side}.rx" if "rx" in own else "lens.rx"
+            _check_side(_rx(lt["rx"], where), side, where)
+        dec = lt.get("decentration_mm", [0.0, 0.0])
+        where = (f"lens.{side}.decentration_mm" if "decentration_mm" in own
+                 else "lens.decentration_mm")
+        if not (isinstance(dec, list) and len(dec) == 2):
+            raise SpecError(where, f"must be [x, y] in mm, got {dec!r}")
+        dec = [check_range(f"{where}[{i}]", v, -20, 20) for i, v in enumerate(dec)]
+        if fpd is not None:
+            sign = 1.0 if side == "right" else -1.0
+            dec[0] += sign * (fpd / 2 - mpd[0 if side == "right" else 1] * 1e3)
+            if abs(dec[0]) > 20:
+                raise SpecError("binocular.frame_pd_mm", f"puts the {side} lens's optical "
+                                f"centre {dec[0]:+.1f} mm from its pupil; at most 20 mm")
+        lt["decentration_mm"] = dec
+        if "wrap_deg" in lt and side == "left":
+            where = "lens.left.wrap_deg" if "wrap_deg" in own else "lens.wrap_deg"
+            lt["wrap_deg"] = -check_range(where, lt["wrap_deg"], -30, 30)
+        lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
+                                 parse_lens(lt, rx, side=s))
+    return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
+                     None if fpd is None else fpd * 1e-3, fix, output)
+
+
+def _check_side(rx: Prescription, side: str, where: str) -> None:
+    """An Rx that names an eye (R/L/OD/OS) must be the side it is given for."""
+    if rx.eye in ("R", "L") and rx.eye != side[0].upper():
+        eye = "right" if rx.eye == "R" else "left"
+        raise SpecError(where, f"{rx.format()!r} is for the {eye} eye, given for the {side}")
 
 
 def load_spec(path: str | Path | None = None) -> Spec:
