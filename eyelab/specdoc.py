@@ -211,6 +211,22 @@ KEYS = [
         "through the lens's back vertex that `analyze` reports the wave on: centred on the "
         "eye's centre of rotation (radius vertex distance + 13.5 mm: the designer's) or on "
         "the pupil (radius the vertex distance)", choices=("rotation_centre", "pupil")),
+    # ------------------------------------------------------------- [binocular]
+    Key("binocular", "pd_mm", "number", "mm", "64", "interpupillary distance (pupil "
+        "centres, primary gaze), split evenly about the midline", 40, 80),
+    Key("binocular", "monocular_pd_mm", "pair", "mm", "none", "[right, left] pupil centre "
+        "to midline instead of `pd_mm`", 20, 40),
+    Key("binocular", "frame_pd_mm", "number", "mm", "none (each lens centred on its pupil)",
+        "distance between the lenses' optical centres, centred on the midline: a frame PD "
+        "under the PD decentres both lenses nasally (induced prism)", 40, 80,
+        base={"lens": {"rx": "-2.00 DS"}}),
+    Key("binocular", "fixation_distance_m", "number", "m", '`"inf"`', "the fixated point's "
+        "distance from the midpoint of the eyes' centres of rotation, along "
+        '`render.gaze_deg` (or `"inf"`: parallel lines of sight); both eyes turn to it',
+        0.1, 1e7),
+    Key("binocular", "output", "choice", "", '`"side-by-side"`', "what `eyelab render` "
+        "writes: left eye's view left (parallel viewing), crossed, Dubois red/cyan anaglyph, "
+        "or one eye", choices=("side-by-side", "crossed", "anaglyph", "right", "left")),
     # -------------------------------------------------------------- [[points]]
     Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
         'pupil, or `"inf"`', 0.01, 1e7, base={"points": [{}]}),
@@ -321,7 +337,12 @@ KEYS = [
 TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
           "lens.front": "`[lens.front]`, `[lens.back]` (surfaces; the toric keys below "
           "apply to either)", "lens.back": None,
-          "analysis": "`[analysis]`", "points[0]": "`[[points]]` (one table per point)",
+          "analysis": "`[analysis]`",
+          "binocular": "`[binocular]` (two eyes; with it, or alone, `[eye.right]`, "
+          "`[eye.left]`, `[lens.right]` and `[lens.left]` hold any key of their table for "
+          "one side over the shared `[eye]` / `[lens]` value — `eye.accommodation_d` only "
+          "in `[eye]`: accommodation is consensual)",
+          "points[0]": "`[[points]]` (one table per point)",
           "render": "`[render]`", "render.scene": "`[render] scene = {…}` (a mesh file "
           "placed in the world: a vertex v goes to R_z R_y R_x (units × scale × v) + "
           "position_m)"}

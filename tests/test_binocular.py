@@ -281,3 +281,81 @@ def test_compositions():
     assert np.allclose(white, 1.0, atol=2e-3)
     red = compose(np.zeros((2, 2, 3)), np.ones((2, 2, 3)), "anaglyph")
     assert red[0, 0, 0] > 0.9 and red[0, 0, 1] == 0.0 and red[0, 0, 2] == 0.0
+
+
+# ------------------------------------------------------------------------------- CLI
+SPEC = """[eye]
+age = 45
+[eye.right]
+rx = "-1.00 DS"
+[eye.left]
+rx = "-2.50 -0.50 x 10"
+[lens]
+material = "cr39"
+[binocular]
+pd_mm = 63
+frame_pd_mm = 60
+fixation_distance_m = 2.0
+[render]
+scene = "room"
+width = 64
+height = 48
+samples = 2
+"""
+
+
+@pytest.mark.parametrize("output, width", [("anaglyph", 64), ("side-by-side", 128),
+                                           ("left", 64)])
+def test_cli_render_binocular(tmp_path, capsys, output, width):
+    import matplotlib.image as mpimg
+
+    from eyelab.apps.cli import main
+
+    spec = tmp_path / "b.toml"
+    spec.write_text(SPEC)
+    png, rep = tmp_path / "b.png", tmp_path / "b.json"
+    assert main(["render", str(spec), "-o", str(png), "--report", str(rep), "--binocular",
+                 output, "--quiet"]) == 0
+    assert mpimg.imread(png).shape[:2] == (48, width)
+    import json
+
+    report = json.loads(rep.read_text())
+    assert set(report) == {"binocular", "right", "left"}
+    assert report["binocular"]["output"] == output
+    assert report["binocular"]["prism_at_fixation"]["binocular"]["horizontal"]
+    out = capsys.readouterr().out
+    assert "induced prism at fixation" in out and "right eye: gaze" in out
+
+
+def test_cli_binocular_analyze_and_a_bad_output(tmp_path, capsys):
+    import json
+
+    from eyelab.apps.cli import main
+
+    spec = tmp_path / "b.toml"
+    spec.write_text(SPEC)
+    assert main(["analyze", str(spec), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert set(rep["eyes"]) == {"right", "left"} and rep["binocular"]["fixation"] == "rotating"
+    assert main(["analyze", str(spec)]) == 0
+    assert "induced prism" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        main(["render", str(spec), "--binocular", "wiggle", "-o", str(tmp_path / "x.png")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--binocular" in err[0]
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_progressive_lenses_are_made_for_their_sides():
+    """One Rx with an add for both eyes: each progressive lens's inset goes nasally, so
+    the left lens's front surface is the right's mirror image (to rounding)."""
+    s = _spec(eye={"rx": "-1.00 add 2.00", "age": 60}, lens={"design": "progressive"},
+              binocular={})
+    b = s.binocular
+    assert (b.right_lens.design.eye, b.left_lens.design.eye) == ("R", "L")
+    x, y = np.meshgrid(np.linspace(-0.02, 0.02, 9), np.linspace(-0.02, 0.015, 9))
+    assert np.allclose(b.right_lens.front.sag(x, y), b.left_lens.front.sag(-x, y),
+                       rtol=0, atol=1e-12)
+    assert not np.allclose(b.right_lens.front.sag(x, y), b.right_lens.front.sag(-x, y),
+                           rtol=0, atol=1e-7)

@@ -13,6 +13,7 @@ from eyelab.errors import SpecError
 from eyelab.options import RENDERERS
 from eyelab.spec import (
     ANALYSIS_KEYS,
+    BINOCULAR_KEYS,
     EYE_KEYS,
     LENS_KEYS,
     POINT_KEYS,
@@ -35,6 +36,7 @@ def test_the_reference_has_exactly_the_validators_keys():
     assert _keys("lens") == LENS_KEYS
     assert _keys("lens.front", "lens.back") == SURFACE_KEYS
     assert _keys("analysis") == ANALYSIS_KEYS
+    assert _keys("binocular") == BINOCULAR_KEYS
     assert _keys("points[0]") == POINT_KEYS
     assert _keys("render.scene") == SCENE_KEYS
     for r in RENDERERS:
