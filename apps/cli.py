@@ -310,9 +310,9 @@ def _render(args) -> int:
 def _maps(args) -> int:
     from eyelab.fileio import atomic_group, check_distinct, check_output, json_default
     from eyelab.maps import as_worn_maps, maps_summary, plot_maps
-    from eyelab.spec import load_spec
+    from eyelab.spec import load_spec, one_eye
 
-    spec = load_spec(args.spec)
+    spec = one_eye(load_spec(args.spec), "eyelab maps")
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     check_output("--output", args.output)

@@ -279,14 +279,14 @@ def run_job(job: Job, out_dir, formats) -> dict:
     from eyelab import __version__
     from eyelab.fileio import atomic_path, json_default
     from eyelab.resources import check_memory, memory_limit
-    from eyelab.spec import parse_spec
+    from eyelab.spec import one_eye, parse_spec
 
     out_dir = Path(out_dir)
     t0 = time.perf_counter()
     meta = {"key": job.key, "index": job.index, "params": job.params, "spec": job.data,
             "eyelab_version": __version__, "images": {}, "sha256": {}}
     try:
-        spec = parse_spec(job.data, f"job {job.index}")
+        spec = one_eye(parse_spec(job.data, f"job {job.index}"), "eyelab batch")
         rs = spec.render
         check_memory(rs, memory_limit())
         res = _renderer(rs.renderer, rs.quality).render(_scene(rs.scene), spec.eye,

@@ -27,7 +27,7 @@ from eyelab.color import CVD_KINDS, cvd_linear, encode_srgb
 from eyelab.errors import SpecError
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.prescription import Prescription
-from eyelab.spec import dump_spec, parse_spec, read_spec_data
+from eyelab.spec import dump_spec, one_eye, parse_spec, read_spec_data
 
 #: CVD types the inspector cycles through (None: normal colour vision).
 CVD_CYCLE = (None, *CVD_KINDS)
@@ -132,7 +132,7 @@ class InspectorModel:
                 and "rx" in data.get("eye", {}):
             # the lens keeps its own prescription while the eye's controls move
             data["lens"]["rx"] = data["eye"]["rx"]
-        self.spec = parse_spec(data, self.source, self.base)
+        self.spec = one_eye(parse_spec(data, self.source, self.base), "the inspector")
         self.loaded = copy.deepcopy(data)
         self.data = data
         self.lens_on = "lens" in data

@@ -533,6 +533,15 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino)
 
 
+def one_eye(spec: Spec, what: str) -> Spec:
+    """``spec``, or a one-line error naming ``[binocular]`` when it has two eyes and
+    ``what`` (the inspector, batch, maps) shows one."""
+    if spec.binocular is not None:
+        raise SpecError("binocular", f"{what} shows one eye; this spec has two ([binocular] "
+                                     "or per-eye tables): use eyelab render, demo or analyze")
+    return spec
+
+
 def _has_sides(t) -> bool:
     return isinstance(t, dict) and any(s in t for s in SIDES)
 

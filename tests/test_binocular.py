@@ -359,3 +359,21 @@ def test_progressive_lenses_are_made_for_their_sides():
                        rtol=0, atol=1e-12)
     assert not np.allclose(b.right_lens.front.sag(x, y), b.right_lens.front.sag(-x, y),
                            rtol=0, atol=1e-7)
+
+
+def test_one_eye_tools_refuse_a_binocular_spec(tmp_path, capsys):
+    """maps, the inspector and batch show one eye: a binocular spec is one line, exit 2,
+    nothing written (never the right eye alone, silently)."""
+    from eyelab.apps.cli import main
+    from eyelab.spec import one_eye
+
+    spec = tmp_path / "b.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "m.png"
+    assert main(["maps", str(spec), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("eyelab: error: binocular:")
+    assert not out.exists()
+    with pytest.raises(SpecError) as e:
+        one_eye(_spec(binocular={}), "the inspector")
+    assert e.value.field == "binocular"
