@@ -122,10 +122,60 @@ class ReferenceQuality:
         check_bool("render.progress", self.progress)
 
 
+#: Radiometry of the image-based renderer (see ImageBasedQuality).
+RADIOMETRY = ("auto", "irradiance", "radiance")
+#: Centre-of-projection fits of the image-based renderer.
+COP_FITS = ("angle", "lsq")
+
+
+@dataclass(frozen=True)
+class ImageBasedQuality:
+    """Options of the image-based renderer (Heidrich et al. 1997; spec table ``[render]``,
+    renderer = "imagebased").
+
+    samples : lens (pupil) sample points p_i, each one set of perspective renders (1-256;
+    the pass sample set of the raster renderer: mean 0, the disc's covariance);
+    grid : film grid quads per side of each quad-tree cell (2-64; the paper's 10);
+    angle_threshold_deg : a cell is split while the largest angle between a traced ray
+    and its projection's ray exceeds it (the paper's 0.05°; 0.001-10);
+    max_depth : deepest quad-tree level (0-8); cop : "angle" (the COP maximising sum
+    cos^2, §3.3) or "lsq" (closest to the rays in the least-squares sense, for
+    comparison); oversample : slice pixels per film pixel (0.5-4); max_slice : largest
+    slice side, pixels (64-4096); radiometry : "irradiance" (Eq. 3 over the film,
+    normalised so that a uniform white scene gives 1 at the film centre without losses:
+    a camera's natural vignetting shows), "radiance" (Eq. 3 divided by sum_i W_i at each
+    film point: what an eye sees, as the other renderers show it) or "auto" (irradiance
+    for a camera lens, radiance for an eye); chromatic : R/G/B planned and rendered at
+    their own wavelengths where the optics disperse (three plans).
+    """
+
+    samples: int = 10
+    grid: int = 10
+    angle_threshold_deg: float = 0.05
+    max_depth: int = 3
+    cop: str = "angle"
+    oversample: float = 2.0
+    max_slice: int = 2048
+    radiometry: str = "auto"
+    chromatic: bool = True
+
+    def __post_init__(self):
+        check_int("render.samples", self.samples, 1, MAX_PASSES)
+        check_int("render.grid", self.grid, 2, 64)
+        check_range("render.angle_threshold_deg", self.angle_threshold_deg, 0.001, 10)
+        check_int("render.max_depth", self.max_depth, 0, 8)
+        check_choice("render.cop", self.cop, COP_FITS)
+        check_range("render.oversample", self.oversample, 0.5, 4)
+        check_int("render.max_slice", self.max_slice, 64, 4096)
+        check_choice("render.radiometry", self.radiometry, RADIOMETRY)
+        check_bool("render.chromatic", self.chromatic)
+
+
 def quality_keys(renderer: str) -> tuple:
     """The option names (spec keys) of a renderer's quality class."""
     return tuple(f.name for f in fields(QUALITIES[renderer]))
 
 
-QUALITIES = {"raster": RasterQuality, "reference": ReferenceQuality}
+QUALITIES = {"raster": RasterQuality, "reference": ReferenceQuality,
+             "imagebased": ImageBasedQuality}
 RENDERERS = tuple(QUALITIES)

@@ -74,6 +74,15 @@ class ReferenceRenderer(Renderer):
         return disc_seeds(q.samples)
 
     def _render(self, scene, eye, lens, view, q, progressive):
+        from eyelab.optics.system import LensSystem
+
+        if isinstance(eye, LensSystem):        # a camera lens: eyelab.reference.camera
+            from eyelab.errors import SpecError
+            from eyelab.reference.camera import render_camera
+
+            if lens is not None:
+                raise SpecError("lens", "a camera lens system takes no spectacle lens")
+            return render_camera(scene, eye, view, q, self.name)
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
         ndc = self.pixel_ndc(view)

@@ -1,0 +1,184 @@
+"""The image-based lens model of Heidrich, Slusallek & Seidel 1997 as a renderer: per lens
+sample and quad-tree cell one perspective render of the scene (VTK, offscreen), morphed
+onto the film grid with the traced rays' image-plane intersections as texture
+coordinates, weighted by W_i (§3.5) and accumulated in linear light.
+
+The plan (rays, centres of projection, quad-tree, vignetting, weights) is
+:mod:`eyelab.imagebased`. The slices are drawn by GL; the morph — the paper's texture
+mapping of each slice onto its film grid with Gouraud-interpolated texture coordinates and
+bilinear texture filtering, alpha-blended with the weight grid — runs in numpy on the
+read-back slice (:func:`eyelab.imagebased.rasterize`, :func:`~eyelab.imagebased.bilinear`):
+the same arithmetic the texture unit does, in float, so that the accumulation stays in
+linear light without one more 8-bit read-back per slice.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from eyelab.imagebased import (
+    CameraRays,
+    EyeRays,
+    bilinear,
+    grid_triangles,
+    plan_projections,
+    rasterize,
+)
+from eyelab.imaging import Renderer, channel_wavelengths, finish, new_report
+from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.options import ImageBasedQuality
+from eyelab.render.accumulate import DECODE16
+
+
+class ImageBasedRenderer(Renderer):
+    """``render(scene, observer, lens, view, quality)``: ``observer`` an
+    :class:`~eyelab.optics.eye.Eye` (with ``lens`` a spectacle lens or None; the focus
+    must be fixed: ``view.focus_d``) or a :class:`~eyelab.optics.system.LensSystem`
+    camera (``lens`` None; the film height follows ``view.fov_y_deg`` through the
+    paraxial focal length)."""
+
+    name = "imagebased"
+    Quality = ImageBasedQuality
+
+    def __init__(self, quality=None):
+        super().__init__(quality)
+        self._window = None
+        self._stats = {"renders": 0}
+
+    def _win(self):
+        if self._window is None:
+            from eyelab.render.window import OffscreenWindow
+
+            self._window = OffscreenWindow()
+            self._window.use_field(None, "attribute")
+            self._window.set_seed((0.0, 0.0))
+        return self._window
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+            self._window = None
+
+    # ------------------------------------------------------------------ rendering
+    def _render(self, scene, observer, lens, view, q, progressive):
+        from eyelab.errors import SpecError
+        from eyelab.optics.system import LensSystem
+
+        t0 = time.perf_counter()
+        report = new_report(self.name, view, q)
+        if isinstance(observer, LensSystem):
+            if lens is not None:
+                raise SpecError("lens", "a camera lens system takes no spectacle lens")
+            maker = CameraRays(observer, view.width, view.height, view.fov_y_deg)
+            dispersive = any(s.after.dispersive for s in observer.surfaces)
+            wls = RGB_WAVELENGTHS_NM if q.chromatic and dispersive else (EYE_REFERENCE_NM,)
+            if len(wls) == 1:
+                report["skipped"].append("chromatic: one wavelength")
+            radiometry = "irradiance" if q.radiometry == "auto" else q.radiometry
+        else:
+            if view.focus_d is None:
+                raise SpecError("eye.accommodation_d", "the image-based renderer needs a "
+                                "fixed accommodation (its projections are planned once per "
+                                "focus, as the paper's per lens configuration)")
+            maker = EyeRays(observer, lens, view, view.focus_d)
+            wls = channel_wavelengths(observer, lens, q.chromatic, report)
+            radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
+        from eyelab.sampling import pass_samples
+
+        samples = pass_samples(q.samples)[0]
+        h, w = view.height, view.width
+        acc = np.zeros((h * w, 3))
+        wsum = np.zeros((h * w, len(wls)))
+        plans = []
+        t_plan = t_draw = t_morph = 0.0
+        win = self._win()
+        items = [(m.content_key, _factory(m)) for m in scene.meshes]
+        win.show(items)
+        for ci, wl in enumerate(wls):
+            t1 = time.perf_counter()
+            plan = plan_projections(maker, samples, wl, grid=q.grid,
+                                    threshold_deg=q.angle_threshold_deg,
+                                    max_depth=q.max_depth, cop=q.cop,
+                                    oversample=q.oversample, max_slice=q.max_slice)
+            plans.append(plan)
+            t_plan += time.perf_counter() - t1
+            channels = [0, 1, 2] if len(wls) == 1 else [ci]
+            covered = {}
+            for pr in plan.projections:
+                t1 = time.perf_counter()
+                slice_img = self._draw(win, pr, view, scene.background)
+                t2 = time.perf_counter()
+                tri_f, tri_a = grid_triangles(pr)
+                cov = covered.setdefault(pr.sample, np.zeros(h * w, bool))
+                idx, vals = rasterize(tri_f, tri_a, w, h, cov)
+                if len(idx):
+                    col = bilinear(slice_img, vals[:, 0], vals[:, 1])
+                    acc[idx[:, None], channels] += vals[:, 2:3] * col[:, channels]
+                    wsum[idx, ci] += vals[:, 3]
+                t_morph += time.perf_counter() - t2
+                t_draw += t2 - t1
+        if radiometry == "radiance":
+            # each film point's sum of W_i over the samples that reach it (without the
+            # losses, which stay in the image)
+            norm = wsum
+        else:
+            norm = np.full((h * w, len(wls)), maker.white_level() * len(samples)
+                           if hasattr(maker, "white_level") else 1.0)
+        if len(wls) == 1:
+            out = acc / np.maximum(norm[:, :1], 1e-300)
+        else:
+            out = acc / np.maximum(norm, 1e-300)
+        img = out.reshape(h, w, 3).astype(np.float32)
+        stats = plans[0].stats if len(plans) == 1 else {
+            "projections": sum(p.stats["projections"] for p in plans),
+            "max_angle_deg": max(p.stats["max_angle_deg"] for p in plans),
+            "per_channel": [p.stats for p in plans]}
+        n_proj = sum(len(p.projections) for p in plans)
+        report["samples"].update(target=len(samples), done={"lens samples": len(samples),
+                                                             "projections": n_proj})
+        report["timings_s"].update(plan=t_plan, render=t_draw, morph=t_morph)
+        report["details"].update(
+            plan=stats, radiometry=radiometry, channels=len(wls),
+            cop=q.cop, angle_threshold_deg=q.angle_threshold_deg,
+            image_plane_m=view.near if maker.kind == "eye" else maker.near,
+            slice_pixels=int(sum(p.slice_size[0] * p.slice_size[1] for pl in plans
+                                 for p in pl.projections)),
+            system=None if maker.kind == "eye" else observer.name)
+        if plans[0].stats.get("unresolved_cells"):
+            report["warnings"].append(
+                f"{plans[0].stats['unresolved_cells']} quad-tree cells stopped at max_depth "
+                f"{q.max_depth} above the {q.angle_threshold_deg}° threshold (largest "
+                f"{stats['max_angle_deg']:.3f}°)")
+        return finish(report, view, linear=img, t_start=t0)
+
+    def _draw(self, win, pr, view, background):
+        """The projection's slice: (sh, sw, 3) float linear light, row 0 at the top."""
+        from eyelab.render import _vtk  # noqa: F401  (the window owns the GL objects)
+
+        sw, sh = pr.slice_size
+        if (sw, sh) != win.size:
+            win.win.SetSize(sw, sh)
+            win.size = (sw, sh)
+        c = win.ren.GetActiveCamera()
+        pos = np.asarray(pr.cop, float)
+        c.SetPosition(*pos)
+        c.SetFocalPoint(*(pos + pr.forward))
+        c.SetViewUp(*pr.up)
+        c.SetViewAngle(math.degrees(2 * math.atan(pr.tan_half[1])))
+        c.SetClippingRange(view.near, view.far)
+        win.ren.SetBackground(*(np.asarray(background, float) / 255.0))
+        rgba = win.grab_rgba()
+        self._stats["renders"] += 1
+        lin = DECODE16[rgba[::-1, :, :3]].astype(np.float32) / np.float32(65535.0)
+        return lin
+
+
+def _factory(mesh):
+    from eyelab.render.actors import mesh_actor
+
+    return lambda: mesh_actor(mesh, None, mipmap=True)
+
