@@ -99,7 +99,7 @@ BINOCULAR_OUTPUTS = ("side-by-side", "crossed", "anaglyph", "right", "left")
 
 
 def _render_overrides(parser) -> None:
-    parser.add_argument("--renderer", choices=("raster", "reference"),
+    parser.add_argument("--renderer", choices=("raster", "reference", "imagebased"),
                         help="override render.renderer")
     parser.add_argument("--samples", type=int, help="override render.samples (passes S of "
                         "the raster renderer, rays per pixel of the reference)")

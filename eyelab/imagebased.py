@@ -160,14 +160,26 @@ class EyeRays:
     every ray of a sample passes through its pupil point: one exact perspective per
     sample (Heidrich Fig. 3a). W_i: the retina (a plane z_r behind the pupil) and the
     pupil plane, |x'' - x'|^2 = z_r^2 + |r - rho|^2 with r = -z_r t / n2 the pixel's
-    retinal point."""
+    retinal point.
+
+    ``accommodation`` a fixed value (D), or None: each film point's own, for the first
+    scene point along its chief ray (``scene`` needed), by the reference renderer's rule
+    (:func:`eyelab.scene.focus.pixel_accommodation`, Kakimoto Eq. 13); the rays of a
+    sample then change across depth edges, which the quad-tree refines."""
 
     kind = "eye"
 
-    def __init__(self, eye, lens, view, accommodation: float):
+    def __init__(self, eye, lens, view, accommodation: float | None, scene=None):
         self.eye, self.lens, self.view = eye, lens, view
         self.cam = view.camera(eye.rotation_centre)
-        self.acc = float(min(max(accommodation, 0.0), eye.accommodation_max))
+        self.acc = None if accommodation is None else \
+            float(min(max(accommodation, 0.0), eye.accommodation_max))
+        if self.acc is None:
+            if scene is None:
+                raise ValueError("EyeRays: automatic accommodation needs the scene")
+            from eyelab.scene.raycast import EmbreeIntersector
+
+            self.scene, self.inter = scene, EmbreeIntersector(scene)
         self.radius = eye.pupil_diameter / 2
         self.width, self.height = view.width, view.height
         self.near = view.near
@@ -179,12 +191,21 @@ class EyeRays:
                              (1 - 2 * px[:, 1] / self.height) * ty_half])
         eye = self.eye
         rho = np.array([sample[0], sample[1]]) * self.radius
-        pxx, pxy, pyy = (float(v) for v in eye.power_matrix(self.acc))
+        b = self.cam.basis
+        if self.acc is None:
+            from eyelab.scene.focus import pixel_accommodation
+
+            d_s = unit(t[:, :1] * b[0] + t[:, 1:2] * b[1] + b[2])
+            acc = pixel_accommodation(d_s, self.scene, self.inter, eye, self.lens,
+                                      self.view, self.cam)[0]
+        else:
+            acc = np.full(len(px), self.acc)
+        pxx, pxy, pyy = (np.broadcast_to(v, acc.shape) for v in eye.power_matrix(acc))
         # the eye's own chromatic aberration: every meridian's power shifted at this
         # wavelength (the reference renderer's channel slopes)
         e = eye.emmetropic_power - eye.power_shift(wavelength_nm)
-        g = np.array([(pxx - e) * rho[0] + pxy * rho[1], pxy * rho[0] + (pyy - e) * rho[1]])
-        b = self.cam.basis
+        g = np.column_stack([(pxx - e) * rho[0] + pxy * rho[1],
+                             pxy * rho[0] + (pyy - e) * rho[1]])
         to = t - g
         d = unit(to[:, :1] * b[0] + to[:, 1:2] * b[1] + b[2])
         o = np.broadcast_to(np.asarray(self.cam.position, float) + rho[0] * b[0]
@@ -203,12 +224,6 @@ class EyeRays:
         w = zr ** 2 / dist2 ** 2
         return RaySet(px, o, d, ok, w, trans)
 
-    def focus_distance(self) -> float:
-        """Distance (m) the eye is focused at through the centre of its view (no lens:
-        1 / (far-point vergence deficit); used to place the image plane)."""
-        k1, k2 = self.eye.refraction()
-        v = 0.5 * (k1 + k2) - self.acc            # object vergence in focus
-        return math.inf if v >= -1e-9 else -1.0 / v
 
 
 # ----------------------------------------------------------------------- COP fitting

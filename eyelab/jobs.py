@@ -15,7 +15,12 @@ from eyelab.scene.scene import Scene
 
 
 def make_renderer(name: str, quality=None) -> Renderer:
-    """A renderer by name ("raster" or "reference", :data:`eyelab.options.RENDERERS`)."""
+    """A renderer by name ("raster", "reference" or "imagebased",
+    :data:`eyelab.options.RENDERERS`)."""
+    if name == "imagebased":
+        from eyelab.render.imagebased import ImageBasedRenderer
+
+        return ImageBasedRenderer(quality)
     if name == "raster":
         from eyelab.render.raster import RasterRenderer
 

@@ -14,11 +14,19 @@ from eyelab.color import CVD_KINDS
 from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, MAX_ACCOMMODATION_D
 from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.materials import ALIASES, CATALOGUE
-from eyelab.options import ACCOMMODATION_RULES, FIELD_ROUTES, MAX_PASSES, MODELS
+from eyelab.options import (
+    ACCOMMODATION_RULES,
+    COP_FITS,
+    FIELD_ROUTES,
+    MAX_PASSES,
+    MODELS,
+    RADIOMETRY,
+)
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
 
 RX_EYE = {"eye": {"rx": "-2.00 DS"}}
+IB = {"render": {"renderer": "imagebased"}}
 RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
 SURFACES = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
                      "back": {"type": "sphere", "radius_mm": 80.0},
@@ -35,7 +43,7 @@ class Key:
     ``choices``: a choice's values; ``base``: the rest of a spec the key needs to be read;
     ``edges``: False where a value at the range's ends is refused for another reason (a
     too-steep lens), so only values beyond the range are tested; ``renderer`` for
-    ``[render]`` keys: "both", "raster" or "reference"."""
+    ``[render]`` keys: "all" (every renderer) or one renderer's name."""
 
     table: str
     key: str
@@ -49,7 +57,7 @@ class Key:
     choices: tuple = ()
     base: dict = field(default_factory=dict)
     edges: bool = True
-    renderer: str = "both"
+    renderer: str = "all"
     range_text: str = ""
     integers: bool = False
 
@@ -244,7 +252,8 @@ KEYS = [
         "mesh file, or a table placing a mesh file (below)",
         range_text=", ".join(f'`"{n}"`' for n in SCENE_NAMES) + ", a path, a table"),
     Key("render", "renderer", "choice", "", '`"raster"`', "Kakimoto's blur-field raster "
-        "renderer or the distribution ray tracer", choices=("raster", "reference")),
+        "renderer, the distribution ray tracer, or Heidrich's image-based lens model",
+        choices=("raster", "reference", "imagebased")),
     Key("render", "background", "triple", "sRGB 0–255", "the scene's (white for a mesh "
         "file)", "colour where no mesh is", 0, 255, integers=True),
     Key("render", "width", "integer", "px", "640", "image width (width / height in "
@@ -312,6 +321,26 @@ KEYS = [
         "Eq. 13 (as the blur field) or the real-ray retinal spot's RMS minimum",
         choices=ACCOMMODATION_RULES, renderer="reference",
         base={"render": {"renderer": "reference"}}),
+    Key("render", "samples", "integer", "", "10", "lens (pupil) sample points, each a set "
+        "of perspective renders", 1, MAX_PASSES, renderer="imagebased", base=IB),
+    Key("render", "grid", "integer", "", "10", "film grid quads per side of each "
+        "quad-tree cell", 2, 64, renderer="imagebased", base=IB),
+    Key("render", "angle_threshold_deg", "number", "deg", "0.05", "split a cell while a "
+        "traced ray and its projection's ray part by more", 0.001, 10,
+        renderer="imagebased", base=IB),
+    Key("render", "max_depth", "integer", "", "3", "deepest quad-tree level", 0, 8,
+        renderer="imagebased", base=IB),
+    Key("render", "cop", "choice", "", '`"angle"`', "centre of projection: maximum sum "
+        "cos² (Heidrich §3.3) or least-squares distance", choices=COP_FITS,
+        renderer="imagebased", base=IB),
+    Key("render", "oversample", "number", "", "2", "slice pixels per film pixel", 0.5, 4,
+        renderer="imagebased", base=IB),
+    Key("render", "max_slice", "integer", "px", "2048", "largest slice side", 64, 4096,
+        renderer="imagebased", base=IB),
+    Key("render", "radiometry", "choice", "", '`"auto"`', "film irradiance (Eq. 3; a "
+        "camera's vignetting shows), radiance (Eq. 3 over sum W: what an eye sees), or "
+        "auto (irradiance for a camera, radiance for an eye)", choices=RADIOMETRY,
+        renderer="imagebased", base=IB),
     # ---------------------------------------------------------- [render.scene]
     Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
         "reads; relative to the spec) or a built-in scene's name",

@@ -43,7 +43,7 @@ def _kind(k):
 
 
 FIELDS = [(k.table, k.key, _kind(k), k.lo, k.hi,
-           k.base or ({"render": {"renderer": k.renderer}} if k.renderer != "both" else {}))
+           k.base or ({"render": {"renderer": k.renderer}} if k.renderer != "all" else {}))
           for k in KEYS if _kind(k) is not None]
 # the surface keys of the other surface, and a table's own keys under a plain sphere
 FIELDS += [("lens.back", "conic", "num", -100, 100, SURFACES),

@@ -20,6 +20,7 @@ LAYERS = {
     "eyelab.imaging": 2, "eyelab.options": 2, "eyelab.resources": 2,
     "eyelab.blur": 3, "eyelab.scene": 3,
     "eyelab.spec": 4, "eyelab.analyze": 4, "eyelab.specdoc": 4, "eyelab.binocular": 4,
+    "eyelab.imagebased": 4,
     "eyelab.render": 5, "eyelab.reference": 5,
     "eyelab.jobs": 6, "eyelab.inspect": 6, "eyelab.batch": 6, "eyelab.maps": 4,
     "eyelab.bench": 7,

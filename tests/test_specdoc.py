@@ -40,7 +40,7 @@ def test_the_reference_has_exactly_the_validators_keys():
     assert _keys("points[0]") == POINT_KEYS
     assert _keys("render.scene") == SCENE_KEYS
     for r in RENDERERS:
-        documented = {k.key for k in KEYS if k.table == "render" and k.renderer in (r, "both")}
+        documented = {k.key for k in KEYS if k.table == "render" and k.renderer in (r, "all")}
         assert documented == set(renderer_keys(r)), r
 
 

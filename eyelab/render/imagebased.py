@@ -36,18 +36,25 @@ from eyelab.render.accumulate import DECODE16
 
 class ImageBasedRenderer(Renderer):
     """``render(scene, observer, lens, view, quality)``: ``observer`` an
-    :class:`~eyelab.optics.eye.Eye` (with ``lens`` a spectacle lens or None; the focus
-    must be fixed: ``view.focus_d``) or a :class:`~eyelab.optics.system.LensSystem`
-    camera (``lens`` None; the film height follows ``view.fov_y_deg`` through the
-    paraxial focal length)."""
+    :class:`~eyelab.optics.eye.Eye` (with ``lens`` a spectacle lens or None; a fixed
+    ``view.focus_d`` or each film point's own accommodation) or a
+    :class:`~eyelab.optics.system.LensSystem` camera (``lens`` None; the film height
+    follows ``view.fov_y_deg`` through the paraxial focal length).
+
+    Plans (rays, COPs, quad-trees) are kept per configuration (:attr:`plans`, LRU): the
+    paper's preprocessing, done once while the lens, the eye, the view and the focus stay
+    (with automatic accommodation the scene is part of the key)."""
 
     name = "imagebased"
     Quality = ImageBasedQuality
 
     def __init__(self, quality=None):
+        from eyelab.cache import LRUCache
+
         super().__init__(quality)
         self._window = None
         self._stats = {"renders": 0}
+        self.plans = LRUCache(8, "plans")
 
     def _win(self):
         if self._window is None:
@@ -80,11 +87,7 @@ class ImageBasedRenderer(Renderer):
                 report["skipped"].append("chromatic: one wavelength")
             radiometry = "irradiance" if q.radiometry == "auto" else q.radiometry
         else:
-            if view.focus_d is None:
-                raise SpecError("eye.accommodation_d", "the image-based renderer needs a "
-                                "fixed accommodation (its projections are planned once per "
-                                "focus, as the paper's per lens configuration)")
-            maker = EyeRays(observer, lens, view, view.focus_d)
+            maker = EyeRays(observer, lens, view, view.focus_d, scene)
             wls = channel_wavelengths(observer, lens, q.chromatic, report)
             radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
         from eyelab.sampling import pass_samples
@@ -98,12 +101,20 @@ class ImageBasedRenderer(Renderer):
         win = self._win()
         items = [(m.content_key, _factory(m)) for m in scene.meshes]
         win.show(items)
+        from eyelab.cache import content_key
+
+        base_key = content_key(observer=observer, lens=lens, quality=q,
+                               view=view.replace(cvd=None, cvd_severity=1.0),
+                               scene=scene.content_key if getattr(maker, "acc", 0) is None
+                               else None)
         for ci, wl in enumerate(wls):
             t1 = time.perf_counter()
-            plan = plan_projections(maker, samples, wl, grid=q.grid,
-                                    threshold_deg=q.angle_threshold_deg,
-                                    max_depth=q.max_depth, cop=q.cop,
-                                    oversample=q.oversample, max_slice=q.max_slice)
+            plan, hit = self.plans.get_or_create(
+                f"{base_key}-{wl}", lambda wl=wl: plan_projections(
+                    maker, samples, wl, grid=q.grid, threshold_deg=q.angle_threshold_deg,
+                    max_depth=q.max_depth, cop=q.cop, oversample=q.oversample,
+                    max_slice=q.max_slice))
+            report["cache"]["hits" if hit else "misses"].append(f"plan {wl} nm")
             plans.append(plan)
             t_plan += time.perf_counter() - t1
             channels = [0, 1, 2] if len(wls) == 1 else [ci]
