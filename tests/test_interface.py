@@ -12,14 +12,15 @@ from eyelab.jobs import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import QUALITIES, RasterQuality, ReferenceQuality
+from eyelab.options import QUALITIES, ImageBasedQuality, RasterQuality, ReferenceQuality
 from eyelab.reference import compare_images
 from eyelab.render.raster import CACHE_SIZES, RasterRenderer
 from eyelab.scene.library import chart_scene, grid_quad
 from eyelab.scene.scene import Scene
 
 QUICK = {"raster": RasterQuality(samples=32, reconstruct=True),
-         "reference": ReferenceQuality(samples=256)}
+         "reference": ReferenceQuality(samples=256),
+         "imagebased": ImageBasedQuality(samples=32, angle_threshold_deg=0.1)}
 
 
 @pytest.fixture(scope="module")
@@ -29,20 +30,20 @@ def chart():
 
 @pytest.fixture(scope="module")
 def both(chart):
-    """Both renderers through the same call: the chart at 1 m seen by a -3 D myope (1 D of
+    """Every renderer through the same call: the chart at 1 m seen by a -3 D myope (1 D of
     accommodation) uncorrected (2 D of blur, ~3 px) and through a -3 D lens (sharp)."""
     eye = Eye.from_rx(Prescription(-3.0), accommodation_max=1.0)
     lens = SpectacleLens.from_rx(Prescription(-3.0))
     view = View(width=96, height=72, fov_y_deg=6.0, near=0.1, far=20.0)
     out = {}
-    for name in ("raster", "reference"):
+    for name in ("raster", "reference", "imagebased"):
         with make_renderer(name, QUICK[name]) as r:
             out[name] = {"naked": r.render(chart, eye, None, view),
                          "lens": r.render(chart, eye, lens, view)}
     return out
 
 
-def test_both_renderers_return_the_same_type_and_report_schema(both):
+def test_every_renderer_returns_the_same_type_and_report_schema(both):
     for name, results in both.items():
         for res in results.values():
             assert isinstance(res, RenderResult)
@@ -60,9 +61,10 @@ def test_raster_agrees_with_the_reference_through_the_interface(both):
     """Naked (blurred by 2 D) and corrected by the lens: raster S = 32 vs reference 256.
     Measured on the ETDRS chart (whose smallest rows are 4-px letters here): SSIM 0.945
     blurred (0.952 at S = 128: both images' sampling noise), 0.98 corrected."""
-    for case, floor in (("naked", 0.94), ("lens", 0.95)):
-        m = compare_images(both["raster"][case].srgb, both["reference"][case].srgb)
-        assert m["ssim"] > floor, (case, m)
+    for name in ("raster", "imagebased"):
+        for case, floor in (("naked", 0.94), ("lens", 0.95)):
+            m = compare_images(both[name][case].srgb, both["reference"][case].srgb)
+            assert m["ssim"] > floor, (name, case, m)
     # the lens corrects: the corrected views are much sharper than the naked ones
     for name in both:
         sharp = compare_images(both[name]["lens"].srgb, both[name]["naked"].srgb)
@@ -216,13 +218,13 @@ def test_no_leak_new_renderer_each_render_quick():
     assert new_renderer_each(30, warmup=5)["rss_growth_mb"] < 15
 
 
-@pytest.mark.parametrize("name", ["raster", "reference"])
-def test_achromat_observer_sees_grey_in_both_renderers(name, chart):
+@pytest.mark.parametrize("name", ["raster", "reference", "imagebased"])
+def test_achromat_observer_sees_grey_in_every_renderer(name, chart):
     """``cvd = "achromat"`` (Rec. 709 luminance, not a Machado table) goes through the same
     observer step as the other deficiencies in every renderer: a grey image."""
     from eyelab.scene.library import room_scene
 
-    q = RasterQuality(samples=1) if name == "raster" else ReferenceQuality(samples=1)
+    q = QUALITIES[name](samples=1)
     with make_renderer(name, q) as r:
         res = r.render(room_scene(), Eye(accommodation_max=5.0), None,
                        View(width=32, height=24, cvd="achromat"))
