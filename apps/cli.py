@@ -64,7 +64,7 @@ def _build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--points", type=int, default=31, help="gazes per axis (default 31)")
     be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
     be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
-                                     "memory", "inspect", "batch"))
+                                     "memory", "inspect", "batch", "imagebased"))
     pre = be.add_mutually_exclusive_group()
     pre.add_argument("--quick", action="store_true",
                      help="quality: 160x120, two configurations (the default; CI runs it); "
@@ -381,6 +381,13 @@ def _bench(args) -> int:
         from eyelab.bench.inspect import run_inspect_bench
 
         res = run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
+    elif args.what == "imagebased":
+        import os
+
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+        from eyelab.bench.imagebased import run_imagebased_bench
+
+        res = run_imagebased_bench(quick=args.quick, repeats=min(args.repeats, 3))
     elif args.what == "batch":
         from eyelab.bench.batch import run_batch_bench
 

@@ -68,14 +68,15 @@ class CameraRays:
 
     kind = "camera"
 
-    def __init__(self, system, width: int, height: int, fov_y_deg: float):
+    def __init__(self, system, width: int, height: int, fov_y_deg: float,
+                 near: float = 0.05):
         self.system = system
         self.width, self.height = width, height
         f = system.cardinal()["efl_m"]
         self.pitch = 2 * f * math.tan(math.radians(fov_y_deg) / 2) / height
         self.dz = system.film_z - system.exit_z
         self.radius = self._pupil_radius()
-        self.near = 0.05
+        self.near = near
 
     def _pupil_radius(self, steps: int = 48) -> float:
         """Radius (m) in the sample plane within which rays from the film centre pass the

@@ -11,6 +11,11 @@ interactive viewer sees them; the first (cold) frame time is recorded beside the
 The raster renderer runs with its reconstruction filter on (``RasterQuality.reconstruct``),
 which is what brings S = 32 to SSIM >= 0.95 where the blur spans many pixels.
 
+The image-based renderer (Heidrich et al. 1997) gets its rows beside them at
+:data:`IMAGEBASED_SAMPLES` lens samples (warm frames: its plan kept), on every case and on
+a camera-lens scene (the AC254-050-A doublet at f/2.2 focused at 1.5 m in the room), whose
+converged reference is the distribution ray tracer through that lens system.
+
 ``quick``: small images, a subset of configurations; asserts that at equal wall time the
 raster error is below the reference's, and that at S = 32 the raster image reaches
 SSIM >= 0.95 against the converged reference on every scene.
@@ -30,7 +35,7 @@ from eyelab.imaging import View
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import RasterQuality, ReferenceQuality
+from eyelab.options import ImageBasedQuality, RasterQuality, ReferenceQuality
 from eyelab.progress import bar as progress_bar
 from eyelab.reference.metrics import compare_images, to_linear
 from eyelab.reference.tracer import ReferenceRenderer
@@ -63,6 +68,44 @@ def configs(quick: bool):
                          SpectacleLens.from_rx(Prescription(3.0))),
         })
     return out
+
+
+#: Lens samples of the image-based renderer's rows (quick, full) and its angle threshold.
+IMAGEBASED_SAMPLES = ((4, 16), (4, 16, 64))
+IMAGEBASED_THRESHOLD_DEG = 0.25
+
+
+def camera_cases():
+    """Camera-lens cases: (scene name, system, field of view deg, near, far)."""
+    from eyelab.optics.system import get_system
+
+    return {"camera_doublet_room": ("room", get_system("doublet").focused(1.5), 40.0, 0.1,
+                                    20.0)}
+
+
+def _imagebased_rows(scene, observer, lens, view, truth, samples):
+    """The image-based renderer at each lens-sample count: first frame (planning
+    included) and the best of two warm frames (the plan kept), error against ``truth``."""
+    from eyelab.render.imagebased import ImageBasedRenderer
+
+    rows = []
+    for s in samples:
+        q = ImageBasedQuality(samples=s, angle_threshold_deg=IMAGEBASED_THRESHOLD_DEG)
+        with ImageBasedRenderer(q) as r:
+            t = time.perf_counter()
+            r.render(scene, observer, lens, view)
+            cold = time.perf_counter() - t
+            warm = np.inf
+            for _ in range(2):
+                t = time.perf_counter()
+                res = r.render(scene, observer, lens, view)
+                warm = min(warm, time.perf_counter() - t)
+        m = compare_images(res.srgb, truth)
+        m.update(rmse=_rmse(res.srgb, truth), time_s=warm, cold_time_s=cold, samples=s,
+                 projections=res.report["details"]["plan"]["projections"],
+                 max_angle_deg=res.report["details"]["plan"]["max_angle_deg"])
+        rows.append(m)
+    return rows
 
 
 #: Part of every cached converged reference's file name: references made before linear
@@ -157,6 +200,8 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 case["reference"].append(m)
             case["variants"] = _variants(scene, eye, lens, view, truth, quick,
                                          spp=ref_spp[-1])
+            case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
+                                                  IMAGEBASED_SAMPLES[0 if quick else 1])
             # equal wall time: the reference's RMSE interpolated (log-log) at each raster time
             rt = np.array([m["time_s"] for m in case["reference"]])
             re = np.array([m["rmse"] for m in case["reference"]])
@@ -167,8 +212,34 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
             cases.append(case)
             bar.update(1)
     bar.close()
+    cams = [] if only_configs or only_scenes else _camera_cases(w, h, truth_spp, ref_spp,
+                                                                quick, truth_cache)
     return summarise(cases, preset="quick" if quick else "full", size=(w, h),
-                     plot_path=plot_path)
+                     plot_path=plot_path, camera_cases=cams)
+
+
+def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache):
+    """The camera-lens cases: converged reference, reference ladder, image-based rows."""
+    out = []
+    for cname, (sname, system, fov, near, far) in camera_cases().items():
+        scene = scenes()[sname][0]
+        view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
+        truth, t_truth, _ = _truth(truth_cache, f"{cname}__{w}x{h}__{truth_spp}spp__"
+                                   f"{TRUTH_FORMAT}", ReferenceQuality(samples=truth_spp),
+                                   view, scene, system, None)
+        case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
+                "truth_time_s": t_truth, "reference": []}
+        for spp in ref_spp:
+            t = time.perf_counter()
+            ref = ReferenceRenderer(ReferenceQuality(samples=spp, seed=1)).render(
+                scene, system, None, view)
+            m = compare_images(ref.srgb, truth)
+            m.update(rmse=_rmse(ref.srgb, truth), time_s=time.perf_counter() - t, spp=spp)
+            case["reference"].append(m)
+        case["imagebased"] = _imagebased_rows(scene, system, None, view, truth,
+                                              IMAGEBASED_SAMPLES[0 if quick else 1])
+        out.append(case)
+    return out
 
 
 #: The reference renderer's variants measured beside it: Fons et al.'s eye model, and the
@@ -200,19 +271,29 @@ def _variants(scene, eye, lens, view, truth, quick, spp):
 
 
 def _case_row(case):
-    s32 = [m for m in case["raster"] if m["samples"] == 32][0]
     ref = case["reference"][-1]
     var = "".join(f"; {v['variant']} SSIM {v['ssim']:.4f}" for v in case.get("variants", []))
+    ib = "".join(f"; image-based {m['samples']} samples SSIM {m['ssim']:.4f} in "
+                 f"{m['time_s'] * 1e3:.0f} ms ({m['projections']} projections)"
+                 for m in case.get("imagebased", [])[-1:])
+    if "raster" not in case:
+        return (f"{case['scene']:>12} {case['config']:>22}: reference {ref['spp']} spp SSIM "
+                f"{ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
+                f"{case['truth_spp']} spp{ib}")
+    s32 = [m for m in case["raster"] if m["samples"] == 32][0]
     return (f"{case['scene']:>12} {case['config']:>22}: raster S=32 SSIM {s32['ssim']:.4f} "
             f"PSNR {s32['psnr_db']:.1f} dB in {s32['time_s'] * 1e3:.0f} ms; reference "
             f"{ref['spp']} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
-            f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s{var}")
+            f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s{var}"
+            f"{ib}")
 
 
-def summarise(cases, *, preset, size, plot_path=None) -> dict:
+def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
     """The benchmark's JSON from its cases: per-case rows, the acceptance checks, the plot.
-    ``truth_spp`` is each converged reference's spp (a list where cases differ)."""
-    rows = [_case_row(c) for c in cases]
+    ``truth_spp`` is each converged reference's spp (a list where cases differ);
+    ``camera_cases`` (no raster rows) are listed and plotted beside them."""
+    camera_cases = list(camera_cases)
+    rows = [_case_row(c) for c in cases + camera_cases]
     truth_spp = sorted({c["truth_spp"] for c in cases})
     wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
     s8 = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]
@@ -228,18 +309,29 @@ def summarise(cases, *, preset, size, plot_path=None) -> dict:
         "reference_rays_per_s_median": float(np.median([c["truth_rays_per_s"]
                                                         for c in cases])),
     }
+    ib = [m for c in cases + camera_cases for m in c.get("imagebased", [])]
+    if ib:
+        top = max(m["samples"] for m in ib)
+        checks["imagebased_ssim_min_at_max_samples"] = min(
+            m["ssim"] for m in ib if m["samples"] == top)
+        checks["imagebased_samples"] = sorted({m["samples"] for m in ib})
     out = {"benchmark": "quality", "preset": preset, "size": list(size),
            "truth_spp": truth_spp[0] if len(truth_spp) == 1 else truth_spp,
            "reference_spp": [m["spp"] for m in cases[0]["reference"]],
-           "cases": cases, "checks": checks, "summary": rows}
+           "cases": cases, "camera_cases": camera_cases, "checks": checks,
+           "summary": rows}
     rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
                 f"error below the reference's at equal time: S=8 in "
                 f"{checks['raster_wins_fraction_S8'] * 100:.0f} % of cases, all S in "
                 f"{checks['raster_wins_fraction_all_S'] * 100:.0f} % of cases; reference "
                 f"{checks['reference_rays_per_s_median'] / 1e6:.2f} M rays/s median, "
                 f"{checks['reference_rays_per_s_max'] / 1e6:.2f} max")
+    if ib:
+        rows.append(f"image-based: min SSIM {checks['imagebased_ssim_min_at_max_samples']:.4f} "
+                    f"at {max(checks['imagebased_samples'])} lens samples (angle threshold "
+                    f"{IMAGEBASED_THRESHOLD_DEG}°)")
     if plot_path:
-        _plot(cases, plot_path)
+        _plot(cases + camera_cases, plot_path)
         out["plot"] = str(plot_path)
     return out
 
@@ -256,7 +348,8 @@ def merge_results(results, plot_path=None) -> dict:
         if len(vals) > 1:
             raise SpecError("merge", f"results differ in {key}: {sorted(vals)}")
     return summarise([c for r in results for c in r["cases"]], preset=first["preset"],
-                     size=first["size"], plot_path=plot_path)
+                     size=first["size"], plot_path=plot_path,
+                     camera_cases=[c for r in results for c in r.get("camera_cases", [])])
 
 
 def _plot(cases, path):
@@ -274,7 +367,9 @@ def _plot(cases, path):
     for ax, key, label in ((axes[0], "rmse", "RMSE vs converged reference (linear RGB)"),
                            (axes[1], "ssim", "1 - SSIM vs converged reference")):
         for c in cases:
-            for meth, style in (("raster", "o-"), ("reference", "s--")):
+            for meth, style in (("raster", "o-"), ("reference", "s--"), ("imagebased", "^:")):
+                if meth not in c:
+                    continue
                 t = [m["time_s"] for m in c[meth]]
                 e = [m[key] if key == "rmse" else max(1.0 - m[key], 1e-5) for m in c[meth]]
                 ax.loglog(t, e, style, color=colour[c["scene"]], alpha=0.55, ms=3, lw=1)
@@ -283,7 +378,9 @@ def _plot(cases, path):
         ax.grid(True, which="both", alpha=0.2)
     handles = [Line2D([], [], color="k", marker="o", ls="-", ms=3, label="raster (S passes)"),
                Line2D([], [], color="k", marker="s", ls="--", ms=3,
-                      label="reference (spp)")]
+                      label="reference (spp)"),
+               Line2D([], [], color="k", marker="^", ls=":", ms=3,
+                      label="image-based (lens samples)")]
     handles += [Line2D([], [], color=colour[n], lw=2, label=n) for n in names]
     axes[1].legend(handles=handles, fontsize=7)
     configs_ = sorted({c["config"] for c in cases})

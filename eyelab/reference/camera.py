@@ -32,7 +32,7 @@ def render_camera(scene, system, view, quality, name: str = "reference"):
     a :class:`~eyelab.imaging.RenderResult` in the common schema."""
     t0 = time.perf_counter()
     report = new_report(name, view, quality)
-    maker = CameraRays(system, view.width, view.height, view.fov_y_deg)
+    maker = CameraRays(system, view.width, view.height, view.fov_y_deg, view.near)
     dispersive = any(s.after.dispersive for s in system.surfaces)
     wls = RGB_WAVELENGTHS_NM if quality.chromatic and dispersive else (587.56,)
     if len(wls) == 1:

@@ -80,7 +80,7 @@ class ImageBasedRenderer(Renderer):
         if isinstance(observer, LensSystem):
             if lens is not None:
                 raise SpecError("lens", "a camera lens system takes no spectacle lens")
-            maker = CameraRays(observer, view.width, view.height, view.fov_y_deg)
+            maker = CameraRays(observer, view.width, view.height, view.fov_y_deg, view.near)
             dispersive = any(s.after.dispersive for s in observer.surfaces)
             wls = RGB_WAVELENGTHS_NM if q.chromatic and dispersive else (EYE_REFERENCE_NM,)
             if len(wls) == 1:
@@ -155,7 +155,7 @@ class ImageBasedRenderer(Renderer):
         report["details"].update(
             plan=stats, radiometry=radiometry, channels=len(wls),
             cop=q.cop, angle_threshold_deg=q.angle_threshold_deg,
-            image_plane_m=view.near if maker.kind == "eye" else maker.near,
+            image_plane_m=maker.near,
             slice_pixels=int(sum(p.slice_size[0] * p.slice_size[1] for pl in plans
                                  for p in pl.projections)),
             system=None if maker.kind == "eye" else observer.name)
