@@ -57,3 +57,15 @@ def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):
     assert (tmp_path / "p.png").stat().st_size > 10_000
     with pytest.raises(SpecError, match="reference_spp"):
         merge_results([halves[0], dict(halves[1], reference_spp=[1])])
+
+
+def test_quick_quality_has_image_based_rows_and_a_camera_case(quality):
+    """Heidrich's renderer beside the others on every case, and on the camera-lens case
+    against the camera's own converged reference (README: 0.945 at 16 samples)."""
+    for case in quality["cases"] + quality["camera_cases"]:
+        rows = case["imagebased"]
+        assert [m["samples"] for m in rows] == [4, 16]
+        assert rows[-1]["ssim"] > 0.93, (case["scene"], case["config"], rows[-1])
+        assert rows[-1]["projections"] >= 16
+    assert [c["config"] for c in quality["camera_cases"]] == ["camera_doublet_room"]
+    assert quality["checks"]["imagebased_ssim_min_at_max_samples"] > 0.93
