@@ -97,11 +97,13 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
     open renderer of the same kind."""
     rs = spec.render
     scene = build_scene(rs.scene)
+    # the observer: the spec's camera lens where it has one, else its eye (and lens)
+    observer = spec.eye if rs.camera is None else rs.camera
+    lens = None if no_lens or rs.camera is not None else spec.lens
     if renderer is not None:
-        return renderer.render(scene, spec.eye, None if no_lens else spec.lens, rs.view,
-                               rs.quality)
+        return renderer.render(scene, observer, lens, rs.view, rs.quality)
     with make_renderer(rs.renderer, rs.quality) as r:
-        return r.render(scene, spec.eye, None if no_lens else spec.lens, rs.view)
+        return r.render(scene, observer, lens, rs.view)
 
 
 def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
@@ -130,6 +132,11 @@ def demo(spec):
     column rendered binocularly — vergence and one accommodation for both eyes). Returns
     (image, report)."""
     rs = spec.render
+    if rs.camera is not None:
+        from eyelab.errors import SpecError
+
+        raise SpecError("render.camera", "the demo compares eyes; render a camera lens with "
+                                         "eyelab render")
     scene = build_scene(rs.scene)
     if spec.binocular is not None:
         return _demo_binocular(spec, scene)

@@ -75,6 +75,9 @@ class RenderSpec:
     view: View = View()
     quality: object = field(default_factory=RasterQuality)
     table: dict = field(default_factory=dict)
+    #: A camera lens (:class:`eyelab.optics.system.LensSystem`, focused) that sees the
+    #: scene instead of the eye: ``[render] camera`` (renderers in :data:`CAMERA_RENDERERS`).
+    camera: object = None
 
     def with_changes(self, **changes) -> RenderSpec:
         """The same table with some keys replaced (None values are ignored), validated
@@ -82,6 +85,10 @@ class RenderSpec:
         dropped, as if never written)."""
         t = dict(self.table)
         t.update({k: v for k, v in changes.items() if v is not None})
+        if "camera" in t and t.get("renderer") not in CAMERA_RENDERERS:
+            raise SpecError("render.camera", f"a camera lens renders with "
+                                             f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not "
+                                             f"{t.get('renderer')!r}")
         if "renderer" in changes and changes["renderer"] is not None:
             other = set(renderer_keys(self.renderer)) - set(renderer_keys(t["renderer"]))
             for k in other:
@@ -98,6 +105,9 @@ RENDER_VIEW_KEYS = {"width": "width", "height": "height", "fov_y_deg": "fov_y_de
                     "cvd_severity": "cvd_severity", "gaze_deg": "gaze_deg"}
 #: Quality options that are display choices rather than spec keys.
 _NOT_SPEC_KEYS = {"progress"}
+#: Renderers that can look through a camera lens system instead of the eye, and the keys.
+CAMERA_RENDERERS = ("reference", "imagebased")
+CAMERA_KEYS = ("camera", "camera_focus_m", "camera_f_number")
 
 
 @dataclass(frozen=True)
@@ -410,6 +420,7 @@ def renderer_keys(renderer: str) -> tuple:
     """The ``[render]`` keys a renderer takes: scene, renderer, the view's and its quality
     options'."""
     return ("scene", "renderer", "background", *RENDER_VIEW_KEYS,
+            *(CAMERA_KEYS if renderer in CAMERA_RENDERERS else ()),
             *(k for k in quality_keys(renderer) if k not in _NOT_SPEC_KEYS))
 
 
@@ -438,7 +449,34 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
             qkw[key] = tuple(qkw[key])
     quality = QUALITIES[renderer](**qkw)
     table = dict(t, scene=written, renderer=renderer)
-    return RenderSpec(scene, renderer, view, quality, table)
+    return RenderSpec(scene, renderer, view, quality, table, parse_camera(t))
+
+
+def parse_camera(t: dict):
+    """``[render] camera`` (a named lens system of :data:`eyelab.optics.system.EXAMPLES`),
+    ``camera_focus_m`` (object distance in focus from the first vertex, m, or "inf"; default
+    "inf") and ``camera_f_number`` (the stop made smaller: f / stop diameter; default the
+    lens's full aperture) -> the focused :class:`~eyelab.optics.system.LensSystem`, or None
+    without ``camera``."""
+    from eyelab.optics.system import EXAMPLES, full_f_number, get_system
+
+    if "camera" not in t:
+        for key in CAMERA_KEYS[1:]:
+            if key in t:
+                raise SpecError(f"render.{key}", "only with render.camera")
+        return None
+    name = check_choice("render.camera", t["camera"], tuple(EXAMPLES))
+    system = get_system(name)
+    focus = t.get("camera_focus_m", "inf")
+    if isinstance(focus, str) and focus.strip().lower() in ("inf", "infinity"):
+        focus = math.inf
+    else:
+        focus = check_range("render.camera_focus_m", focus, 0.2, 1e6)
+    full = full_f_number(system)
+    if "camera_f_number" in t:
+        fnum = check_range("render.camera_f_number", t["camera_f_number"], full, 64)
+        system = system.with_stop(system.cardinal()["efl_m"] / (2 * fnum))
+    return system.focused(focus)
 
 
 #: Keys of a ``[render] scene`` table (a mesh file placed in the world).
@@ -529,6 +567,14 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
                         ("rotation_centre", "pupil"))
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
+    if render.camera is not None:
+        for table in ("lens", "binocular"):
+            if table in data:
+                raise SpecError("render.camera", f"a camera lens sees the scene; [{table}] "
+                                                 "has no meaning with it")
+        if data.get("eye"):
+            raise SpecError("render.camera", "a camera lens sees the scene; [eye] has no "
+                                             "meaning with it")
     render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
     return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino)
 

@@ -14,6 +14,7 @@ from eyelab.color import CVD_KINDS
 from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, MAX_ACCOMMODATION_D
 from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.materials import ALIASES, CATALOGUE
+from eyelab.optics.system import full_f_number, get_system
 from eyelab.options import (
     ACCOMMODATION_RULES,
     COP_FITS,
@@ -27,6 +28,8 @@ from eyelab.scene.scene import UNITS
 
 RX_EYE = {"eye": {"rx": "-2.00 DS"}}
 IB = {"render": {"renderer": "imagebased"}}
+#: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
+DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
 RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
 SURFACES = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
                      "back": {"type": "sphere", "radius_mm": 80.0},
@@ -341,6 +344,18 @@ KEYS = [
         "camera's vignetting shows), radiance (Eq. 3 over sum W: what an eye sees), or "
         "auto (irradiance for a camera, radiance for an eye)", choices=RADIOMETRY,
         renderer="imagebased", base=IB),
+    *(k for r in ("reference", "imagebased") for k in (
+        Key("render", "camera", "choice", "", "none (the eye)", "a camera lens sees the "
+            "scene instead of the eye (no [eye], [lens] or [binocular] with it): Thorlabs "
+            "AC254-050-A achromatic doublet or LB1471-A biconvex lens, f 50 mm",
+            choices=("biconvex", "doublet"), renderer=r, base={"render": {"renderer": r}}),
+        Key("render", "camera_focus_m", "number", "m", '`"inf"`', "object distance in "
+            "focus, from the first vertex", 0.2, 1e6, renderer=r,
+            base={"render": {"renderer": r, "camera": "doublet"}}),
+        Key("render", "camera_f_number", "number", "", "full aperture", "the stop closed "
+            "to f / this diameter (full aperture: doublet 2.19, biconvex 2.18)",
+            DOUBLET_FULL_F_NUMBER, 64, renderer=r, range_text="full aperture–64",
+            base={"render": {"renderer": r, "camera": "doublet"}}))),
     # ---------------------------------------------------------- [render.scene]
     Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
         "reads; relative to the spec) or a built-in scene's name",

@@ -235,3 +235,51 @@ def test_camera_lens_images_match_the_reference():
     assert ssim(a.linear, b.linear) >= 0.93
     assert a.report["details"]["radiometry"] == "irradiance"
     assert math.isfinite(a.report["details"]["plan"]["max_angle_deg"])
+
+
+CAMERA_SPEC = """[render]
+renderer = "imagebased"
+camera = "doublet"
+camera_focus_m = 1.5
+camera_f_number = 4.0
+scene = "room"
+width = 64
+height = 48
+fov_y_deg = 40.0
+near_m = 0.1
+far_m = 20.0
+samples = 4
+"""
+
+
+def test_cli_renders_a_camera_lens_and_refuses_it_on_the_raster(tmp_path, capsys):
+    import json
+
+    from eyelab.apps.cli import main
+
+    spec = tmp_path / "cam.toml"
+    spec.write_text(CAMERA_SPEC)
+    png, rep = tmp_path / "cam.png", tmp_path / "cam.json"
+    assert main(["render", str(spec), "-o", str(png), "--report", str(rep), "--quiet"]) == 0
+    report = json.loads(rep.read_text())
+    assert report["renderer"] == "imagebased"
+    assert report["details"]["system"] == "AC254-050-A achromatic doublet"
+    assert report["details"]["radiometry"] == "irradiance"
+    capsys.readouterr()
+    out = tmp_path / "x.png"
+    assert main(["render", str(spec), "--renderer", "raster", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "render.camera" in err[0] and not out.exists()
+    assert main(["render", str(spec), "--renderer", "reference", "--samples", "4", "-o",
+                 str(out), "--quiet"]) == 0
+
+
+def test_cli_renders_the_default_spec_with_the_image_based_renderer(tmp_path):
+    """The built-in wearer (automatic accommodation, a tilted lens) through Heidrich's
+    renderer from the command line."""
+    from eyelab.apps.cli import main
+
+    out = tmp_path / "d.png"
+    assert main(["render", "--renderer", "imagebased", "--width", "64", "--height", "48",
+                 "--samples", "2", "-o", str(out), "--quiet"]) == 0
+    assert out.stat().st_size > 0

@@ -173,8 +173,8 @@ class LensSystem:
         slope = d[0] / d[2]
         # where the ray meets the axis
         z_cross = p[2] - p[0] / slope
-        return {"efl_m": -height / slope, "bfl_m": z_cross - self.exit_z,
-                "focus_z": z_cross}
+        return {"efl_m": float(-height / slope), "bfl_m": float(z_cross - self.exit_z),
+                "focus_z": float(z_cross)}
 
     def focused(self, distance_m: float, wavelength_nm: float = 587.56) -> LensSystem:
         """The system with its film moved to where an axial point ``distance_m`` in front
@@ -233,6 +233,11 @@ def doublet_ac254_050() -> LensSystem:
 #: Named lens systems (factories): name -> (factory, published EFL m, published BFL m).
 EXAMPLES = {"biconvex": (biconvex_lb1471, 0.050, 0.0482),
             "doublet": (doublet_ac254_050, 0.050, 0.04322)}
+
+
+def full_f_number(system: LensSystem) -> float:
+    """The system's f-number at full aperture: effective focal length / stop diameter."""
+    return float(system.cardinal()["efl_m"] / (2 * system.stop_radius))
 
 
 def get_system(name: str) -> LensSystem:
