@@ -181,16 +181,21 @@ def _room_view(**kw):
     return View(width=96, height=72, fov_y_deg=50.0, near=0.1, far=20.0, **kw)
 
 
+def _image_based_and_reference(scene, observer, lens, view, **quality):
+    """(image-based result, 256-spp reference result), one wavelength."""
+    with ImageBasedRenderer(ImageBasedQuality(chromatic=False, **quality)) as r:
+        a = r.render(scene, observer, lens, view)
+    b = ReferenceRenderer(ReferenceQuality(samples=256, chromatic=False)).render(
+        scene, observer, lens, view)
+    return a, b
+
+
 def test_thin_lens_depth_of_field_matches_the_reference():
     """A 6 mm pupil focused at 1 m (the thin-lens camera of §2.2): SSIM >= 0.98 against the
     reference renderer's distribution ray tracing at 256 rays per pixel."""
     eye = Eye(pupil_diameter=6e-3, chromatic=False, accommodation_max=4.0)
-    view = _room_view(focus_d=1.0)
-    scene = room_scene()
-    with ImageBasedRenderer(ImageBasedQuality(samples=16)) as r:
-        a = r.render(scene, eye, None, view)
-    b = ReferenceRenderer(ReferenceQuality(samples=256, chromatic=False)).render(
-        scene, eye, None, view)
+    a, b = _image_based_and_reference(room_scene(), eye, None, _room_view(focus_d=1.0),
+                                      samples=16)
     assert a.report["details"]["plan"]["projections"] == 16
     assert ssim(a.linear, b.linear) >= 0.98
 
@@ -200,13 +205,8 @@ def test_eye_and_spectacle_lens_with_fixed_focus_match_the_reference():
     rx = Prescription(-3.0, -1.0, 180)
     eye = Eye.from_rx(rx, pupil_diameter=4e-3, chromatic=False, accommodation_max=2.0)
     lens = SpectacleLens.from_rx(rx, pose=LensPose(pantoscopic_tilt_deg=8.0))
-    view = _room_view(focus_d=0.5)
-    scene = room_scene()
-    with ImageBasedRenderer(ImageBasedQuality(samples=16, angle_threshold_deg=0.5,
-                                              chromatic=False)) as r:
-        a = r.render(scene, eye, lens, view)
-    b = ReferenceRenderer(ReferenceQuality(samples=256, chromatic=False)).render(
-        scene, eye, lens, view)
+    a, b = _image_based_and_reference(room_scene(), eye, lens, _room_view(focus_d=0.5),
+                                      samples=16, angle_threshold_deg=0.5)
     assert ssim(a.linear, b.linear) >= 0.95
     assert a.report["cache"]["misses"] == ["plan 587.56 nm"]
 
@@ -226,12 +226,8 @@ def test_camera_lens_images_match_the_reference():
     the method's: 16 lens samples of a discontinuous vignetting)."""
     sys_ = get_system("doublet").focused(1.5)
     view = View(width=96, height=72, fov_y_deg=40.0, near=0.1, far=20.0)
-    scene = room_scene()
-    with ImageBasedRenderer(ImageBasedQuality(samples=16, angle_threshold_deg=0.5,
-                                              chromatic=False)) as r:
-        a = r.render(scene, sys_, None, view)
-    b = ReferenceRenderer(ReferenceQuality(samples=256, chromatic=False)).render(
-        scene, sys_, None, view)
+    a, b = _image_based_and_reference(room_scene(), sys_, None, view, samples=16,
+                                      angle_threshold_deg=0.5)
     assert ssim(a.linear, b.linear) >= 0.93
     assert a.report["details"]["radiometry"] == "irradiance"
     assert math.isfinite(a.report["details"]["plan"]["max_angle_deg"])
