@@ -178,9 +178,13 @@ class EyeRays:
         if self.acc is None:
             if scene is None:
                 raise ValueError("EyeRays: automatic accommodation needs the scene")
+            from eyelab.cache import LRUCache
             from eyelab.scene.raycast import EmbreeIntersector
 
             self.scene, self.inter = scene, EmbreeIntersector(scene)
+            # a film point's accommodation does not depend on the lens sample: one chief
+            # ray per grid, whatever the sample (planning asks for the same grid per sample)
+            self._acc = LRUCache(256, "accommodation")
         self.radius = eye.pupil_diameter / 2
         self.width, self.height = view.width, view.height
         self.near = view.near
@@ -194,11 +198,12 @@ class EyeRays:
         rho = np.array([sample[0], sample[1]]) * self.radius
         b = self.cam.basis
         if self.acc is None:
+            from eyelab.cache import array_digest
             from eyelab.scene.focus import pixel_accommodation
 
             d_s = unit(t[:, :1] * b[0] + t[:, 1:2] * b[1] + b[2])
-            acc = pixel_accommodation(d_s, self.scene, self.inter, eye, self.lens,
-                                      self.view, self.cam)[0]
+            acc, _ = self._acc.get_or_create(array_digest(px), lambda: pixel_accommodation(
+                d_s, self.scene, self.inter, eye, self.lens, self.view, self.cam)[0])
         else:
             acc = np.full(len(px), self.acc)
         pxx, pxy, pyy = (np.broadcast_to(v, acc.shape) for v in eye.power_matrix(acc))
@@ -353,15 +358,11 @@ def _coons(border_fn, g):
     2) whose outer ring is ``border_fn``'s and whose inside is spaced evenly between."""
     b = border_fn
     s = np.linspace(0, 1, g + 1)
-    out = np.empty((g + 1, g + 1, 2))
-    bottom, top, left, right = b[0, :], b[-1, :], b[:, 0], b[:, -1]
-    for j in range(g + 1):
-        for i in range(g + 1):
-            u, v = s[i], s[j]
-            out[j, i] = ((1 - v) * bottom[i] + v * top[i] + (1 - u) * left[j] + u * right[j]
-                         - ((1 - u) * (1 - v) * b[0, 0] + u * (1 - v) * b[0, -1]
-                            + (1 - u) * v * b[-1, 0] + u * v * b[-1, -1]))
-    return out
+    u, v = s[None, :, None], s[:, None, None]          # (1, g+1, 1) across, (g+1, 1, 1) down
+    return ((1 - v) * b[0][None] + v * b[-1][None] + (1 - u) * b[:, 0][:, None]
+            + u * b[:, -1][:, None]
+            - ((1 - u) * (1 - v) * b[0, 0] + u * (1 - v) * b[0, -1]
+               + (1 - u) * v * b[-1, 0] + u * v * b[-1, -1]))
 
 
 def vignetting_grid(maker, cell, g, sample, wl, *, steps: int = 12):
@@ -477,20 +478,18 @@ def _projection(si, depth, cell, g_film, rs, e, dist, normal, err, g, oversample
     dirs = np.full_like(p, np.nan)
     dirs[ok] = unit(p[ok] - e)
     # the camera: axis through the middle of the directions' tangent-plane bounding box
-    fwd = unit(dirs[ok].mean(axis=0))
-    for _ in range(2):
+    def tangents(fwd):
         right = unit(np.cross(fwd, UP if abs(fwd @ UP) < 0.99 else np.array([1.0, 0, 0])))
         up = np.cross(right, fwd)
         t = dirs[ok]
-        tx = (t @ right) / (t @ fwd)
-        ty = (t @ up) / (t @ fwd)
-        cx, cy = 0.5 * (tx.max() + tx.min()), 0.5 * (ty.max() + ty.min())
-        fwd = unit(fwd + cx * right + cy * up)
-    right = unit(np.cross(fwd, UP if abs(fwd @ UP) < 0.99 else np.array([1.0, 0, 0])))
-    up = np.cross(right, fwd)
-    t = dirs[ok]
-    tx = (t @ right) / (t @ fwd)
-    ty = (t @ up) / (t @ fwd)
+        return up, (t @ right) / (t @ fwd), (t @ up) / (t @ fwd), right
+
+    fwd = unit(dirs[ok].mean(axis=0))
+    for _ in range(2):
+        up, tx, ty, right = tangents(fwd)
+        fwd = unit(fwd + 0.5 * (tx.max() + tx.min()) * right
+                   + 0.5 * (ty.max() + ty.min()) * up)
+    up, tx, ty, _ = tangents(fwd)
     half = (max(float(np.abs(tx).max()), 1e-6) * 1.02, max(float(np.abs(ty).max()), 1e-6) * 1.02)
     # slice size: the film's pixel density (film pixels per tangent unit, the largest over
     # the grid's edges) times ``oversample``

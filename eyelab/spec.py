@@ -666,7 +666,7 @@ def parse_binocular(data: dict):
         eyes[side] = _for_side("eye", side, eye_sides[side], lambda et=et: parse_eye(et))
         eye_rx = None
         if "rx" in et:
-            where = f"eye.{side}.rx" if "rx" in eye_sides[side] else "eye.rx"
+            where = _written("eye", side, eye_sides[side], "rx")
             eye_rx = _rx(et["rx"], where)
             _check_side(eye_rx, side, where)
         if lens_shared is None:
@@ -675,11 +675,10 @@ def parse_binocular(data: dict):
         own = lens_sides[side]
         lt = {**lens_shared, **own}
         if "rx" in lt:
-            where = f"lens.{side}.rx" if "rx" in own else "lens.rx"
+            where = _written("lens", side, own, "rx")
             _check_side(_rx(lt["rx"], where), side, where)
         dec = lt.get("decentration_mm", [0.0, 0.0])
-        where = (f"lens.{side}.decentration_mm" if "decentration_mm" in own
-                 else "lens.decentration_mm")
+        where = _written("lens", side, own, "decentration_mm")
         if not (isinstance(dec, list) and len(dec) == 2):
             raise SpecError(where, f"must be [x, y] in mm, got {dec!r}")
         dec = [check_range(f"{where}[{i}]", v, -20, 20) for i, v in enumerate(dec)]
@@ -691,12 +690,18 @@ def parse_binocular(data: dict):
                                 f"centre {dec[0]:+.1f} mm from its pupil; at most 20 mm")
         lt["decentration_mm"] = dec
         if "wrap_deg" in lt and side == "left":
-            where = "lens.left.wrap_deg" if "wrap_deg" in own else "lens.wrap_deg"
-            lt["wrap_deg"] = -check_range(where, lt["wrap_deg"], -30, 30)
+            lt["wrap_deg"] = -check_range(_written("lens", side, own, "wrap_deg"),
+                                          lt["wrap_deg"], -30, 30)
         lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
                                  parse_lens(lt, rx, side=s))
     return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
                      None if fpd is None else fpd * 1e-3, fix, output)
+
+
+def _written(table: str, side: str, own: dict, key: str) -> str:
+    """The field a binocular value came from: the side's table where it holds the key,
+    else the shared one."""
+    return f"{table}.{side}.{key}" if key in own else f"{table}.{key}"
 
 
 def _check_side(rx: Prescription, side: str, where: str) -> None:

@@ -53,7 +53,6 @@ class ImageBasedRenderer(Renderer):
 
         super().__init__(quality)
         self._window = None
-        self._stats = {"renders": 0}
         self.plans = LRUCache(8, "plans")
 
     def _win(self):
@@ -168,24 +167,10 @@ class ImageBasedRenderer(Renderer):
 
     def _draw(self, win, pr, view, background):
         """The projection's slice: (sh, sw, 3) float linear light, row 0 at the top."""
-        from eyelab.render import _vtk  # noqa: F401  (the window owns the GL objects)
-
-        sw, sh = pr.slice_size
-        if (sw, sh) != win.size:
-            win.win.SetSize(sw, sh)
-            win.size = (sw, sh)
-        c = win.ren.GetActiveCamera()
-        pos = np.asarray(pr.cop, float)
-        c.SetPosition(*pos)
-        c.SetFocalPoint(*(pos + pr.forward))
-        c.SetViewUp(*pr.up)
-        c.SetViewAngle(math.degrees(2 * math.atan(pr.tan_half[1])))
-        c.SetClippingRange(view.near, view.far)
-        win.ren.SetBackground(*(np.asarray(background, float) / 255.0))
+        win.set_frustum(pr.cop, pr.forward, pr.up, math.degrees(2 * math.atan(pr.tan_half[1])),
+                        view.near, view.far, pr.slice_size, background)
         rgba = win.grab_rgba()
-        self._stats["renders"] += 1
-        lin = DECODE16[rgba[::-1, :, :3]].astype(np.float32) / np.float32(65535.0)
-        return lin
+        return DECODE16[rgba[::-1, :, :3]].astype(np.float32) / np.float32(65535.0)
 
 
 def _factory(mesh):

@@ -177,16 +177,25 @@ class OffscreenWindow:
     def set_view(self, cam, size, background) -> None:
         """Camera (eyelab :class:`~eyelab.optics.camera.Camera`), window size (w, h) and
         background (sRGB uint8 triple)."""
+        self.set_frustum(cam.position, cam.basis[2], cam.basis[1], cam.fov_y_deg, cam.near,
+                         cam.far, size, background)
+
+    def set_frustum(self, position, forward, up, fov_y_deg, near, far, size,
+                    background) -> None:
+        """A symmetric perspective frustum without :class:`~eyelab.optics.camera.Camera`'s
+        limits (the image-based renderer's slices can be narrower than 1°): position,
+        unit forward and up (3,), vertical field of view (deg), clipping (m), window size
+        (w, h) and background (sRGB uint8 triple)."""
         if tuple(size) != self.size:
             self.win.SetSize(int(size[0]), int(size[1]))
             self.size = tuple(size)
         c = self.ren.GetActiveCamera()
-        pos = np.asarray(cam.position, float)
+        pos = np.asarray(position, float)
         c.SetPosition(*pos)
-        c.SetFocalPoint(*(pos + cam.basis[2]))
-        c.SetViewUp(*cam.basis[1])
-        c.SetViewAngle(cam.fov_y_deg)
-        c.SetClippingRange(cam.near, cam.far)
+        c.SetFocalPoint(*(pos + np.asarray(forward, float)))
+        c.SetViewUp(*np.asarray(up, float))
+        c.SetViewAngle(fov_y_deg)
+        c.SetClippingRange(near, far)
         self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
 
     def depth(self) -> np.ndarray:
