@@ -80,12 +80,14 @@ def _build_parser() -> argparse.ArgumentParser:
     be.add_argument("--truth-spp", type=int,
                     help="quality: samples per pixel of the converged reference")
     be.add_argument("--reference-spp", help="quality: the reference's ladder, e.g. 4,16,64")
-    be.add_argument("--configs", help="quality: only these eye/lens configurations "
-                    "(comma-separated names)")
+    be.add_argument("--configs", help="quality: only these eye/lens configurations or "
+                    "camera cases (comma-separated names)")
     be.add_argument("--scenes", help="quality: only these scenes (comma-separated names)")
     be.add_argument("--merge", nargs="+", metavar="JSON",
                     help="quality: combine these partial runs' JSON files into one "
                     "(checks, summary and plot recomputed) instead of running")
+    be.add_argument("--omit", help="quality: leave out these optional rows (comma-"
+                    "separated: variants, imagebased), for partial runs on small machines")
     be.add_argument("--truth-cache", help="quality: folder where converged references are "
                     "kept and re-used (keyed by scene, configuration, size and spp)")
     return ap
@@ -373,7 +375,8 @@ def _bench(args) -> int:
                                     ref_spp=_int_list("--reference-spp", args.reference_spp),
                                     only_configs=_names(args.configs),
                                     only_scenes=_names(args.scenes),
-                                    truth_cache=args.truth_cache)
+                                    truth_cache=args.truth_cache,
+                                    omit=_names(args.omit))
     elif args.what == "inspect":
         import os
 

@@ -69,3 +69,23 @@ def test_quick_quality_has_image_based_rows_and_a_camera_case(quality):
         assert rows[-1]["projections"] >= 16
     assert [c["config"] for c in quality["camera_cases"]] == ["camera_doublet_room"]
     assert quality["checks"]["imagebased_ssim_min_at_max_samples"] > 0.93
+
+
+def test_a_camera_case_runs_alone_and_rows_can_be_omitted(tmp_path):
+    """``--configs camera_doublet_room`` runs only the camera case (partial runs of the full
+    preset); ``--omit`` leaves optional rows out and says so; a typo is refused by name."""
+    from eyelab.bench.quality import merge_results
+    from eyelab.errors import SpecError
+
+    res = run_quality_bench(quick=True, size=(32, 24), truth_spp=4, ref_spp=[1, 4],
+                            only_configs=["camera_doublet_room"], omit=["imagebased"])
+    assert res["cases"] == [] and len(res["camera_cases"]) == 1
+    cam = res["camera_cases"][0]
+    assert "imagebased" not in cam and [m["spp"] for m in cam["reference"]] == [1, 4]
+    assert res["omitted"] == ["imagebased"] and res["reference_spp"] == [1, 4]
+    assert "raster_ssim_at_32_min" not in res["checks"]
+    assert merge_results([res, res])["omitted"] == ["imagebased"]
+    with pytest.raises(SpecError, match="omit"):
+        run_quality_bench(quick=True, size=(32, 24), omit=["variant"])
+    with pytest.raises(SpecError, match="configs"):
+        run_quality_bench(quick=True, size=(32, 24), only_configs=["camera_doublet"])

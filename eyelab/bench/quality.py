@@ -71,8 +71,14 @@ def configs(quick: bool):
 
 
 #: Lens samples of the image-based renderer's rows (quick, full) and its angle threshold.
-IMAGEBASED_SAMPLES = ((4, 16), (4, 16, 64))
+#: At full size its morph (numpy, every film pixel per sample and channel) costs ~1 s per
+#: lens sample on 2 cores, so the full preset stops at 16 and measures it where a lens
+#: model is needed: the spectacle-lens and camera-lens cases.
+IMAGEBASED_SAMPLES = ((4, 16), (4, 16))
 IMAGEBASED_THRESHOLD_DEG = 0.25
+
+#: Rows a run may leave out (``omit``): the reference's variants, the image-based renderer.
+OPTIONAL_ROWS = ("variants", "imagebased")
 
 
 def camera_cases():
@@ -138,9 +144,11 @@ def _rmse(a, b):
 
 def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_spp=None,
                       ref_spp=None, only_configs=None, only_scenes=None,
-                      truth_cache=None) -> dict:
+                      truth_cache=None, omit=()) -> dict:
     """Run the ladders; ``truth_spp`` / ``ref_spp`` / ``only_configs`` / ``only_scenes``
-    override the preset (for partial runs of the full preset on small machines);
+    override the preset (for partial runs of the full preset on small machines;
+    ``only_configs`` may name camera cases, which otherwise run only in an unfiltered
+    run); ``omit`` leaves out optional rows (:data:`OPTIONAL_ROWS`, recorded in the JSON);
     ``truth_cache`` (a folder) keeps the converged references as ``.npz`` and re-uses them,
     so a renderer change is re-measured without re-tracing the ground truth."""
     w, h = size or ((160, 120) if quick else (1024, 768))
@@ -150,7 +158,12 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     check_range("truth_spp", truth_spp, 1, 65536)
     for spp in ref_spp:
         check_range("reference_spp", spp, 1, 65536)
-    known_s, known_c = set(scenes()), set(configs(quick))
+    known_s, known_c = set(scenes()), set(configs(quick)) | set(camera_cases())
+    omit = tuple(omit or ())
+    for name in omit:
+        if name not in OPTIONAL_ROWS:
+            raise SpecError("omit", f"unknown rows {name!r}; choose from "
+                            f"{', '.join(OPTIONAL_ROWS)}")
     for flag, names, known in (("scenes", only_scenes, known_s),
                                ("configs", only_configs, known_c)):
         bad = sorted(set(names or ()) - known)
@@ -198,10 +211,12 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                 m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,
                          rays_per_s=rep["rays_per_s"])
                 case["reference"].append(m)
-            case["variants"] = _variants(scene, eye, lens, view, truth, quick,
-                                         spp=ref_spp[-1])
-            case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
-                                                  IMAGEBASED_SAMPLES[0 if quick else 1])
+            if "variants" not in omit:
+                case["variants"] = _variants(scene, eye, lens, view, truth, quick,
+                                             spp=ref_spp[-1])
+            if "imagebased" not in omit and (quick or lens is not None):
+                case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
+                                                      IMAGEBASED_SAMPLES[0 if quick else 1])
             # equal wall time: the reference's RMSE interpolated (log-log) at each raster time
             rt = np.array([m["time_s"] for m in case["reference"]])
             re = np.array([m["rmse"] for m in case["reference"]])
@@ -212,16 +227,21 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
             cases.append(case)
             bar.update(1)
     bar.close()
-    cams = [] if only_configs or only_scenes else _camera_cases(w, h, truth_spp, ref_spp,
-                                                                quick, truth_cache)
-    return summarise(cases, preset="quick" if quick else "full", size=(w, h),
-                     plot_path=plot_path, camera_cases=cams)
+    cams = _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit,
+                         None if not (only_configs or only_scenes) else only_configs or ())
+    out = summarise(cases, preset="quick" if quick else "full", size=(w, h),
+                    plot_path=plot_path, camera_cases=cams)
+    out["omitted"] = list(omit)
+    return out
 
 
-def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache):
-    """The camera-lens cases: converged reference, reference ladder, image-based rows."""
+def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit=(), only=None):
+    """The camera-lens cases (those named in ``only``, every one if None): converged
+    reference, reference ladder, image-based rows."""
     out = []
     for cname, (sname, system, fov, near, far) in camera_cases().items():
+        if only is not None and cname not in only:
+            continue
         scene = scenes()[sname][0]
         view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
         truth, t_truth, _ = _truth(truth_cache, f"{cname}__{w}x{h}__{truth_spp}spp__"
@@ -236,8 +256,9 @@ def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache):
             m = compare_images(ref.srgb, truth)
             m.update(rmse=_rmse(ref.srgb, truth), time_s=time.perf_counter() - t, spp=spp)
             case["reference"].append(m)
-        case["imagebased"] = _imagebased_rows(scene, system, None, view, truth,
-                                              IMAGEBASED_SAMPLES[0 if quick else 1])
+        if "imagebased" not in omit:
+            case["imagebased"] = _imagebased_rows(scene, system, None, view, truth,
+                                                  IMAGEBASED_SAMPLES[0 if quick else 1])
         out.append(case)
     return out
 
@@ -293,12 +314,45 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
     ``truth_spp`` is each converged reference's spp (a list where cases differ);
     ``camera_cases`` (no raster rows) are listed and plotted beside them."""
     camera_cases = list(camera_cases)
+    if not cases and not camera_cases:
+        raise SpecError("configs", "no case ran; name at least one configuration")
     rows = [_case_row(c) for c in cases + camera_cases]
-    truth_spp = sorted({c["truth_spp"] for c in cases})
+    truth_spp = sorted({c["truth_spp"] for c in cases + camera_cases})
+    checks = {} if not cases else _raster_checks(cases)
+    ib = [m for c in cases + camera_cases for m in c.get("imagebased", [])]
+    if ib:
+        top = max(m["samples"] for m in ib)
+        checks["imagebased_ssim_min_at_max_samples"] = min(
+            m["ssim"] for m in ib if m["samples"] == top)
+        checks["imagebased_samples"] = sorted({m["samples"] for m in ib})
+    out = {"benchmark": "quality", "preset": preset, "size": list(size),
+           "truth_spp": truth_spp[0] if len(truth_spp) == 1 else truth_spp,
+           "reference_spp": [m["spp"] for m in (cases + camera_cases)[0]["reference"]],
+           "cases": cases, "camera_cases": camera_cases, "checks": checks,
+           "summary": rows}
+    if cases:
+        rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
+                    f"error below the reference's at equal time: S=8 in "
+                    f"{checks['raster_wins_fraction_S8'] * 100:.0f} % of cases, all S in "
+                    f"{checks['raster_wins_fraction_all_S'] * 100:.0f} % of cases; reference "
+                    f"{checks['reference_rays_per_s_median'] / 1e6:.2f} M rays/s median, "
+                    f"{checks['reference_rays_per_s_max'] / 1e6:.2f} max")
+    if ib:
+        rows.append(f"image-based: min SSIM {checks['imagebased_ssim_min_at_max_samples']:.4f} "
+                    f"at {max(checks['imagebased_samples'])} lens samples (angle threshold "
+                    f"{IMAGEBASED_THRESHOLD_DEG}°)")
+    if plot_path:
+        _plot(cases + camera_cases, plot_path)
+        out["plot"] = str(plot_path)
+    return out
+
+
+def _raster_checks(cases) -> dict:
+    """The raster renderer's acceptance numbers over ``cases``."""
     wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
     s8 = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]
           if m["samples"] == 8]
-    checks = {
+    return {
         "raster_ssim_at_32_min": min(m["ssim"] for c in cases for m in c["raster"]
                                      if m["samples"] == 32),
         # the interactive setting: S = 8 passes against the reference given the same time
@@ -309,31 +363,6 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
         "reference_rays_per_s_median": float(np.median([c["truth_rays_per_s"]
                                                         for c in cases])),
     }
-    ib = [m for c in cases + camera_cases for m in c.get("imagebased", [])]
-    if ib:
-        top = max(m["samples"] for m in ib)
-        checks["imagebased_ssim_min_at_max_samples"] = min(
-            m["ssim"] for m in ib if m["samples"] == top)
-        checks["imagebased_samples"] = sorted({m["samples"] for m in ib})
-    out = {"benchmark": "quality", "preset": preset, "size": list(size),
-           "truth_spp": truth_spp[0] if len(truth_spp) == 1 else truth_spp,
-           "reference_spp": [m["spp"] for m in cases[0]["reference"]],
-           "cases": cases, "camera_cases": camera_cases, "checks": checks,
-           "summary": rows}
-    rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
-                f"error below the reference's at equal time: S=8 in "
-                f"{checks['raster_wins_fraction_S8'] * 100:.0f} % of cases, all S in "
-                f"{checks['raster_wins_fraction_all_S'] * 100:.0f} % of cases; reference "
-                f"{checks['reference_rays_per_s_median'] / 1e6:.2f} M rays/s median, "
-                f"{checks['reference_rays_per_s_max'] / 1e6:.2f} max")
-    if ib:
-        rows.append(f"image-based: min SSIM {checks['imagebased_ssim_min_at_max_samples']:.4f} "
-                    f"at {max(checks['imagebased_samples'])} lens samples (angle threshold "
-                    f"{IMAGEBASED_THRESHOLD_DEG}°)")
-    if plot_path:
-        _plot(cases + camera_cases, plot_path)
-        out["plot"] = str(plot_path)
-    return out
 
 
 def merge_results(results, plot_path=None) -> dict:
@@ -347,9 +376,11 @@ def merge_results(results, plot_path=None) -> dict:
         vals = {json.dumps(r.get(key)) for r in results}
         if len(vals) > 1:
             raise SpecError("merge", f"results differ in {key}: {sorted(vals)}")
-    return summarise([c for r in results for c in r["cases"]], preset=first["preset"],
-                     size=first["size"], plot_path=plot_path,
-                     camera_cases=[c for r in results for c in r.get("camera_cases", [])])
+    out = summarise([c for r in results for c in r["cases"]], preset=first["preset"],
+                    size=first["size"], plot_path=plot_path,
+                    camera_cases=[c for r in results for c in r.get("camera_cases", [])])
+    out["omitted"] = sorted({o for r in results for o in r.get("omitted", [])})
+    return out
 
 
 def _plot(cases, path):
