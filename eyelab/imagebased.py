@@ -583,6 +583,50 @@ def rasterize(film_tri, attrs, width, height, covered):
     return idx, vals
 
 
+def morph_pixels(pr: Projection, width, height, covered):
+    """The film pixels the projection's grid gives colour to and their interpolated
+    attributes (slice x, slice y, W x transmittance, W) — what :func:`rasterize` returns
+    for :func:`grid_triangles` — with ``covered`` updated the same way.
+
+    A grid that vignetting left undeformed (every point where :func:`_grid` put it, every
+    ray passed) is a regular lattice: each pixel centre's quad and its triangle (the
+    quad split along the c00-c11 diagonal, as :func:`grid_triangles` splits it) follow
+    from two floors, without scan conversion (3-5x faster); a deformed grid is scan
+    converted. Pixel centres on the cell's right or bottom edge belong to the neighbour."""
+    g = pr.grid_film.shape[0] - 1
+    if not (pr.grid_ok.all() and np.array_equal(pr.grid_film, _grid(pr.cell, g))):
+        tri_f, tri_a = grid_triangles(pr)
+        return rasterize(tri_f, tri_a, width, height, covered)
+    x0, y0, x1, y1 = pr.cell
+    ix = np.arange(max(math.ceil(x0 - 0.5), 0), min(math.ceil(x1 - 0.5), width))
+    iy = np.arange(max(math.ceil(y0 - 0.5), 0), min(math.ceil(y1 - 0.5), height))
+    if not (len(ix) and len(iy)):
+        return np.zeros(0, int), np.zeros((0, 4))
+    u = (ix + 0.5 - x0) * (g / (x1 - x0))
+    v = (iy + 0.5 - y0) * (g / (y1 - y0))
+    i = np.minimum(u.astype(int), g - 1)
+    j = np.minimum(v.astype(int), g - 1)
+    fu = (u - i).astype(np.float32)[None, :]
+    fv = (v - j).astype(np.float32)[:, None]
+    att = np.concatenate([texcoords(pr), (pr.grid_weight * pr.grid_transmittance)[..., None],
+                          pr.grid_weight[..., None]], -1).astype(np.float32)
+    # each triangle's attributes are affine: value at c00 + fu * x-step + fv * y-step;
+    # table (g, g, 2 triangles, 3 coefficients, 4 attributes), one gather per pixel
+    c00, c10, c01, c11 = att[:-1, :-1], att[:-1, 1:], att[1:, :-1], att[1:, 1:]
+    table = np.stack([np.stack([c00, c10 - c00, c11 - c10], -2),     # (c00, c10, c11)
+                      np.stack([c00, c11 - c01, c01 - c00], -2)], -3)  # (c00, c11, c01)
+    k = ((j[:, None] * g + i[None, :]) * 2 + (fu < fv)).ravel()
+    coef = table.reshape(-1, 3, 4)[k]
+    shape = (len(iy), len(ix))
+    vals = (coef[:, 0] + np.broadcast_to(fu, shape).reshape(-1, 1) * coef[:, 1]
+            + np.broadcast_to(fv, shape).reshape(-1, 1) * coef[:, 2])
+    idx = (iy[:, None] * width + ix[None, :]).ravel()
+    free = ~covered[idx]
+    idx, vals = idx[free], vals[free]
+    covered[idx] = True
+    return idx, vals
+
+
 def grid_triangles(pr: Projection):
     """(film triangles (k, 3, 2), attributes (k, 3, 4): slice x, slice y, W x
     transmittance, W) of the projection's grid quads whose four corners' rays passed."""

@@ -18,7 +18,9 @@ from eyelab.imagebased import (
     cos2_objective,
     fit_cop_angle,
     fit_cop_least_squares,
+    grid_triangles,
     image_plane_points,
+    morph_pixels,
     plan_projections,
     rasterize,
     vignetting_grid,
@@ -151,6 +153,47 @@ def test_rasterize_gives_every_pixel_to_exactly_one_triangle():
     assert len(idx) == len(np.unique(idx)) == 8 * 8
     px = np.column_stack([idx % 12 + 0.5, idx // 12 + 0.5])
     np.testing.assert_allclose(vals[:, 0], f(px), atol=1e-9)
+
+
+def test_the_regular_grid_morph_equals_scan_conversion():
+    """Undeformed grids take the direct pixel -> quad path of :func:`morph_pixels`: on every
+    projection of a refined spectacle-lens plan (quad-tree cells of several depths, odd
+    film size) the same pixels get the same attributes as scan-converting its triangles
+    (but for which cell a pixel centre exactly on a shared edge goes to), and a vignetted
+    (deformed) grid is scan converted."""
+    eye = Eye.from_rx(Prescription(-3.0), chromatic=False)
+    view = View(width=75, height=53, fov_y_deg=50.0, focus_d=0.5)
+    lens = SpectacleLens.from_rx(Prescription(-3.0))
+    plan = plan_projections(EyeRays(eye, lens, view, 0.5), SAMPLES[:3], 587.56,
+                            threshold_deg=0.1, max_depth=3)
+    assert len({pr.depth for pr in plan.projections}) > 1
+    fast_all = []
+    for pr in plan.projections:
+        cov_f, cov_s = np.zeros(75 * 53, bool), np.zeros(75 * 53, bool)
+        idx_f, val_f = morph_pixels(pr, 75, 53, cov_f)
+        idx_s, val_s = rasterize(*grid_triangles(pr), 75, 53, cov_s)
+        fast_all.append(idx_f + 75 * 53 * pr.sample)
+        common, i_f, i_s = np.intersect1d(idx_f, idx_s, return_indices=True)
+        # the two differ only in which cell a pixel centre exactly on an edge goes to
+        odd = np.setxor1d(idx_f, idx_s)
+        cx, cy = odd % 75 + 0.5, odd // 75 + 0.5
+        x0, y0, x1, y1 = pr.cell
+        assert np.all((cx == x0) | (cx == x1) | (cy == y0) | (cy == y1))
+        np.testing.assert_allclose(val_f[i_f], val_s[i_s], rtol=1e-6, atol=1e-6)  # float32
+        assert (cov_f[idx_f]).all()
+    # per sample the cells tile the film: every pixel exactly once
+    fast = np.concatenate(fast_all)
+    assert len(fast) == len(np.unique(fast)) == 3 * 75 * 53
+    mk = CameraRays(get_system("doublet"), 64, 64, 60.0)
+    vplan = plan_projections(mk, np.array([[0.85, 0.0]]), 587.56, threshold_deg=5.0,
+                             max_depth=0)
+    pr = vplan.projections[0]
+    assert not np.array_equal(pr.grid_film, np.stack(np.meshgrid(
+        np.linspace(0, 64, pr.grid_film.shape[1]), np.linspace(0, 64, pr.grid_film.shape[0])),
+        -1))
+    idx_f, val_f = morph_pixels(pr, 64, 64, np.zeros(64 * 64, bool))
+    idx_s, val_s = rasterize(*grid_triangles(pr), 64, 64, np.zeros(64 * 64, bool))
+    assert np.array_equal(idx_f, idx_s) and np.array_equal(val_f, val_s)
 
 
 def test_radiometry_of_a_white_scene_against_fresnel_and_the_reference():

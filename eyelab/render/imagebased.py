@@ -7,7 +7,7 @@ The plan (rays, centres of projection, quad-tree, vignetting, weights) is
 :mod:`eyelab.imagebased`. The slices are drawn by GL; the morph — the paper's texture
 mapping of each slice onto its film grid with Gouraud-interpolated texture coordinates and
 bilinear texture filtering, alpha-blended with the weight grid — runs in numpy on the
-read-back slice (:func:`eyelab.imagebased.rasterize`, :func:`~eyelab.imagebased.bilinear`):
+read-back slice (:func:`eyelab.imagebased.morph_pixels`, :func:`~eyelab.imagebased.bilinear`):
 the same arithmetic the texture unit does, in float, so that the accumulation stays in
 linear light without one more 8-bit read-back per slice.
 """
@@ -23,9 +23,8 @@ from eyelab.imagebased import (
     CameraRays,
     EyeRays,
     bilinear,
-    grid_triangles,
+    morph_pixels,
     plan_projections,
-    rasterize,
 )
 from eyelab.imaging import Renderer, channel_wavelengths, finish, new_report
 from eyelab.optics.eye import EYE_REFERENCE_NM
@@ -122,9 +121,8 @@ class ImageBasedRenderer(Renderer):
                 t1 = time.perf_counter()
                 slice_img = self._draw(win, pr, view, scene.background)
                 t2 = time.perf_counter()
-                tri_f, tri_a = grid_triangles(pr)
                 cov = covered.setdefault(pr.sample, np.zeros(h * w, bool))
-                idx, vals = rasterize(tri_f, tri_a, w, h, cov)
+                idx, vals = morph_pixels(pr, w, h, cov)
                 if len(idx):
                     col = bilinear(slice_img, vals[:, 0], vals[:, 1])
                     acc[idx[:, None], channels] += vals[:, 2:3] * col[:, channels]
