@@ -322,3 +322,18 @@ def test_cli_renders_the_default_spec_with_the_image_based_renderer(tmp_path):
     assert main(["render", "--renderer", "imagebased", "--width", "64", "--height", "48",
                  "--samples", "2", "-o", str(out), "--quiet"]) == 0
     assert out.stat().st_size > 0
+
+
+def test_the_cop_study_covers_each_level_and_plane(monkeypatch):
+    """`eyelab bench imagebased`'s least-squares vs angle COP study: a row per (plane,
+    level) with every cell of the level, ratios as the depth-2 test above finds them."""
+    from eyelab.bench import imagebased as bench
+
+    monkeypatch.setattr(bench, "COP_DEPTHS", (0, 1))
+    view = View(width=64, height=64, fov_y_deg=40.0, near=0.1, far=20.0)
+    rows = bench._cop_by_depth("doublet", get_system("doublet").focused(1.5), None, view)
+    assert [(r["plane_m"], r["depth"]) for r in rows] == [(0.1, 0), (0.1, 1), (1.0, 0),
+                                                          (1.0, 1)]
+    assert [r["cells"] for r in rows] == [3, 12, 3, 12]
+    assert all(0.9 < r["min_ratio"] <= r["median_ratio"] <= r["max_ratio"] < 1.1
+               for r in rows)
