@@ -262,11 +262,13 @@ def cos2_gradient_hessian(e, p, d):
     return grad, h
 
 
-def fit_cop_angle(p, d, e0, *, iterations: int = 8):
+def fit_cop_angle(p, d, e0, *, iterations: int = 8, dtype=np.float64):
     """The COP maximising sum cos^2 (Heidrich §3.3): Newton from ``e0``, a step kept only
     when it raises the objective (else halved, then a gradient step): returns (e (3,),
-    Newton steps taken)."""
-    e = np.asarray(e0, float).copy()
+    Newton steps taken). ``dtype``: the arithmetic (float32 only to study its
+    conditioning against the least-squares COP's)."""
+    p, d = np.asarray(p, dtype), np.asarray(d, dtype)
+    e = np.asarray(e0, dtype).copy()
     best = cos2_objective(e, p, d)
     steps = 0
     for _ in range(iterations):
@@ -291,12 +293,13 @@ def fit_cop_angle(p, d, e0, *, iterations: int = 8):
     return e, steps
 
 
-def fit_cop_least_squares(origins, dirs):
+def fit_cop_least_squares(origins, dirs, dtype=np.float64):
     """The COP closest to all rays in the least-squares sense (Gremban et al. 1988, the
-    method Heidrich et al. compare with): solves sum (I - d d^T) e = sum (I - d d^T) q."""
+    method Heidrich et al. compare with): solves sum (I - d d^T) e = sum (I - d d^T) q
+    (in ``dtype``)."""
     from eyelab.optics.camera import least_squares_point
 
-    return least_squares_point(origins, dirs)[0]
+    return least_squares_point(origins, dirs, dtype)[0]
 
 
 def image_plane_points(origins, dirs, e, normal, distance):

@@ -135,14 +135,17 @@ def gaze_camera(gaze_deg=(0.0, 0.0), rotation_centre: float = 0.0135, fov_y_deg=
                   tuple(float(v) for v in up), fov_y_deg, aspect, near, far)
 
 
-def least_squares_point(origins, directions):
+def least_squares_point(origins, directions, dtype=np.float64):
     """Point minimising the sum of squared distances to the lines (origins, directions).
 
-    Solves sum_i (I - d_i d_i^T) c = sum_i (I - d_i d_i^T) o_i (Kakimoto 2007 §3.1).
+    Solves sum_i (I - d_i d_i^T) c = sum_i (I - d_i d_i^T) o_i (Kakimoto 2007 §3.1) in
+    ``dtype`` (float32 only to study the normal equations' conditioning).
     Returns (c (3,), rms distance (m)).
     """
+    origins = np.asarray(origins, dtype)
+    directions = np.asarray(directions, dtype)
     d = directions / np.linalg.norm(directions, axis=1, keepdims=True)
-    proj = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
+    proj = np.eye(3, dtype=dtype)[None] - d[:, :, None] * d[:, None, :]
     a = proj.sum(0)
     b = np.einsum("nij,nj->i", proj, origins)
     c = np.linalg.solve(a, b)
