@@ -95,15 +95,20 @@ def pass_samples(samples: int):
 
 def _quads(n: int) -> np.ndarray:
     """(4n, 2) seeds: n quads in blocks ending at 1, 2, 4, 8, ... quads (the last block
-    possibly partial), radii stratified in area within each block; quad k is turned by
-    the van der Corput angle vdc(k) x 90 deg (0, 45, 22.5, 67.5, ... : each power-of-two
-    prefix spreads its quads evenly over the quarter turn that a quad repeats)."""
+    possibly partial), radii stratified in area within each block, in order; quad k is
+    turned by the van der Corput angle vdc(k) x 90 deg (0, 45, 22.5, 67.5, ... : each
+    power-of-two prefix spreads its quads evenly over the quarter turn that a quad
+    repeats). A block of 2^m quads starts at k = 2^m, where vdc(k + j) = vdc(j) + 2^-(m+1):
+    with the area strata j in order, (|s|^2, angle) of the block is a Hammersley set — the
+    disc covered evenly. (Strata in bit-reversed order, as vdc(j), put r^2 and the angle
+    on one line: each block on four spiral arms, whose copies ghosted in streaks through
+    a large blur — measured: the tilted page at 1024x768, S = 64, SSIM 0.972 -> 0.988.)"""
     out = []
     start = 0
     while start < n:
         size = 1 if start < 2 else start           # blocks of 1, 1, 2, 4, 8, ... quads
         size = min(size, n - start)
-        r = np.sqrt(_strata(size) + 0.5 / size)    # area strata (j + 1/2) / size, mean 1/2
+        r = np.sqrt((np.arange(size) + 0.5) / size)    # area strata (j + 1/2) / size
         t = 0.5 * math.pi * _van_der_corput(np.arange(start, start + size))
         c, s = r * np.cos(t), r * np.sin(t)
         out.append(np.stack([np.column_stack([c, s]), np.column_stack([-c, -s]),
@@ -122,15 +127,6 @@ def _van_der_corput(k: np.ndarray) -> np.ndarray:
         k >>= 1
         f *= 0.5
     return out
-
-
-def _strata(size: int) -> np.ndarray:
-    """The strata j / size of a block, in bit-reversed order when size is a power of two
-    (then every aligned half of the block is itself stratified), else in order."""
-    j = np.arange(size)
-    if size & (size - 1):
-        return j / size
-    return _van_der_corput(j) if size > 1 else np.zeros(1)
 
 
 def _r2(n: int) -> np.ndarray:
