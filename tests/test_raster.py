@@ -377,3 +377,21 @@ def test_frames_yield_every_pass_and_end_at_the_render(chart):
         gen.close()
         again = r.render(chart, eye, None, view)
         np.testing.assert_array_equal(frames[-1].image, again.image)
+
+
+@pytest.mark.parametrize("sph", [3.0, 6.0])
+def test_plus_lenses_with_a_thin_edge_render(sph):
+    """A plus lens built to its thinnest edge cannot be widened (its surfaces would cross
+    beyond the rim): the rim cells' texture coordinates then come from the lens itself,
+    and the render goes through (it had raised a feasibility error)."""
+    from eyelab.scene.lensview import widened_lens
+
+    lens = SpectacleLens.from_rx(Prescription(sph))
+    assert widened_lens(lens) is lens
+    eye = Eye.from_rx(Prescription(sph), accommodation_max=1.0)
+    view = View(width=64, height=48, fov_y_deg=12.0, near=0.1, far=2.0)
+    with RasterRenderer(RasterQuality(samples=2)) as r:
+        res = r.render(chart_scene(0.4), eye, lens, view)
+    assert np.isfinite(res.linear).all() and res.linear.mean() > 0.2
+    minus = SpectacleLens.from_rx(Prescription(-sph))
+    assert widened_lens(minus).diameter > minus.diameter

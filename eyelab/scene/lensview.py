@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from eyelab.errors import SpecError
 from eyelab.optics.camera import Camera
 from eyelab.optics.trace import FATAL, intersect
 
@@ -47,7 +48,10 @@ def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
         if not bool(np.all(surf.derivatives(np.array([r, 0.0, -r, 0.0]),
                                             np.array([0.0, r, 0.0, -r])).valid)):
             return lens
-    return dataclasses.replace(lens, diameter=d)
+    try:
+        return dataclasses.replace(lens, diameter=d)
+    except SpecError:            # a plus lens's surfaces cross beyond its thin edge
+        return lens
 
 
 def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
