@@ -611,8 +611,7 @@ def morph_pixels(pr: Projection, width, height, covered):
     j = np.minimum(v.astype(int), g - 1)
     fu = (u - i).astype(np.float32)[None, :]
     fv = (v - j).astype(np.float32)[:, None]
-    att = np.concatenate([texcoords(pr), (pr.grid_weight * pr.grid_transmittance)[..., None],
-                          pr.grid_weight[..., None]], -1).astype(np.float32)
+    att = grid_attributes(pr).astype(np.float32)
     # each triangle's attributes are affine: value at c00 + fu * x-step + fv * y-step;
     # table (g, g, 2 triangles, 3 coefficients, 4 attributes), one gather per pixel
     c00, c10, c01, c11 = att[:-1, :-1], att[:-1, 1:], att[1:, :-1], att[1:, 1:]
@@ -630,16 +629,20 @@ def morph_pixels(pr: Projection, width, height, covered):
     return idx, vals
 
 
+def grid_attributes(pr: Projection) -> np.ndarray:
+    """(g+1, g+1, 4) per grid point: slice x, slice y, W x transmittance, W."""
+    return np.concatenate([texcoords(pr), (pr.grid_weight * pr.grid_transmittance)[..., None],
+                           pr.grid_weight[..., None]], -1)
+
+
 def grid_triangles(pr: Projection):
     """(film triangles (k, 3, 2), attributes (k, 3, 4): slice x, slice y, W x
     transmittance, W) of the projection's grid quads whose four corners' rays passed."""
-    tc = texcoords(pr)
     f = pr.grid_film
     ok = pr.grid_ok
     quad_ok = ok[:-1, :-1] & ok[1:, :-1] & ok[:-1, 1:] & ok[1:, 1:]
     j, i = np.nonzero(quad_ok)
-    att = np.concatenate([tc, (pr.grid_weight * pr.grid_transmittance)[..., None],
-                          pr.grid_weight[..., None]], -1)
+    att = grid_attributes(pr)
     c00, c10 = (j, i), (j, i + 1)
     c01, c11 = (j + 1, i), (j + 1, i + 1)
     tri_f = np.concatenate([np.stack([f[c00], f[c10], f[c11]], 1),

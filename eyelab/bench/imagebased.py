@@ -112,6 +112,16 @@ def run_imagebased_bench(quick: bool = False, *, repeats: int = 3) -> dict:
             "summary": summary}
 
 
+def _ray_maker(observer, lens, view):
+    """The image-based model's rays for a camera lens system or an eye (+ lens)."""
+    from eyelab.imagebased import CameraRays, EyeRays
+    from eyelab.optics.system import LensSystem
+
+    if isinstance(observer, LensSystem):
+        return CameraRays(observer, view.width, view.height, view.fov_y_deg, view.near)
+    return EyeRays(observer, lens, view, view.focus_d)
+
+
 #: The COP study's quad-tree levels (uniform: every cell of each level) and pupil/lens
 #: samples (indices into the 10-sample set: centre, middle, rim).
 COP_DEPTHS = (0, 1, 2, 3, 4, 5, 6)
@@ -131,22 +141,17 @@ def _cop_by_depth(name, observer, lens, view) -> list:
     the least-squares COP's largest angle error to the angle COP's (float64 and float32),
     and the float32 angle COP's to the float64 one's."""
     from eyelab.imagebased import (
-        CameraRays,
-        EyeRays,
         angle_errors_deg,
         fit_cop_angle,
         fit_cop_least_squares,
         image_plane_points,
     )
-    from eyelab.optics.system import LensSystem
     from eyelab.sampling import pass_samples
     from eyelab.vecmath import unit
 
     w, h = view.width, view.height
     samples = pass_samples(10)[0][list(COP_SAMPLE_INDICES)]
-    maker = (CameraRays(observer, w, h, view.fov_y_deg, view.near)
-             if isinstance(observer, LensSystem)
-             else EyeRays(observer, lens, view, view.focus_d))
+    maker = _ray_maker(observer, lens, view)
     g = np.linspace(0.0, 1.0, 11)
     ratios = {d: {"lsq64": [], "lsq32": [], "angle32": []} for d in COP_DEPTHS}
     for s in samples:
@@ -194,20 +199,15 @@ def _cop_comparison(name, observer, lens, view) -> dict:
     """Largest angle error of the least-squares COP over the angle COP's, on every cell of
     the 0.05° quad-tree (the same rays and image plane for both)."""
     from eyelab.imagebased import (
-        CameraRays,
-        EyeRays,
         angle_errors_deg,
         fit_cop_least_squares,
         image_plane_points,
         plan_projections,
     )
-    from eyelab.optics.system import LensSystem
     from eyelab.sampling import pass_samples
     from eyelab.vecmath import unit
 
-    maker = (CameraRays(observer, view.width, view.height, view.fov_y_deg, view.near)
-             if isinstance(observer, LensSystem)
-             else EyeRays(observer, lens, view, view.focus_d))
+    maker = _ray_maker(observer, lens, view)
     samples = pass_samples(10)[0]
     plan = plan_projections(maker, samples, 587.56, threshold_deg=0.05, max_depth=6,
                             plane_distance=view.near)
