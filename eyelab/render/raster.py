@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import sigma_map, variable_gaussian
+from eyelab.blur.reconstruct import compensated, sigma_map, sigma_volume, variable_gaussian
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.cache import LRUCache, content_key
 from eyelab.imaging import (
@@ -351,6 +351,24 @@ class RasterRenderer(Renderer):
                 return q.samples, np.zeros_like(seeds), antialias_jitter(q.samples)
         return q.samples, seeds, jit
 
+    def _reconstruction(self, fields, passes, size, q, report) -> tuple:
+        """(fields the passes displace by, reconstruction state or None) of a stage of
+        ``size`` = (w, h) px. With the reconstruction filter on and more than one pass,
+        each field is variance-compensated for the filter's per-voxel sigma at S passes
+        (:func:`eyelab.blur.reconstruct.compensated`: disc + Gaussian keep the blur's
+        second moments), cached; otherwise the fields themselves."""
+        if not (q.reconstruct and passes > 1):
+            return fields, None
+
+        def build():
+            sig, major = sigma_volume(fields, passes, size)
+            return sig, major, [compensated(f, sig, size) for f in fields]
+
+        key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)
+        (sig, major, shrunk), _ = self._cached("small", key, build, report,
+                                               "compensated_fields")
+        return shrunk, {"fields": fields, "sigma": sig, "major": major, "size": tuple(size)}
+
     def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
             self._eye_win = OffscreenWindow()
@@ -361,7 +379,9 @@ class RasterRenderer(Renderer):
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
         passes, seeds, jitter = self._passes_for(fields, q, report, "naked view")
-        return {"win": win, "cam": cam, "fields": fields,
+        fields, recon = self._reconstruction(fields, passes, (view.width, view.height), q,
+                                             report)
+        return {"win": win, "cam": cam, "fields": fields, "recon": recon,
                 "items": self._scene_items(meshes, fields, q, passes, cam, view.height, report),
                 "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter,
@@ -379,6 +399,7 @@ class RasterRenderer(Renderer):
         vcam, (w_env, h_env) = fit_window(vcam, self._env_width(cam, vcam, view, q))
         win.set_view(vcam, (w_env, h_env), scene.background)
         passes, seeds, jitter = self._passes_for(fields, q, report, "environment")
+        fields, recon = self._reconstruction(fields, passes, (w_env, h_env), q, report)
         items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
@@ -398,7 +419,7 @@ class RasterRenderer(Renderer):
             "rays_missing_scene": int((~tcg.scene_hit).sum()),
             "virtual_camera": {"position": list(map(float, vcam.position)),
                                "fov_y_deg": vcam.fov_y_deg, "aspect": vcam.aspect}}
-        return {"win": win, "cam": vcam, "fields": fields, "items": items,
+        return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "items": items,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
                 "geo_key": tkey,
@@ -443,7 +464,7 @@ class RasterRenderer(Renderer):
                             continue
                         t = time.perf_counter()
                         st["acc"].add(self._pass(st, k, q.field_route))
-                        if k == 0 and st["passes"] > 1 and q.reconstruct:
+                        if k == 0 and st["recon"] is not None:
                             st["zbuf"] = st["win"].depth()
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
@@ -481,11 +502,17 @@ class RasterRenderer(Renderer):
         if "zbuf" not in st:
             return acc.mean_rgba()
         t = time.perf_counter()
-        # per-channel fields: the smallest channel's sigma (never over-filters a channel)
+        # the sigma the fields were compensated for; before the last pass (a progressive
+        # preview) the sigma of the passes so far, wider: previews err on the blurry side
+        rc = st["recon"]
+
+        def sigma():
+            vol = (rc["sigma"] if acc.count == st["passes"]
+                   else sigma_volume(rc["fields"], acc.count, rc["size"])[0])
+            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, rc["major"])
+
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
-                              lambda: np.min([sigma_map(st["zbuf"], st["cam"], f, acc.count)
-                                              for f in st["fields"]], axis=0),
-                              report, "reconstruction_sigma")
+                              sigma, report, "reconstruction_sigma")
         lin = acc.mean_linear()
         out = variable_gaussian(lin, sig)
         if out is lin:                     # every sigma below a quarter pixel
