@@ -31,8 +31,9 @@ class RasterQuality:
     samples : S passes (1-256); field_shape : blur-field grid (nz, ny, nx), each 1-512;
     depth_mode : "ndc" (slices uniform in NDC z = in dioptres, the paper's) or "linear"
     (uniform in metres); refine : adaptive tessellation where the field is not linear
-    along edges; reconstruct : per-pixel Gaussian reconstruction filter against the
-    ghosting of large blurs (~0.1-0.25 s per 1024x768 frame); antialias : a sub-pixel
+    along edges; reconstruct : per-pixel, blur-shaped Gaussian reconstruction filter
+    against the ghosting of large blurs, variance-compensated so that the blur keeps its
+    second moments (``eyelab.blur.reconstruct``); antialias : a sub-pixel
     jitter per pass; skip_unneeded : skip passes a frame does not need (False only to
     measure what skipping saves); chromatic : each colour channel with its own light
     paths and blur (R, G, B at the C, e, F lines) where the lens disperses or the eye has

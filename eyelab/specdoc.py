@@ -286,8 +286,9 @@ KEYS = [
         "(dioptres) or in metres", choices=("ndc", "linear"), renderer="raster"),
     Key("render", "refine", "boolean", "", "true", "adaptive tessellation where the field "
         "is not linear along edges", renderer="raster"),
-    Key("render", "reconstruct", "boolean", "", "false", "per-pixel Gaussian "
-        "reconstruction against ghosting", renderer="raster"),
+    Key("render", "reconstruct", "boolean", "", "false", "per-pixel blur-shaped Gaussian "
+        "reconstruction against ghosting, variance-compensated (the blur's size kept)",
+        renderer="raster"),
     Key("render", "antialias", "boolean", "", "true", "a sub-pixel jitter per pass",
         renderer="raster"),
     Key("render", "skip_unneeded", "boolean", "", "true", "skip passes the frame does not "

@@ -199,7 +199,8 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
                         warm = min(warm, time.perf_counter() - t)
                 m = compare_images(res.image, truth)
                 m.update(rmse=_rmse(res.image, truth), time_s=warm, cold_time_s=cold,
-                         samples=s, skipped=res.report["skipped"])
+                         samples=s, skipped=res.report["skipped"],
+                         reconstruct_s=res.report["timings_s"].get("reconstruct", 0.0))
                 case["raster"].append(m)
             for spp in ref_spp:
                 t = time.perf_counter()

@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import compensated, sigma_map, sigma_volume, variable_gaussian
+from eyelab.blur.reconstruct import compensated, reconstruct, sigma_map, sigma_volume
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.cache import LRUCache, content_key
 from eyelab.imaging import (
@@ -361,13 +361,12 @@ class RasterRenderer(Renderer):
             return fields, None
 
         def build():
-            sig, major = sigma_volume(fields, passes, size)
-            return sig, major, [compensated(f, sig, size) for f in fields]
+            vol = sigma_volume(fields, passes, size)
+            return vol, [compensated(f, vol, size) for f in fields]
 
         key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)
-        (sig, major, shrunk), _ = self._cached("small", key, build, report,
-                                               "compensated_fields")
-        return shrunk, {"fields": fields, "sigma": sig, "major": major, "size": tuple(size)}
+        (vol, shrunk), _ = self._cached("small", key, build, report, "compensated_fields")
+        return shrunk, {"fields": fields, "sigma": vol, "size": tuple(size)}
 
     def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
@@ -508,13 +507,13 @@ class RasterRenderer(Renderer):
 
         def sigma():
             vol = (rc["sigma"] if acc.count == st["passes"]
-                   else sigma_volume(rc["fields"], acc.count, rc["size"])[0])
-            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, rc["major"])
+                   else sigma_volume(rc["fields"], acc.count, rc["size"]))
+            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol)
 
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               sigma, report, "reconstruction_sigma")
         lin = acc.mean_linear()
-        out = variable_gaussian(lin, sig)
+        out = reconstruct(lin, sig)
         if out is lin:                     # every sigma below a quarter pixel
             rgba = acc.mean_rgba()
         else:                              # filtered: encoded once, back to GL order
