@@ -3,8 +3,8 @@
 S passes sample each pixel's blur ellipse at S points, which ghosts when the ellipse spans
 many pixels. Each pixel is smoothed by a Gaussian shaped like its own blur ellipse: along
 the ellipse's major axis its sigma is :data:`RECON_SIGMA` times the spacing of the S
-samples in the ellipse, along the minor axis the same but at most the minor semi-axis
-allows (both at most :data:`RECON_MAX_FRACTION` of the axis's variance), found per voxel
+samples in the ellipse (at most :data:`RECON_MAX_FRACTION` of that axis's variance),
+along the minor axis the same but at most what the minor semi-axis allows, found per voxel
 from the field and per pixel from the depth buffer; in-focus pixels are untouched. It
 runs as an isotropic Gaussian of the minor-axis sigma (:func:`variable_gaussian`) and a
 1-D Gaussian along the major axis for the rest (:func:`directional_gaussian`).
@@ -28,7 +28,7 @@ import numpy as np
 #: SSIM of the best on each at S = 32.
 RECON_SIGMA = 0.7
 
-#: The largest share of an axis's blur variance that the Gaussian may carry
+#: The largest share of the major axis's blur variance that the Gaussian may carry
 #: (sigma <= sqrt(RECON_MAX_FRACTION) x semi-axis / 2): beyond it the blur takes the
 #: Gaussian's shape instead of the disc's (at S = 8 without it the tilted page's SSIM fell
 #: from 0.977 to 0.936).
@@ -44,8 +44,9 @@ def sigma_volume(fields, passes: int, size) -> dict:
     "u" (nz, ny, nx, 2) the major axis's unit direction (x right, y up), "reach" the
     largest semi-axis + 2 sigma (how far blurred light spreads). With spacing
     max(sqrt(pi a b / S), 2 a / S) of ``passes`` = S samples in an ellipse of semi-axes
-    a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2), minor = min(major,
-    sqrt(F) b / 2) (F = RECON_MAX_FRACTION); the smallest over ``fields`` (per-channel
+    a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2) (F = RECON_MAX_FRACTION),
+    minor = min(major, b / 2) (what the minor axis's variance can give: the filter is
+    round unless the ellipse is elongated); the smallest over ``fields`` (per-channel
     fields on one voxel grid: never over-filters a channel); below MIN_SIGMA, 0."""
     px = np.array([size[0] / 2, size[1] / 2])
     out = {}
@@ -55,7 +56,7 @@ def sigma_volume(fields, passes: int, size) -> dict:
         a, b = sv[..., 0], sv[..., 1]
         spacing = np.maximum(np.sqrt(np.pi * a * b / passes), 2 * a / passes)
         major = np.minimum(RECON_SIGMA * spacing, root_f * a / 2)
-        minor = np.minimum(major, root_f * b / 2)
+        minor = np.minimum(major, b / 2)
         if not out:
             out = {"major": major, "minor": minor, "u": u[..., :, 0], "reach": a}
         else:
@@ -135,39 +136,45 @@ def reconstruct(img: np.ndarray, sig: dict) -> np.ndarray:
     return directional_gaussian(variable_gaussian(img, sig["minor"]), sig["line"], sig["u"])
 
 
+#: The 1-D Gaussian along the major axis runs where its sigma is at least this (px):
+#: below it the major axis keeps less than 0.25 px^2 of its variance unfiltered, and the
+#: passes' own jitter already spreads each pixel by 1/6 px^2.
+MIN_LINE_SIGMA = 0.5
+
+
 def directional_gaussian(img: np.ndarray, sig: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Filter an (h, w, 3) image (float) with a per-pixel 1-D Gaussian of sigma ``sig``
-    (h, w) px along ``u`` (h, w, 2) unit (column, row) directions: 13 taps at steps of
-    max(1, sigma / 2) px (to +-3 sigma, or +-6 px), bilinear, weights normalised; the
-    image itself where every sigma is below :data:`MIN_SIGMA`. Its variance along u is
-    sigma^2 within 2 % from 0.7 px up (bilinear interpolation adds at most 1/4 px^2
-    between taps)."""
-    sel = sig >= MIN_SIGMA
+    (h, w) px along ``u`` (h, w, 2) unit (column, row) directions: 17 taps at steps of
+    sigma / 2 (to +-4 sigma), bilinear, weights normalised (the taps' variance is sigma^2
+    to 0.1 %; bilinear interpolation adds up to 1/4 px^2); the image itself where every
+    sigma is below :data:`MIN_LINE_SIGMA`."""
+    sel = sig >= MIN_LINE_SIGMA
     if not sel.any():
         return img
     src = np.asarray(img, np.float32)
     h, w = sig.shape
+    if h < 2 or w < 2:
+        return img
+    flat = src.reshape(h * w, -1)
     ys, xs = np.nonzero(sel)
-    s = sig[sel]
-    step = np.maximum(1.0, s / 2)
-    dx, dy = u[sel, 0] * step, u[sel, 1] * step
-    acc = np.zeros((len(s), src.shape[2]), np.float32)
-    wsum = np.zeros(len(s), np.float32)
-    for j in range(-6, 7):
-        wt = np.exp(-0.5 * (j * step / s) ** 2).astype(np.float32)
-        x = np.clip(xs + j * dx, 0, w - 1)
-        y = np.clip(ys + j * dy, 0, h - 1)
-        x0 = np.minimum(x.astype(int), w - 2) if w > 1 else np.zeros(len(x), int)
-        y0 = np.minimum(y.astype(int), h - 2) if h > 1 else np.zeros(len(y), int)
-        fx = (x - x0).astype(np.float32)[:, None]
-        fy = (y - y0).astype(np.float32)[:, None]
-        x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
-        val = ((1 - fy) * ((1 - fx) * src[y0, x0] + fx * src[y0, x1])
-               + fy * ((1 - fx) * src[y1, x0] + fx * src[y1, x1]))
-        acc += wt[:, None] * val
+    half = (sig[sel] / 2).astype(np.float32)                 # the step, px
+    dx, dy = u[sel, 0].astype(np.float32) * half, u[sel, 1].astype(np.float32) * half
+    xs, ys = xs.astype(np.float32), ys.astype(np.float32)
+    acc = np.zeros((len(half), flat.shape[1]), np.float32)
+    wsum = 0.0
+    for j in range(-8, 9):
+        wt = float(np.exp(-0.5 * (j / 2) ** 2))
+        x = np.clip(xs + j * dx, 0, w - 1.001)
+        y = np.clip(ys + j * dy, 0, h - 1.001)
+        x0, y0 = x.astype(np.int64), y.astype(np.int64)
+        fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+        i = y0 * w + x0
+        top = flat[i] + fx * (flat[i + 1] - flat[i])
+        bottom = flat[i + w] + fx * (flat[i + w + 1] - flat[i + w])
+        acc += np.float32(wt) * (top + fy * (bottom - top))
         wsum += wt
     out = src.copy()
-    out[sel] = acc / wsum[:, None]
+    out[sel] = acc / np.float32(wsum)
     return out
 
 
