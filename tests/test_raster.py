@@ -128,8 +128,8 @@ def test_rendered_dot_spread_matches_the_blur_ellipse(eye, focus, samples, recon
     """A small bright blob: the rendered light's second moments match the analytic
     B (I/4) B^T (+ jitter + the blob itself) within 3 % in each principal axis at S = 8 and
     64, and the orientation agrees — from the passes alone and with the reconstruction
-    filter (before its variance compensation the filtered spread was 3.4 % too small at
-    S = 4, and a filter blurs by its own variance)."""
+    filter (an uncompensated filter blurs by its own variance; without the background
+    pixels' share of the filter the filtered spread was 3.4 % too small at S = 4)."""
     meas, pred = _dot_spread(eye, focus, samples, reconstruct=reconstruct)
     ev_p, vec_p = np.linalg.eigh(pred)
     ev_m, vec_m = np.linalg.eigh(meas)

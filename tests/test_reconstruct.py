@@ -11,6 +11,7 @@ import pytest
 from eyelab.blur.reconstruct import (
     compensated,
     directional_gaussian,
+    pixel_svd,
     sigma_volume,
     variable_gaussian,
 )
@@ -35,9 +36,10 @@ def test_compensated_matrix_plus_filter_keeps_the_blur_covariance(passes):
     size = (640, 480)
     px = np.diag([size[0] / 2, size[1] / 2])
     m = rng.normal(scale=0.02, size=(4, 5, 6, 2, 2))
-    m[0, 0] = np.outer([0.01, 0.02], [1.0, 0.0])        # a line blur (rank 1)
-    vol = sigma_volume([_Field(m)], passes, size)
-    out = compensated(_Field(m), vol, size).matrix
+    m[0, 0] = np.outer([0.05, 0.1], [1.0, 0.0])          # a line blur (rank 1), ~29 px
+    svd = pixel_svd(_Field(m), size)
+    vol = sigma_volume([svd], passes)
+    out = compensated(_Field(m), svd, vol, size).matrix
     cov = px @ m @ np.swapaxes(m, -1, -2) @ px / 4
     ev, vec = np.linalg.eigh(cov)
     major_dir = vec[..., :, 1]

@@ -18,6 +18,8 @@ the blur's second moments (tested on a rendered point). Pure numpy / scipy.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: Reconstruction Gaussian sigma in units of the spacing of the S samples in a blur
@@ -37,53 +39,66 @@ RECON_MAX_FRACTION = 0.4
 #: Sigmas below this (px) are not filtered (and their voxels not compensated).
 MIN_SIGMA = 0.25
 
+#: The 1-D Gaussian along the major axis runs where its sigma is at least this (px);
+#: below it the filter stays round and the major axis is compensated only by the round
+#: part (:func:`sigma_volume`), so the blur's variance is kept either way.
+MIN_LINE_SIGMA = 0.5
 
-def sigma_volume(fields, passes: int, size) -> dict:
-    """Per voxel of the fields' grid, (nz, ny, nx) arrays in pixels of a ``size`` = (w, h)
-    window: "major" / "minor" the reconstruction sigmas along the blur ellipse's axes,
-    "u" (nz, ny, nx, 2) the major axis's unit direction (x right, y up), "reach" the
-    largest semi-axis + 2 sigma (how far blurred light spreads). With spacing
-    max(sqrt(pi a b / S), 2 a / S) of ``passes`` = S samples in an ellipse of semi-axes
-    a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2) (F = RECON_MAX_FRACTION),
-    minor = min(major, b / 2) (what the minor axis's variance can give: the filter is
-    round unless the ellipse is elongated); the smallest over ``fields`` (per-channel
-    fields on one voxel grid: never over-filters a channel); below MIN_SIGMA, 0."""
+
+def pixel_svd(field, size) -> tuple:
+    """(u, s, vt): the SVD of ``field``'s (nz, ny, nx, 2, 2) matrices scaled to pixels of a
+    ``size`` = (w, h) window (NDC x, y per unit seed -> px); s (nz, ny, nx, 2) are the blur
+    ellipse's semi-axes a >= b, u's first column its major axis (x right, y up). Computed
+    once per field and window, shared by :func:`sigma_volume` and :func:`compensated`."""
     px = np.array([size[0] / 2, size[1] / 2])
-    out = {}
+    return np.linalg.svd(field.matrix * px[:, None])
+
+
+def sigma_volume(svds, passes: int) -> dict:
+    """Per voxel, (nz, ny, nx) px arrays from the fields' :func:`pixel_svd` ``svds`` (one per
+    field or colour channel, on one voxel grid): "major" / "minor" the reconstruction
+    sigmas along the blur ellipse's axes, "u" (nz, ny, nx, 2) the major axis's unit
+    direction (x right, y up), "reach" the largest semi-axis + 2 sigma (how far blurred
+    light spreads). With spacing max(sqrt(pi a b / S), 2 a / S) of ``passes`` = S samples
+    in an ellipse of semi-axes a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2)
+    (F = RECON_MAX_FRACTION), minor = min(major, b / 2) (what the minor axis's variance can
+    give: the filter is round unless the ellipse is elongated); the smallest over the
+    fields (never over-filters a channel). What the filter would skip is not asked of it
+    (a skip removes work, not variance): a minor sigma below MIN_SIGMA becomes 0, and a
+    major one whose 1-D part sqrt(major^2 - minor^2) falls below MIN_LINE_SIGMA becomes
+    the minor one — so the compensation removes exactly what the filter adds."""
     root_f = np.sqrt(RECON_MAX_FRACTION)
-    for f in fields:
-        u, sv, _ = np.linalg.svd(f.matrix * px[:, None])
+    major = minor = reach = None
+    for _, sv, _ in svds:
         a, b = sv[..., 0], sv[..., 1]
         spacing = np.maximum(np.sqrt(np.pi * a * b / passes), 2 * a / passes)
-        major = np.minimum(RECON_SIGMA * spacing, root_f * a / 2)
-        minor = np.minimum(major, b / 2)
-        if not out:
-            out = {"major": major, "minor": minor, "u": u[..., :, 0], "reach": a}
-        else:
-            out["major"] = np.minimum(out["major"], major)
-            out["minor"] = np.minimum(out["minor"], minor)
-            out["reach"] = np.maximum(out["reach"], a)
-    for k in ("major", "minor"):
-        out[k] = np.where(out["major"] < MIN_SIGMA, 0.0, out[k])
-    out["reach"] = out["reach"] + 2 * out["major"]
-    return out
+        ma = np.minimum(RECON_SIGMA * spacing, root_f * a / 2)
+        mi = np.minimum(ma, b / 2)
+        major = ma if major is None else np.minimum(major, ma)
+        minor = mi if minor is None else np.minimum(minor, mi)
+        reach = a if reach is None else np.maximum(reach, a)
+    minor = np.where(minor < MIN_SIGMA, 0.0, minor)
+    major = np.where(major**2 - minor**2 < MIN_LINE_SIGMA**2, minor, major)
+    return {"major": major, "minor": minor, "u": svds[0][0][..., :, 0],
+            "reach": reach + 2 * major}
 
 
-def compensated(field, vol: dict, size):
+def compensated(field, svd, vol: dict, size):
     """A copy of ``field`` whose (nz, ny, nx, 2, 2) matrices B (NDC per unit seed) are
     shrunk so that, in pixels of a ``size`` = (w, h) window, B' (I/4) B'^T plus the
     filter's covariance (``vol`` of :func:`sigma_volume`: sigma "major" along the blur's
     major axis, "minor" across it) is B (I/4) B^T: each singular value s of the
-    pixel-scaled matrix becomes sqrt(max(s^2 - 4 sigma^2, 0)), axes kept (exact, as
-    sigma <= s / 2 by construction; for per-channel fields each channel's own axes, the
-    filter's from the first channel). The passes then displace by B' and the filter
-    supplies the rest of the blur's variance."""
+    pixel-scaled matrix (``svd``, the field's :func:`pixel_svd`) becomes
+    sqrt(max(s^2 - 4 sigma^2, 0)), axes kept (exact, as sigma <= s / 2 by construction;
+    for per-channel fields each channel's own axes, the filter's from the first channel).
+    The passes then displace by B' and the filter supplies the rest of the blur's
+    variance."""
     import dataclasses
 
     from eyelab.cache import content_key
 
     px = np.array([size[0] / 2, size[1] / 2])
-    u, s, vt = np.linalg.svd(field.matrix * px[:, None])
+    u, s, vt = svd
     sig = np.stack([vol["major"], vol["minor"]], -1)
     s2 = np.sqrt(np.maximum(s**2 - 4 * sig**2, 0.0))
     matrix = ((u * s2[..., None, :]) @ vt) / px[:, None]
@@ -136,12 +151,6 @@ def reconstruct(img: np.ndarray, sig: dict) -> np.ndarray:
     return directional_gaussian(variable_gaussian(img, sig["minor"]), sig["line"], sig["u"])
 
 
-#: The 1-D Gaussian along the major axis runs where its sigma is at least this (px):
-#: below it the major axis keeps less than 0.25 px^2 of its variance unfiltered, and the
-#: passes' own jitter already spreads each pixel by 1/6 px^2.
-MIN_LINE_SIGMA = 0.5
-
-
 def directional_gaussian(img: np.ndarray, sig: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Filter an (h, w, 3) image (float) with a per-pixel 1-D Gaussian of sigma ``sig``
     (h, w) px along ``u`` (h, w, 2) unit (column, row) directions: 17 taps at steps of
@@ -178,6 +187,7 @@ def directional_gaussian(img: np.ndarray, sig: np.ndarray, u: np.ndarray) -> np.
     return out
 
 
+@functools.lru_cache(maxsize=64)
 def _kernel_variance(sigma: float) -> float:
     """Variance (px^2) of scipy's sampled, truncated Gaussian kernel of ``sigma`` px."""
     from scipy.ndimage import gaussian_filter1d

@@ -29,7 +29,13 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import compensated, reconstruct, sigma_map, sigma_volume
+from eyelab.blur.reconstruct import (
+    compensated,
+    pixel_svd,
+    reconstruct,
+    sigma_map,
+    sigma_volume,
+)
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.cache import LRUCache, content_key
 from eyelab.imaging import (
@@ -361,12 +367,15 @@ class RasterRenderer(Renderer):
             return fields, None
 
         def build():
-            vol = sigma_volume(fields, passes, size)
-            return vol, [compensated(f, vol, size) for f in fields]
+            svds = [pixel_svd(f, size) for f in fields]
+            vol = sigma_volume(svds, passes)
+            return svds, vol, [compensated(f, svd, vol, size)
+                               for f, svd in zip(fields, svds, strict=True)]
 
         key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)
-        (vol, shrunk), _ = self._cached("small", key, build, report, "compensated_fields")
-        return shrunk, {"fields": fields, "sigma": vol, "size": tuple(size)}
+        (svds, vol, shrunk), _ = self._cached("small", key, build, report,
+                                              "compensated_fields")
+        return shrunk, {"svds": svds, "sigma": vol}
 
     def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
@@ -507,14 +516,14 @@ class RasterRenderer(Renderer):
 
         def sigma():
             vol = (rc["sigma"] if acc.count == st["passes"]
-                   else sigma_volume(rc["fields"], acc.count, rc["size"]))
+                   else sigma_volume(rc["svds"], acc.count))
             return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol)
 
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               sigma, report, "reconstruction_sigma")
         lin = acc.mean_linear()
         out = reconstruct(lin, sig)
-        if out is lin:                     # every sigma below a quarter pixel
+        if out is lin:                     # no sigma reaches the filters' thresholds
             rgba = acc.mean_rgba()
         else:                              # filtered: encoded once, back to GL order
             rgba = np.empty(acc.shape + (4,), np.uint8)
