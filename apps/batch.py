@@ -1,5 +1,5 @@
 """``eyelab batch JOBSPEC [-o DIR] [--workers N] [--scheduler ADDRESS]``: render a job grid
-(:mod:`eyelab.batch`), resumable; exit status 0 when every job succeeded, 1 when some were
+(:mod:`eyelab.jobs.batch`), resumable; exit status 0 when every job succeeded, 1 when some were
 invalid or failed (listed), 2 for a bad job spec or option."""
 
 from __future__ import annotations
@@ -17,15 +17,15 @@ def add_parser(sub) -> None:
                    help="worker processes of a local Dask cluster (1: in this process)")
     b.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://host:port) to send the jobs to instead")
-    from eyelab.apps.cli import add_max_memory, add_quiet
+    from eyelab.apps.common import add_max_memory, add_quiet
 
     add_quiet(b)
     add_max_memory(b)
 
 
 def run(args) -> int:
-    from eyelab.batch import load_job_spec, run_batch
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
+    from eyelab.jobs.batch import load_job_spec, run_batch
 
     if not 1 <= args.workers <= 256:
         raise SpecError("--workers", f"must be in [1, 256], got {args.workers}")
@@ -35,7 +35,7 @@ def run(args) -> int:
                                        f"{args.scheduler!r}")
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
     if args.max_memory is not None:      # the jobs (and Dask workers) read it from here
-        from eyelab.resources import ENV_MAX_MEMORY, memory_limit
+        from eyelab.imaging.memory import ENV_MAX_MEMORY, memory_limit
 
         memory_limit(args.max_memory)
         os.environ[ENV_MAX_MEMORY] = repr(args.max_memory)

@@ -11,8 +11,9 @@ import argparse
 import json
 import sys
 
-from eyelab.errors import SpecError
-from eyelab.fileio import atomic_path
+from eyelab.apps.common import add_max_memory, add_quiet
+from eyelab.core.errors import SpecError
+from eyelab.core.fileio import atomic_path
 
 
 def _atomic_write(path: str, text: str) -> None:
@@ -95,7 +96,7 @@ def _build_parser() -> argparse.ArgumentParser:
 
 #: [render] keys whose command-line flag has another name.
 _FLAGS = {"gaze_deg": "gaze"}
-#: binocular.output's choices (eyelab.binocular.OUTPUTS; listed here so that building the
+#: binocular.output's choices (eyelab.optics.binocular.OUTPUTS; listed here so that building the
 #: parser imports nothing heavy).
 BINOCULAR_OUTPUTS = ("side-by-side", "crossed", "anaglyph", "right", "left")
 
@@ -121,19 +122,6 @@ def _render_overrides(parser) -> None:
                         + ", ".join(BINOCULAR_OUTPUTS))
 
 
-def add_quiet(parser) -> None:
-    """``--quiet``: no progress bars (they show on a terminal for work longer than 2 s)."""
-    parser.add_argument("--quiet", action="store_true", help="no progress bars (shown on "
-                        "stderr when it is a terminal, for work longer than 2 s)")
-
-
-def add_max_memory(parser) -> None:
-    """``--max-memory GIB``: the memory limit renders are checked against up front."""
-    parser.add_argument("--max-memory", type=float, metavar="GIB",
-                        help="refuse renders whose estimated memory exceeds this many GiB "
-                        "(default: $EYELAB_MAX_MEMORY_GB, else half the machine's memory)")
-
-
 def main(argv=None) -> int:
     ap = _build_parser()
     args = ap.parse_args(argv)
@@ -152,7 +140,7 @@ def main(argv=None) -> int:
 
 def _main(args) -> int:
     if getattr(args, "quiet", False):
-        from eyelab.progress import set_enabled
+        from eyelab.core.progress import set_enabled
 
         set_enabled(False)
     try:
@@ -189,11 +177,11 @@ def _main(args) -> int:
 def _analyze(args) -> int:
     from dataclasses import replace
 
-    from eyelab.analyze import analyze_spec, format_report
+    from eyelab.jobs.analyze import analyze_spec, format_report
     from eyelab.spec import load_spec
 
     if args.output:
-        from eyelab.fileio import check_output
+        from eyelab.core.fileio import check_output
 
         check_output("--output", args.output)
     spec = load_spec(args.spec)
@@ -232,7 +220,7 @@ def _render(args) -> int:
     spec = _load_for_render(args)
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
-    from eyelab.fileio import check_distinct, check_output
+    from eyelab.core.fileio import check_distinct, check_output
 
     # every output checked before any work; two outputs at one path refused
     outputs = {"--output": args.output,
@@ -251,15 +239,15 @@ def _render(args) -> int:
         key = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
-    from eyelab.resources import check_memory, memory_limit
+    from eyelab.imaging.memory import check_memory, memory_limit
 
     check_memory(rs, memory_limit(args.max_memory))
-    from eyelab.fileio import atomic_group
-    from eyelab.jobs import demo, json_writer, png_writer, render_spec
+    from eyelab.core.fileio import atomic_group, json_writer, png_writer
+    from eyelab.jobs.render import demo, render_spec
 
     # outputs as one set: all written to temporaries, then renamed back to back
     if args.command == "render" and spec.binocular is not None:
-        from eyelab.jobs import render_binocular_spec
+        from eyelab.jobs.render import render_binocular_spec
 
         res = render_binocular_spec(spec, no_lens=args.no_lens)
         mode = spec.binocular.output
@@ -310,8 +298,9 @@ def _render(args) -> int:
 
 
 def _maps(args) -> int:
-    from eyelab.fileio import atomic_group, check_distinct, check_output, json_default
-    from eyelab.maps import as_worn_maps, maps_summary, plot_maps
+    from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_default
+    from eyelab.jobs.maps import maps_summary, plot_maps
+    from eyelab.optics.asworn import as_worn_maps
     from eyelab.spec import load_spec, one_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
@@ -347,7 +336,7 @@ def _bench(args) -> int:
     if args.repeats < 1 or args.repeats > 50:
         raise SpecError("--repeats", f"must be in [1, 50], got {args.repeats}")
     output = args.output or f"bench-{args.what}.json"
-    from eyelab.fileio import check_distinct, check_output
+    from eyelab.core.fileio import check_distinct, check_output
 
     check_output("--output", output)
     if args.plot:
@@ -381,7 +370,7 @@ def _bench(args) -> int:
         import os
 
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-        from eyelab.bench.inspect import run_inspect_bench
+        from eyelab.bench.inspector import run_inspect_bench
 
         res = run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
     elif args.what == "imagebased":

@@ -48,7 +48,7 @@ def pal_views(spec_path, out) -> str:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from eyelab.jobs import build_scene, make_renderer
+    from eyelab.jobs.render import build_scene, make_renderer
     from eyelab.spec import load_spec
 
     spec = load_spec(spec_path)

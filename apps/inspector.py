@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import sys
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 
 
 def add_parser(sub) -> None:
@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
     ins.add_argument("--screenshot", help="render to the target S, write the view (PNG) "
                      "and its spec (.toml beside it), and exit")
     ins.add_argument("--window-shot", help="with --screenshot: also the whole window (PNG)")
-    from eyelab.apps.cli import add_max_memory
+    from eyelab.apps.common import add_max_memory
 
     add_max_memory(ins)
     ins.add_argument("--offscreen", action="store_true",
@@ -46,7 +46,7 @@ def _size(text):
 
 
 def run(args) -> int:
-    from eyelab.inspect import InspectorModel
+    from eyelab.jobs.inspector import InspectorModel
 
     size = _size(args.size)
     if args.samples is not None and not 1 <= args.samples <= 256:
@@ -64,7 +64,7 @@ def run(args) -> int:
     if offscreen:
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
     model = InspectorModel(args.spec, size=size, samples=args.samples, scene=args.mesh)
-    from eyelab.resources import check_memory, memory_limit
+    from eyelab.imaging.memory import check_memory, memory_limit
 
     check_memory(model.spec.render, memory_limit(args.max_memory))
     from eyelab.render.inspector import InspectorWindow
@@ -75,7 +75,7 @@ def run(args) -> int:
             win.run_to_target()
             png, spec = win.save(args.screenshot)
             if args.window_shot:
-                from eyelab.jobs import write_png
+                from eyelab.core.fileio import write_png
 
                 write_png(args.window_shot, win.plotter.screenshot(return_img=True)[..., :3])
             print(f"wrote {png} and {spec} ({model.status().splitlines()[0]})")

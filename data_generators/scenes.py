@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eyelab.fileio import atomic_path
+from eyelab.core.fileio import atomic_path
 from eyelab.scene.library import SCENES
 
 

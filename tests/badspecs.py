@@ -14,7 +14,7 @@ import math
 import sys
 from pathlib import Path
 
-from eyelab.specdoc import KEYS, SURFACES
+from eyelab.spec.docs import KEYS, SURFACES
 
 HUGE = 10**400                       # TOML reads it; no float holds it
 
@@ -25,7 +25,7 @@ NON_FINITE = [math.nan, -math.inf, HUGE, -HUGE, 1e300, -1e300]
 NOT_BOOLS = [1, 0, "true", "yes", 1.0, [True]]
 NOT_STRINGS = [1, 2.5, True, ["a"], {"a": 1}]
 
-# The fields come from the spec reference (eyelab/specdoc.py, itself checked against the
+# The fields come from the spec reference (eyelab/spec/docs.py, itself checked against the
 # validator): every documented key gets the bad values of its kind.
 TEXT_KINDS = {"rx": "rx", "material": "material", "scene": "scene", "path": "scene",
               "coefficients": "list"}

@@ -3,13 +3,13 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.bench.bruteforce import bundle_vergence, retinal_spot_axes
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.trace import Status
+from eyelab.reference.bruteforce import bundle_vergence, retinal_spot_axes
 
 EYES = {
     "myope-astig": Eye.from_rx(Prescription(-3.0, -2.0, 20), accommodation_max=1.0),

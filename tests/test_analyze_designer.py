@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.analyze import analyze_spec, format_report
-from eyelab.bench.bruteforce import extrapolated_vergence
+from eyelab.jobs.analyze import analyze_spec, format_report
 from eyelab.optics.analysis import analyze_points
+from eyelab.reference.bruteforce import extrapolated_vergence
 from eyelab.spec import load_spec, parse_spec
 
 

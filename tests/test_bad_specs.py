@@ -91,7 +91,7 @@ def test_values_at_the_documented_limits_are_accepted(tmp_path, capsys):
 
 
 def test_an_unknown_key_suggests_the_nearest_valid_name():
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
     from eyelab.spec import parse_spec
 
     for data, near in (({"eye": {"agee": 40}}, "'age'"), ({"Lens": {}}, "'lens'"),

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from eyelab.batch import job_done, load_job_spec, run_batch
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
+from eyelab.jobs.batch import job_done, load_job_spec, run_batch
 
 JOBS = """
 [base]
@@ -62,7 +62,7 @@ def test_expansion_outputs_resume_and_invalid_jobs(tmp_path):
     with Image.open(out / side["images"]["png"]) as im:
         srgb = np.asarray(im)
     lin = np.frombuffer(_idat(out / side["images"]["png16"]), ">u2").reshape(48, 64, 3)
-    from eyelab.color import encode_srgb
+    from eyelab.core.color import encode_srgb
 
     again = encode_srgb(lin / 65535.0)
     assert np.abs(again.astype(int) - srgb.astype(int)).max() <= 1

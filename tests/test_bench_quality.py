@@ -47,7 +47,7 @@ def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):
     """Full-size runs are done one configuration at a time and merged: the merge of the
     halves reproduces the whole run's checks; mismatched ladders are refused by name."""
     from eyelab.bench.quality import merge_results
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
 
     cases = quality["cases"]
     halves = [dict(quality, cases=cases[: len(cases) // 2]),
@@ -75,7 +75,7 @@ def test_a_camera_case_runs_alone_and_rows_can_be_omitted(tmp_path):
     """``--configs camera_doublet_room`` runs only the camera case (partial runs of the full
     preset); ``--omit`` leaves optional rows out and says so; a typo is refused by name."""
     from eyelab.bench.quality import merge_results
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
 
     res = run_quality_bench(quick=True, size=(32, 24), truth_spp=4, ref_spp=[1, 4],
                             only_configs=["camera_doublet_room"], omit=["imagebased"])

@@ -1,4 +1,4 @@
-"""Two eyes behind one frame (eyelab/binocular.py): the spec, vergence, the consensual
+"""Two eyes behind one frame (eyelab/optics/binocular.py): the spec, vergence, the consensual
 accommodation rule, induced prism against Prentice's rule, mirror symmetry of the two
 views, anisometropic blur against the single eye and the analytic defocus disc, and the
 stereo compositions."""
@@ -10,20 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.analyze import analyze_spec
-from eyelab.binocular import (
-    DUBOIS_LEFT,
-    DUBOIS_RIGHT,
-    SIDES,
-    analyze_binocular,
-    compose,
-    render_binocular,
-)
-from eyelab.errors import SpecError
-from eyelab.imaging import View
+from eyelab.core.errors import SpecError
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality
+from eyelab.imaging.stereo import DUBOIS_LEFT, DUBOIS_RIGHT, compose, render_binocular
+from eyelab.jobs.analyze import analyze_spec
 from eyelab.optics.analysis import analyze_points
+from eyelab.optics.binocular import SIDES, analyze_binocular
 from eyelab.optics.paths import ObjectPoints
-from eyelab.options import RasterQuality
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import box, grid_quad
 from eyelab.scene.scene import Scene

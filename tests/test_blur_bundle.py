@@ -3,12 +3,12 @@ import pytest
 
 from eyelab.blur import VoxelStatus, compute_blur_field
 from eyelab.blur.bundle import compute_blur_field_bundles, traverse
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
+from eyelab.core.sampling import disc_seeds
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.sampling import disc_seeds
 
 
 def test_traversal_visits_exactly_the_voxels_a_dense_sampling_finds():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from eyelab.blur import BlurField, VoxelStatus, compute_blur_field
-from eyelab.constants import RAD_TO_ARCMIN
+from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from eyelab.blur.wavefront import compute_blur_field
-from eyelab.constants import RAD_TO_ARCMIN
-from eyelab.imaging import View
+from eyelab.core.constants import RAD_TO_ARCMIN
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality, ReferenceQuality
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import EYE_REFERENCE_NM, Eye, ocular_lca
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
-from eyelab.options import RasterQuality, ReferenceQuality
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import grid_quad
@@ -50,7 +50,7 @@ def _point_at_infinity(distance=1000.0, size=1.0, texels=16, sigma=2.0):
     a white point at infinity (its vergence, 1e-3 D, is 0.4 % of the smallest channel's
     chromatic defocus) whose light does not depend on where a displaced copy falls between
     pixel centres."""
-    from eyelab.color import linear_to_srgb
+    from eyelab.core.color import linear_to_srgb
 
     x = np.arange(texels) - (texels - 1) / 2
     g = np.exp(-0.5 * (x[:, None] ** 2 + x[None] ** 2) / sigma**2)

@@ -6,8 +6,8 @@ import sys
 import numpy as np
 import pytest
 
-from eyelab.analyze import analyze_spec
 from eyelab.apps.cli import main
+from eyelab.jobs.analyze import analyze_spec
 from eyelab.spec import load_spec
 
 
@@ -250,18 +250,18 @@ def test_a_full_disk_at_the_write_is_one_line_and_keeps_the_old_outputs(tmp_path
                                                                         monkeypatch):
     import errno
 
-    import eyelab.fileio
+    import eyelab.core.fileio
 
     out, rep = tmp_path / "o.png", tmp_path / "o.json"
     out.write_bytes(b"old")
-    real = eyelab.fileio.atomic_path
+    real = eyelab.core.fileio.atomic_path
 
     def full(path, suffix=".tmp"):
         if str(path).endswith(".json"):
             raise OSError(errno.ENOSPC, "No space left on device", str(path))
         return real(path, suffix)
 
-    monkeypatch.setattr(eyelab.fileio, "atomic_path", full)
+    monkeypatch.setattr(eyelab.core.fileio, "atomic_path", full)
     rc = main(["render", "-o", str(out), "--report", str(rep), "--width", "32", "--height",
                "24", "--samples", "1"])
     err = capsys.readouterr().err.strip()

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from eyelab.color import MACHADO, linear_to_srgb, machado_matrix, simulate_cvd, srgb_to_linear
-from eyelab.errors import SpecError
+from eyelab.core.color import MACHADO, linear_to_srgb, machado_matrix, simulate_cvd, srgb_to_linear
+from eyelab.core.errors import SpecError
 
 
 def test_severity_one_matches_the_reference_sheet():

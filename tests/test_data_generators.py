@@ -2,8 +2,8 @@ import tomllib
 
 import pytest
 
-from eyelab.analyze import analyze_spec
 from eyelab.data_generators.prescriptions import SAMPLES, sample_spec, to_toml, write_specs
+from eyelab.jobs.analyze import analyze_spec
 from eyelab.spec import load_spec, parse_spec
 
 

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.eye import (
     GH_P_MIN,
     GH_P_MIN_PAPER,

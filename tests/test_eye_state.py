@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from eyelab.blur import compute_blur_field
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.paths import ObjectPoints
 from eyelab.spec import parse_spec
@@ -36,7 +36,7 @@ def test_render_blurs_the_far_chart_as_analyze_says():
     f_major = max(abs(field.a[k, 4, 4]), abs(field.b[k, 4, 4]))
     assert float(res.to_arcmin(f_major)) == pytest.approx(blur, rel=0.02)
     # and the renderer was given that state (its report's view)
-    from eyelab.jobs import render_spec
+    from eyelab.jobs.render import render_spec
 
     assert render_spec(spec).report["view"]["focus_d"] == 2.5
 

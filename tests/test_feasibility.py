@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.lens import MIN_EDGE_THICKNESS, SpectacleLens
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Sphere

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eyelab.fileio import atomic_path, json_default
+from eyelab.core.fileio import atomic_path, json_default
 
 
 def test_atomic_path_publishes_whole_files_or_nothing(tmp_path):
@@ -35,7 +35,7 @@ def _umask():
 
 
 def test_atomic_group_writes_all_or_none_and_sweeps(tmp_path):
-    from eyelab.fileio import TMP_PREFIX, atomic_group
+    from eyelab.core.fileio import TMP_PREFIX, atomic_group
 
     a, b = tmp_path / "a.txt", tmp_path / "b.txt"
     stale = tmp_path / f"{TMP_PREFIX}a.txt.left-by-a-kill.txt"
@@ -70,7 +70,7 @@ def test_kill_9_during_render_demo_and_bench_leaves_whole_files(tmp_path):
 
     import matplotlib.image as mpimg
 
-    from eyelab.fileio import TMP_PREFIX
+    from eyelab.core.fileio import TMP_PREFIX
 
     env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
     cli = [sys.executable, "-P", "-m", "eyelab.apps.cli"]

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eyelab.imaging import View
-from eyelab.jobs import make_renderer
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality, ReferenceQuality
+from eyelab.jobs.render import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.fresnel import AR_REFLECTANCE, reflectance, transmittance
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.materials import Material
 from eyelab.optics.surfaces import Plane
-from eyelab.options import RasterQuality, ReferenceQuality
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene
 

@@ -9,9 +9,10 @@ import pytest
 
 from eyelab.blur import compute_blur_field
 from eyelab.blur.field import VoxelStatus
-from eyelab.color import linear_to_srgb
-from eyelab.imaging import View
-from eyelab.jobs import make_renderer
+from eyelab.core.color import linear_to_srgb
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality, ReferenceQuality
+from eyelab.jobs.render import make_renderer
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.camera import eye_camera, gaze_camera
 from eyelab.optics.eye import Eye
@@ -19,7 +20,6 @@ from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.trace import intersect
-from eyelab.options import RasterQuality, ReferenceQuality
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene
 

@@ -10,34 +10,31 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.imagebased import (
-    CameraRays,
-    EyeRays,
+from eyelab.core.sampling import pass_samples
+from eyelab.core.vecmath import unit
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import ImageBasedQuality, ReferenceQuality
+from eyelab.optics.eye import Eye
+from eyelab.optics.film import CameraRays
+from eyelab.optics.lens import LensPose, SpectacleLens
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.system import EXAMPLES, get_system
+from eyelab.reference.metrics import ssim
+from eyelab.reference.tracer import ReferenceRenderer
+from eyelab.render.imagebased import ImageBasedRenderer
+from eyelab.render.imagebased.cop import (
     angle_errors_deg,
     cos2_gradient_hessian,
     cos2_objective,
     fit_cop_angle,
     fit_cop_least_squares,
-    grid_triangles,
     image_plane_points,
-    morph_pixels,
-    plan_projections,
-    rasterize,
-    vignetting_grid,
 )
-from eyelab.imaging import View
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.system import EXAMPLES, get_system
-from eyelab.options import ImageBasedQuality, ReferenceQuality
-from eyelab.reference.metrics import ssim
-from eyelab.reference.tracer import ReferenceRenderer
-from eyelab.render.imagebased import ImageBasedRenderer
-from eyelab.sampling import pass_samples
+from eyelab.render.imagebased.morph import grid_triangles, morph_pixels, rasterize
+from eyelab.render.imagebased.plan import plan_projections, vignetting_grid
+from eyelab.render.imagebased.rays import EyeRays
 from eyelab.scene.library import grid_quad, room_scene
 from eyelab.scene.scene import Scene
-from eyelab.vecmath import unit
 
 SAMPLES = pass_samples(10)[0]
 

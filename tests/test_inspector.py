@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from skimage.metrics import structural_similarity
 
-from eyelab.inspect import InspectorModel
-from eyelab.jobs import render_spec
+from eyelab.jobs.inspector import InspectorModel
+from eyelab.jobs.render import render_spec
 from eyelab.spec import load_spec, parse_spec
 
 SPEC = """
@@ -197,7 +197,7 @@ def test_cli_screenshot_and_errors(spec_file, tmp_path, capsys):
 
 
 def test_bench_inspect_small():
-    from eyelab.bench.inspect import run_inspect_bench
+    from eyelab.bench.inspector import run_inspect_bench
 
     res = run_inspect_bench(160, 120, 2)
     kinds = {r["kind"] for r in res["rows"]}

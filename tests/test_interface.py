@@ -6,13 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eyelab.errors import SpecError
-from eyelab.imaging import REPORT_KEYS, RenderResult, View, decode_srgb, encode_srgb
-from eyelab.jobs import make_renderer
+from eyelab.core.color import decode_srgb, encode_srgb
+from eyelab.core.errors import SpecError
+from eyelab.imaging.contract import REPORT_KEYS, RenderResult, View
+from eyelab.imaging.options import QUALITIES, ImageBasedQuality, RasterQuality, ReferenceQuality
+from eyelab.jobs.render import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import QUALITIES, ImageBasedQuality, RasterQuality, ReferenceQuality
 from eyelab.reference import compare_images
 from eyelab.render.raster import CACHE_SIZES, RasterRenderer
 from eyelab.scene.library import chart_scene, grid_quad
@@ -194,7 +195,7 @@ def test_caches_stay_bounded_with_a_new_eye_each_frame(chart):
 def test_lru_cache_counters_are_thread_safe():
     from concurrent.futures import ThreadPoolExecutor
 
-    from eyelab.cache import LRUCache
+    from eyelab.core.cache import LRUCache
 
     c = LRUCache(4)
     with ThreadPoolExecutor(4) as ex:

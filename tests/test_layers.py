@@ -1,33 +1,38 @@
-"""The layer rules of ARCHITECTURE.md, kept by walking every import statement (module and
-function level) of the package's source with ``ast``."""
+"""The layer rules of docs/ARCHITECTURE.md, kept by walking every import statement (module
+and function level) of the package's source with ``ast``: each package imports only the
+packages below it, VTK only inside ``eyelab/render/`` (through ``_vtk.py``), no private name
+crosses a package, and no two modules import each other, directly or in a circle.
+"""
 
 from __future__ import annotations
 
 import ast
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Layers from the bottom: a module may import eyelab modules of its own layer or below,
-#: never above. Keys are module-name prefixes (the longest match wins).
-LAYERS = {
-    "eyelab": 0, "eyelab.errors": 0, "eyelab.constants": 0, "eyelab.vecmath": 0,
-    "eyelab.sampling": 0, "eyelab.parallel": 0, "eyelab.fileio": 0, "eyelab.cache": 0,
-    "eyelab.color": 0, "eyelab.progress": 0,
-    "eyelab.optics": 1,
-    "eyelab.imaging": 2, "eyelab.options": 2, "eyelab.resources": 2,
-    "eyelab.blur": 3, "eyelab.scene": 3,
-    "eyelab.spec": 4, "eyelab.analyze": 4, "eyelab.specdoc": 4, "eyelab.binocular": 4,
-    "eyelab.imagebased": 4,
-    "eyelab.render": 5, "eyelab.reference": 5,
-    "eyelab.jobs": 6, "eyelab.inspect": 6, "eyelab.batch": 6, "eyelab.maps": 4,
-    "eyelab.bench": 7,
-    "eyelab.apps": 8, "eyelab.data_generators": 8,
-}
-#: Packages of one layer that must not import each other.
-APART = [("eyelab.render", "eyelab.reference")]
+#: The packages from the bottom: a module may import its own package or the ones below it.
+#: Packages on one row are independent of each other.
+LAYERS = (
+    ("eyelab.core",),
+    ("eyelab.optics",),
+    ("eyelab.blur",),
+    ("eyelab.scene",),
+    ("eyelab.imaging",),
+    ("eyelab.render", "eyelab.reference"),
+    ("eyelab.spec",),
+    ("eyelab.jobs",),
+    ("eyelab.bench",),
+    ("eyelab.apps", "eyelab.data_generators"),
+)
+#: The package's own top modules: ``eyelab/__init__.py`` (the public API, whose heavy names
+#: are imported lazily inside functions) sits above everything; ``__main__`` too.
+TOP = ("eyelab", "eyelab.__main__")
 GL = ("vtk", "vtkmodules", "pyvista")
 
 
@@ -44,98 +49,194 @@ def _modules():
 
 
 def _imports(path: Path, module: str):
+    """(imported module, names, line) of every import in the file, at any depth; for
+    ``from a import b`` where ``a.b`` is a module, that module is named too."""
     tree = ast.parse(path.read_text())
     pkg = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for a in node.names:
-                yield a.name, node.lineno
+                yield a.name, (), node.lineno
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = pkg.split(".")
                 base = base[: len(base) - node.level + 1]
-                yield ".".join(base + ([node.module] if node.module else [])), node.lineno
+                name = ".".join(base + ([node.module] if node.module else []))
             else:
-                yield node.module, node.lineno
+                name = node.module
+            yield name, tuple(a.name for a in node.names), node.lineno
 
 
-def _layer(name: str):
-    best = max((k for k in LAYERS if name == k or name.startswith(k + ".")), key=len,
-               default=None)
-    return None if best is None else LAYERS[best]
+def _package(name: str):
+    """The layer package of a module name (``eyelab.optics.lens`` -> ``eyelab.optics``);
+    None for the top modules and for names outside eyelab."""
+    if name in TOP or not name.startswith("eyelab."):
+        return None
+    return ".".join(name.split(".")[:2])
 
 
-def _violations():
+def _layer(package: str | None):
+    for i, row in enumerate(LAYERS):
+        if package in row:
+            return i
+    return None
+
+
+def _graph(modules):
+    """Module -> set of eyelab modules it imports (``from pkg import mod`` counts as mod)."""
+    known = {m for m, _ in modules}
+    graph = {}
+    for module, path in modules:
+        edges = set()
+        for name, names, _ in _imports(path, module):
+            if not name.startswith("eyelab"):
+                continue
+            subs = {f"{name}.{n}" for n in names} & known
+            edges |= subs or ({name} & known)
+        graph[module] = edges - {module}
+    return graph
+
+
+def _cycles(graph):
+    """Strongly connected components of more than one module (Tarjan, iterative)."""
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            for w in it:
+                if w not in index:
+                    index[w] = low[w] = counter[0]
+                    counter[0] += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(graph.get(w, ())))))
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp.append(w)
+                        if w == v:
+                            break
+                    if len(comp) > 1:
+                        out.append(sorted(comp))
+    return out
+
+
+def _violations(modules=None):
+    modules = _modules() if modules is None else modules
     bad = []
-    for module, path in _modules():
-        here = _layer(module)
+    for module, path in modules:
+        here = _package(module)
         rel = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
-        for name, line in _imports(path, module):
+        for name, names, line in _imports(path, module):
             top = name.split(".")[0]
             where = f"{rel}:{line} imports {name}"
-            if top in GL and not module.startswith("eyelab.render"):
+            if top in GL and here != "eyelab.render":
                 bad.append(f"{where}: VTK/PyVista outside eyelab/render")
             if top in ("vtk", "vtkmodules") and module != "eyelab.render._vtk":
                 bad.append(f"{where}: VTK is imported through eyelab/render/_vtk.py only")
             if top in ("apps", "data_generators"):
                 bad.append(f"{where}: the repository folders ship as eyelab.apps / "
                            f"eyelab.data_generators")
-            if top != "eyelab":
+            if top != "eyelab" or here is None:
                 continue
-            there = _layer(name)
-            if there is not None and here is not None and there > here:
-                bad.append(f"{where}: layer {there} above its own {here}")
-            for a, b in APART + [(y, x) for x, y in APART]:
-                if module.startswith(a) and (name == b or name.startswith(b + ".")):
-                    bad.append(f"{where}: {a} and {b} are independent")
+            there = _package(name)
+            if there is None:
+                if name == "eyelab" and set(names) - {"__version__"}:
+                    bad.append(f"{where}: the public API imports the packages, not back")
+                continue
+            a, b = _layer(here), _layer(there)
+            if a is not None and b is not None and there != here and b >= a:
+                bad.append(f"{where}: {there} is not below {here}")
+            if there != here:
+                private = [n for n in (*name.split(".")[2:], *names)
+                           if n.startswith("_") and not n.startswith("__")]
+                if private:
+                    bad.append(f"{where}: private {private} of another package")
+    bad += [f"import circle: {' -> '.join(c)}" for c in _cycles(_graph(modules))]
     return bad
 
 
-def test_every_module_has_a_layer():
-    missing = [m for m, _ in _modules() if _layer(m) is None]
+def test_every_package_has_a_layer():
+    missing = sorted({_package(m) for m, _ in _modules()
+                      if _package(m) is not None and _layer(_package(m)) is None})
     assert missing == []
+
+
+def test_eyelab_holds_packages_only():
+    """The package's top level: packages plus ``__init__.py`` / ``__main__.py``."""
+    loose = sorted(p.name for p in (ROOT / "eyelab").glob("*.py")
+                   if p.name not in ("__init__.py", "__main__.py"))
+    assert loose == []
 
 
 def test_import_layers_are_respected():
     assert _violations() == []
 
 
-def test_the_rule_checker_sees_a_violation(tmp_path, monkeypatch):
-    """The checker itself can fail: a VTK import in the optics layer is reported."""
-    fake = tmp_path / "mod.py"
-    fake.write_text("def f():\n    import vtk\n    from eyelab.render import raster\n")
-    import sys
-
-    monkeypatch.setattr(sys.modules[__name__], "_modules",
-                        lambda: [("eyelab.optics.fake", fake)])
-    found = _violations()
-    assert len(found) == 3, found
-
-
-def test_private_helpers_are_not_imported_across_packages():
-    """A name starting with one underscore is private to its package."""
-    bad = []
-    for module, path in _modules():
-        tree = ast.parse(path.read_text())
-        for node in ast.walk(tree):
-            if isinstance(node, ast.ImportFrom) and node.module and not node.level:
-                src_pkg = node.module.rsplit(".", 1)[0]
-                for a in node.names:
-                    if (a.name.startswith("_") and not a.name.startswith("__")
-                            and not module.startswith(src_pkg) and node.module != "eyelab.render"
-                            and not node.module.endswith("._vtk")):
-                        bad.append(f"{path.relative_to(ROOT)}: {node.module}.{a.name}")
-    assert bad == []
+def test_the_rule_checker_sees_each_violation(tmp_path):
+    """The checker itself can fail: a function-level VTK import and an upward import in
+    the optics layer, a private name across packages, and an injected import circle
+    between two modules (one of them through a function-level import)."""
+    fake = tmp_path / "fake.py"
+    fake.write_text("def f():\n    import vtk\n    from eyelab.render import raster\n"
+                    "from eyelab.core.fileio import _private\n")
+    a = tmp_path / "a.py"
+    a.write_text("from eyelab.optics import b\n")
+    b = tmp_path / "b.py"
+    b.write_text("def g():\n    from eyelab.optics.a import h\n")
+    found = _violations([("eyelab.optics.fake", fake), ("eyelab.optics.a", a),
+                         ("eyelab.optics.b", b)])
+    kinds = [re.sub(r".*: ", "", f) if "circle" not in f else "circle" for f in found]
+    assert len(found) == 5, found
+    assert "circle" in kinds and any("private" in k for k in kinds), found
+    assert any("not below" in f for f in found) and any("outside" in f for f in found)
 
 
-@pytest.mark.parametrize("package", ["eyelab.optics", "eyelab.blur", "eyelab.scene",
-                                     "eyelab.reference", "eyelab.spec", "eyelab.jobs"])
+def test_no_module_over_500_lines():
+    long = [f"{p.relative_to(ROOT)}: {n}" for _, p in _modules()
+            if (n := len(p.read_text().splitlines())) > 500]
+    assert long == []
+
+
+@pytest.mark.parametrize("package", ["eyelab", "eyelab.core", "eyelab.optics", "eyelab.blur",
+                                     "eyelab.scene", "eyelab.imaging", "eyelab.reference",
+                                     "eyelab.spec", "eyelab.jobs"])
 def test_pure_layers_import_without_vtk(package):
-    """Importing the numpy layers (and the reference renderer) loads no VTK."""
-    import subprocess
-    import sys
-
+    """Importing the numpy layers (the reference renderer, the jobs and the public API
+    included: they load the GL renderers only when one is asked for) loads no VTK."""
     code = (f"import sys, {package}; bad = [m for m in sys.modules if m.split('.')[0] in "
             f"{GL!r}]; print(bad); sys.exit(1 if bad else 0)")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_the_maps_list_every_package():
+    """README's Layout tree and docs/ARCHITECTURE.md name every package of eyelab/ (and
+    no package that is not there); the layer table here names them all too."""
+    pkgs = sorted(p.parent.name for p in (ROOT / "eyelab").glob("*/__init__.py"))
+    readme = (ROOT / "README.md").read_text()
+    tree = readme[readme.index("## Layout"):].split("```")[1]
+    listed = sorted(re.findall(r"^  (\w+)/", tree, flags=re.M))
+    assert listed == sorted([*pkgs, "data"]), listed
+    arch = (ROOT / "docs" / "ARCHITECTURE.md").read_text()
+    in_arch = sorted(set(re.findall(r"`eyelab/(\w+)/`", arch)))
+    assert in_arch == pkgs
+    assert sorted(p.removeprefix("eyelab.") for row in LAYERS for p in row
+                  if p.count(".") == 1 and p not in ("eyelab.apps", "eyelab.data_generators")
+                  ) == pkgs

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from eyelab.bench.bruteforce import bundle_vergence
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens
@@ -14,6 +13,7 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Sphere, Toric
 from eyelab.optics.trace import Status
+from eyelab.reference.bruteforce import bundle_vergence
 
 
 @pytest.mark.parametrize("text", ["-6.00 DS", "+4.00 -2.00 x 30", "-2.25 -1.00 x 180",

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eyelab.color import linear_to_srgb, srgb_to_linear
-from eyelab.imaging import View
-from eyelab.jobs import make_renderer
+from eyelab.core.color import linear_to_srgb, srgb_to_linear
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality, ReferenceQuality
+from eyelab.jobs.render import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.prescription import Prescription
-from eyelab.options import RasterQuality, ReferenceQuality
 from eyelab.render.accumulate import ENCODE16, PassAccumulator, check_tables, encode_linear
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene

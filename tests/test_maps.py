@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from eyelab.apps.cli import main
-from eyelab.bench.bruteforce import extrapolated_vergence
-from eyelab.maps import as_worn_maps, object_vergence
 from eyelab.optics.analysis import analyze_points
+from eyelab.optics.asworn import as_worn_maps, object_vergence
 from eyelab.optics.paths import ObjectPoints
+from eyelab.reference.bruteforce import extrapolated_vergence
 from eyelab.spec import load_spec
 
 ROOT = Path(__file__).resolve().parents[1]

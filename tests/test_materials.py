@@ -1,6 +1,6 @@
 import pytest
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.materials import (
     CATALOGUE,
     LAMBDA_C_NM,

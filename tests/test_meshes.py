@@ -10,7 +10,7 @@ import trimesh
 from PIL import Image
 
 from eyelab.apps.cli import main
-from eyelab.jobs import build_scene
+from eyelab.jobs.render import build_scene
 from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
 from eyelab.scene.scene import SceneSource, load_meshes
 from eyelab.spec import parse_spec
@@ -47,7 +47,7 @@ def test_a_textured_file_keeps_its_texture(tmp_path, ext):
                                   "height": 32, "fov_y_deg": 20.0, "scene": {
                                       "path": str(tmp_path / f"q.{ext}"),
                                       "position_m": [0, 0, -1.0], "scale": 0.5}}})
-    from eyelab.jobs import render_spec
+    from eyelab.jobs.render import render_spec
 
     img = render_spec(spec).srgb.astype(int)
     quads = {"top-left": img[4, 4], "top-right": img[4, -5], "bottom-left": img[-5, 4],
@@ -85,7 +85,7 @@ def test_background_and_built_in_placement(tmp_path):
 
 
 def test_warnings_eye_inside_and_nothing_in_view(tmp_path):
-    from eyelab.imaging import View
+    from eyelab.imaging.contract import View
 
     trimesh.creation.box(extents=[4, 4, 4]).export(tmp_path / "room.ply")
     cam = View().camera(0.0135)
@@ -122,7 +122,7 @@ def test_render_reports_warnings_and_takes_scene_from_the_command_line(tmp_path,
     ({"path": "/no/such.glb"}, "render.scene.path"),
 ])
 def test_scene_table_is_validated(scene, field):
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
 
     if field is None:
         parse_spec({"render": {"scene": scene}})

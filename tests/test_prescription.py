@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.prescription import Prescription, vertex_effective_power
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from eyelab import progress
 from eyelab.blur import compute_blur_field
+from eyelab.core import progress
 from eyelab.optics.eye import Eye
 
 

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eyelab.bench.bruteforce import extrapolated_vergence
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.progressive import ProgressiveDesign, gaze_through, progressive_lens
+from eyelab.reference.bruteforce import extrapolated_vergence
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -94,7 +94,7 @@ def test_an_inset_corridor_stays_near_umbilic(pal):
 
 
 def test_design_parameters_are_checked():
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
 
     with pytest.raises(SpecError, match="lens.corridor_mm"):
         ProgressiveDesign(2.0, corridor=0.05)
@@ -103,7 +103,7 @@ def test_design_parameters_are_checked():
 
 
 def test_the_spec_builds_progressive_lenses_and_refuses_misuse():
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
     from eyelab.optics.surfaces import FreeForm
     from eyelab.spec import parse_spec
 
@@ -148,9 +148,9 @@ def test_the_raster_blur_field_follows_the_gaze_through_the_pal():
     (docs/gallery/pal_views.png): looking 5 deg up the 6 m chart is sharp; 28 deg down
     (the near zone) the 0.4 m page is nearly sharp while from the top it was blurred; 28
     down and 25 right (the lower side) the page is blurred (major semi-axis, arcmin)."""
-    from eyelab.imaging import new_report
-    from eyelab.jobs import build_scene
-    from eyelab.options import RasterQuality
+    from eyelab.imaging.contract import new_report
+    from eyelab.imaging.options import RasterQuality
+    from eyelab.jobs.render import build_scene
     from eyelab.render.raster import RasterRenderer
     from eyelab.spec import load_spec
 

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens

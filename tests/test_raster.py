@@ -5,13 +5,13 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.imaging import View
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.materials import CATALOGUE, Material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Plane
-from eyelab.options import RasterQuality
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene, grid_quad, room_scene
 from eyelab.scene.scene import Scene
@@ -77,7 +77,7 @@ def blob_scene(distance=1.0, size=0.02, texels=16, sigma=2.0):
     """A smooth bright blob (a Gaussian of ``sigma`` texels, encoded sRGB) on a black quad:
     unlike a sharp square of a pixel or two, its light and centroid do not depend on where
     a displaced copy falls between pixel centres, so its spread measures the blur alone."""
-    from eyelab.color import linear_to_srgb
+    from eyelab.core.color import linear_to_srgb
 
     x = np.arange(texels) - (texels - 1) / 2
     g = np.exp(-0.5 * (x[:, None] ** 2 + x[None] ** 2) / sigma**2)
@@ -95,7 +95,7 @@ def _dot_spread(eye, focus, samples, w=200, fov=8.0, reconstruct=False):
     ``reconstruct`` the variance-compensated passes and the reconstruction Gaussian
     together must give the same (the blob lies on a small quad against the background, so
     the Gaussian's reach beyond the silhouette is measured too)."""
-    from eyelab.sampling import pass_samples
+    from eyelab.core.sampling import pass_samples
 
     scene = blob_scene()
     view = View(width=w, height=w, fov_y_deg=fov, near=0.2, far=5.0, focus_d=focus)
@@ -284,7 +284,7 @@ def test_no_vtk_leak_over_200_renders():
 
 
 def test_cvd_post_process_is_the_colour_module_applied_to_the_render(chart):
-    from eyelab.color import simulate_cvd
+    from eyelab.core.color import simulate_cvd
 
     scene = room_scene()
     eye = Eye(accommodation_max=5.0)
@@ -321,7 +321,7 @@ def test_reconstruction_filter_smooths_only_blurred_pixels():
     """The 6 m chart seen by an uncorrected myope is blurred by ~5 px: the reconstruction
     filter brings S = 8 closer to the converged reference (measured SSIM 0.963 -> 0.975); a
     sharp (corrected) view is left as it was wherever the field is zero."""
-    from eyelab.options import ReferenceQuality
+    from eyelab.imaging.options import ReferenceQuality
     from eyelab.reference import ReferenceRenderer, compare_images
 
     scene = chart_scene(6.0)

@@ -3,14 +3,14 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.color import linear_to_srgb, srgb_to_linear
-from eyelab.imaging import View
+from eyelab.core.color import linear_to_srgb, srgb_to_linear
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import ReferenceQuality
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.materials import Material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Plane
-from eyelab.options import ReferenceQuality
 from eyelab.reference import ReferenceRenderer, compare_images
 from eyelab.reference.metrics import to_linear
 from eyelab.scene.library import chart_scene, room_scene

@@ -10,13 +10,13 @@ import sys
 import pytest
 
 from eyelab.apps.cli import main
-from eyelab.resources import GIB, estimate_memory, memory_limit
+from eyelab.imaging.memory import GIB, estimate_memory, memory_limit
 from eyelab.spec import parse_spec
 
 MEASURE = """
 import json, os, sys
 os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkOSOpenGLRenderWindow"
-from eyelab.jobs import render_spec
+from eyelab.jobs.render import render_spec
 from eyelab.spec import parse_spec
 spec = parse_spec(json.loads(sys.argv[1]))
 render_spec(spec)

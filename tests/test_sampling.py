@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from eyelab.sampling import antialias_jitter, disc_seeds, pass_samples
+from eyelab.core.sampling import antialias_jitter, disc_seeds, pass_samples
 
 
 @pytest.mark.parametrize("samples", range(3, 65))
@@ -81,10 +81,10 @@ def test_in_focus_checkerboard_edges_match_the_reference():
     """An in-focus, slightly rotated checkerboard: raster S = 16 (jitter-only passes) and
     the reference at 256 spp (box-filtered pixels) put every edge at the same sub-pixel
     position, < 0.05 px rms."""
-    from eyelab.imaging import View
-    from eyelab.jobs import make_renderer
+    from eyelab.imaging.contract import View
+    from eyelab.imaging.options import RasterQuality, ReferenceQuality
+    from eyelab.jobs.render import make_renderer
     from eyelab.optics.eye import Eye
-    from eyelab.options import RasterQuality, ReferenceQuality
     from eyelab.scene.scene import Scene, SceneMesh
 
     a = np.radians(7.0)

@@ -3,7 +3,7 @@ import pytest
 import trimesh
 
 from eyelab.blur import compute_blur_field
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.camera import eye_camera
 from eyelab.optics.eye import Eye
 from eyelab.optics.prescription import Prescription
@@ -69,7 +69,7 @@ def test_every_etdrs_row_has_its_exact_size_in_the_scene(distance):
 
 
 def test_chart_contrast_and_letters():
-    from eyelab.color import decode_srgb
+    from eyelab.core.color import decode_srgb
     from eyelab.scene.library import SLOAN, chart_scene, sloan_letter
 
     for c in SLOAN:      # every Sloan letter fills its box's height and width (C: open right)
@@ -153,7 +153,7 @@ def test_bad_meshes_are_named_errors(tmp_path):
     meshes name render.scene; zero-area triangles among good ones are dropped."""
     import trimesh
 
-    from eyelab.errors import SpecError
+    from eyelab.core.errors import SpecError
     from eyelab.scene.scene import load_mesh
 
     (tmp_path / "junk.ply").write_bytes(b"\x00\x01 not a mesh")

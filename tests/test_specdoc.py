@@ -1,4 +1,4 @@
-"""The spec reference (eyelab/specdoc.py) is the validator's truth: the same keys, every
+"""The spec reference (eyelab/spec/docs.py) is the validator's truth: the same keys, every
 range accepted at its ends and refused beyond (naming the key), every choice accepted and
 a wrong one refused; the README's tables are generated from it."""
 
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from eyelab.errors import SpecError
-from eyelab.options import RENDERERS
+from eyelab.core.errors import SpecError
+from eyelab.imaging.options import RENDERERS
 from eyelab.spec import (
     ANALYSIS_KEYS,
     BINOCULAR_KEYS,
@@ -22,7 +22,7 @@ from eyelab.spec import (
     parse_spec,
     renderer_keys,
 )
-from eyelab.specdoc import KEYS, markdown
+from eyelab.spec.docs import KEYS, markdown
 
 README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
 
@@ -110,4 +110,4 @@ def test_the_readme_tables_are_generated():
     begin, end = "<!-- spec-reference: begin", "<!-- spec-reference: end -->"
     block = README[README.index(begin):README.index(end)]
     block = block[block.index("\n") + 1:].strip()
-    assert block == markdown().strip(), "run: python -m eyelab.specdoc --readme README.md"
+    assert block == markdown().strip(), "run: python -m eyelab.spec.docs --readme README.md"

@@ -51,7 +51,7 @@ def run_batch_bench(jobs: int = 100) -> dict:
         one = {p.name: p.read_bytes() for p in (tmp / "batch_1_worker").glob("job-*.png")}
         two = {p.name: p.read_bytes() for p in (tmp / "batch_2_workers").glob("job-*.png")}
         # the same jobs as spec files, one `eyelab render` process each
-        from eyelab.batch import load_job_spec
+        from eyelab.jobs.batch import load_job_spec
         from eyelab.spec import dump_spec
 
         paths = []

@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
-from eyelab.imaging import View
-from eyelab.options import ImageBasedQuality, ReferenceQuality
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import ImageBasedQuality, ReferenceQuality
 
 #: Heidrich et al. 1997, §4 (a 256x256 film; SGI RealityEngine2 for the hardware images).
 PAPER = {
@@ -45,7 +45,7 @@ def _cases(quick: bool):
 def run_imagebased_bench(quick: bool = False, *, repeats: int = 3) -> dict:
     """Every case at every threshold of :data:`THRESHOLDS`; ``quick``: 96x96 instead of
     the paper's 256x256 and a 64-spp reference."""
-    from eyelab.progress import bar as progress_bar
+    from eyelab.core.progress import bar as progress_bar
     from eyelab.reference.metrics import compare_images
     from eyelab.reference.tracer import ReferenceRenderer
     from eyelab.render.imagebased import ImageBasedRenderer
@@ -114,8 +114,9 @@ def run_imagebased_bench(quick: bool = False, *, repeats: int = 3) -> dict:
 
 def _ray_maker(observer, lens, view):
     """The image-based model's rays for a camera lens system or an eye (+ lens)."""
-    from eyelab.imagebased import CameraRays, EyeRays
+    from eyelab.optics.film import CameraRays
     from eyelab.optics.system import LensSystem
+    from eyelab.render.imagebased.rays import EyeRays
 
     if isinstance(observer, LensSystem):
         return CameraRays(observer, view.width, view.height, view.fov_y_deg, view.near)
@@ -140,14 +141,14 @@ def _cop_by_depth(name, observer, lens, view) -> list:
     (float64 rays, the image plane at the view's near distance). Per level: the ratio of
     the least-squares COP's largest angle error to the angle COP's (float64 and float32),
     and the float32 angle COP's to the float64 one's."""
-    from eyelab.imagebased import (
+    from eyelab.core.sampling import pass_samples
+    from eyelab.core.vecmath import unit
+    from eyelab.render.imagebased.cop import (
         angle_errors_deg,
         fit_cop_angle,
         fit_cop_least_squares,
         image_plane_points,
     )
-    from eyelab.sampling import pass_samples
-    from eyelab.vecmath import unit
 
     w, h = view.width, view.height
     samples = pass_samples(10)[0][list(COP_SAMPLE_INDICES)]
@@ -198,14 +199,14 @@ def _cop_by_depth(name, observer, lens, view) -> list:
 def _cop_comparison(name, observer, lens, view) -> dict:
     """Largest angle error of the least-squares COP over the angle COP's, on every cell of
     the 0.05° quad-tree (the same rays and image plane for both)."""
-    from eyelab.imagebased import (
+    from eyelab.core.sampling import pass_samples
+    from eyelab.core.vecmath import unit
+    from eyelab.render.imagebased.cop import (
         angle_errors_deg,
         fit_cop_least_squares,
         image_plane_points,
-        plan_projections,
     )
-    from eyelab.sampling import pass_samples
-    from eyelab.vecmath import unit
+    from eyelab.render.imagebased.plan import plan_projections
 
     maker = _ray_maker(observer, lens, view)
     samples = pass_samples(10)[0]

@@ -16,12 +16,12 @@ from __future__ import annotations
 import gc
 import time
 
-from eyelab.imaging import View
+from eyelab.core.progress import bar as progress_bar
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import RasterQuality
-from eyelab.progress import bar as progress_bar
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene
 

@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
+from eyelab.core.parallel import default_workers, map_row_chunks
 from eyelab.optics.analysis import trace_chain
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens
 from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
 from eyelab.optics.prescription import Prescription
-from eyelab.parallel import default_workers, map_row_chunks
 
 TARGET_CHAIN_PER_S = 2.0e6
 

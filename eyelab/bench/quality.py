@@ -29,14 +29,15 @@ from pathlib import Path
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
-from eyelab.fileio import atomic_path, json_default
-from eyelab.imaging import View
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
+from eyelab.core.fileio import atomic_path, json_default
+from eyelab.core.progress import bar as progress_bar
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQuality
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import ImageBasedQuality, RasterQuality, ReferenceQuality
-from eyelab.progress import bar as progress_bar
 from eyelab.reference.metrics import compare_images, to_linear
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer

@@ -15,12 +15,12 @@ import time
 
 import numpy as np
 
-from eyelab.imaging import View
+from eyelab.core.progress import bar as progress_bar
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import RasterQuality
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
-from eyelab.options import RasterQuality
-from eyelab.progress import bar as progress_bar
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.scene import Scene, SceneMesh
 

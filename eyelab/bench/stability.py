@@ -20,7 +20,8 @@ import traceback
 
 import numpy as np
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
+from eyelab.core.progress import bar as progress_bar
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import LensPose, SpectacleLens
@@ -29,7 +30,6 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Sphere, Toric
 from eyelab.optics.trace import FATAL
-from eyelab.progress import bar as progress_bar
 
 MATERIALS = [m for k, m in CATALOGUE.items() if k != "air"]
 #: ``eyelab bench stability --quick``: what CI runs (tests/test_bench_quality.py).
@@ -113,12 +113,12 @@ def _rederived_counts() -> dict:
 def _rederive(eye, lens, objects, res, fixation, rng, n_ok=2, n_fatal=1):
     """Re-derive a random subset of ``res`` without the engine's wavefront tracer or path
     finder: for OK rows the wave at the eye from a bundle of real rays
-    (:func:`~eyelab.bench.bruteforce.bundle_vergence`), Eq. 13's accommodation from that
+    (:func:`~eyelab.reference.bruteforce.bundle_vergence`), Eq. 13's accommodation from that
     wave and the eye's amplitude bounds, and the retinal blur from rim rays through the thin
-    eye (:func:`~eyelab.bench.bruteforce.retinal_spot_axes`); for rows without a light path,
-    an exhaustive search (:func:`~eyelab.bench.bruteforce.search_path`) must find none.
+    eye (:func:`~eyelab.reference.bruteforce.retinal_spot_axes`); for rows without a light path,
+    an exhaustive search (:func:`~eyelab.reference.bruteforce.search_path`) must find none.
     Returns counts and the worst deviations."""
-    from eyelab.bench.bruteforce import extrapolated_vergence, retinal_spot_axes, search_path
+    from eyelab.reference.bruteforce import extrapolated_vergence, retinal_spot_axes, search_path
 
     out = _rederived_counts()
     ok = (res.status & np.uint8(FATAL)) == 0
@@ -262,8 +262,8 @@ def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: 
         voxels += f.matrix.shape[0] * f.matrix.shape[1] * f.matrix.shape[2]
         field_nan += int((~np.isfinite(f.matrix)).any(axis=(-1, -2)).sum())
     # reference renderer
-    from eyelab.imaging import View
-    from eyelab.options import ReferenceQuality
+    from eyelab.imaging.contract import View
+    from eyelab.imaging.options import ReferenceQuality
     from eyelab.reference.tracer import ReferenceRenderer
     from eyelab.scene.library import room_scene
 

@@ -30,14 +30,14 @@ import time
 import numpy as np
 
 from eyelab.blur.field import BlurField, VoxelStatus
-from eyelab.cache import content_key
-from eyelab.constants import RAD_TO_ARCMIN
-from eyelab.errors import SpecError
+from eyelab.core.cache import content_key
+from eyelab.core.constants import RAD_TO_ARCMIN
+from eyelab.core.errors import SpecError
+from eyelab.core.sampling import disc_seeds
+from eyelab.core.vecmath import UP, cross, unit
 from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 from eyelab.optics.trace import FATAL
-from eyelab.sampling import disc_seeds
-from eyelab.vecmath import UP, cross, unit
 
 
 def traverse(g0, g1, shape):

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.errors import SpecError
-from eyelab.fileio import atomic_path, json_default
+from eyelab.core.errors import SpecError
+from eyelab.core.fileio import atomic_path, json_default
 from eyelab.optics.camera import Camera
 
 DEPTH_MODES = ("ndc", "linear")

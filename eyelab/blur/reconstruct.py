@@ -95,7 +95,7 @@ def compensated(field, svd, vol: dict, size):
     variance."""
     import dataclasses
 
-    from eyelab.cache import content_key
+    from eyelab.core.cache import content_key
 
     px = np.array([size[0] / 2, size[1] / 2])
     u, s, vt = svd

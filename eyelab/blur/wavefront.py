@@ -19,17 +19,17 @@ import time
 import numpy as np
 
 from eyelab.blur.field import DEPTH_MODES, BlurField, VoxelStatus, slice_centres
-from eyelab.cache import content_key
-from eyelab.constants import RAD_TO_ARCMIN
-from eyelab.errors import SpecError
+from eyelab.core.cache import content_key
+from eyelab.core.constants import RAD_TO_ARCMIN
+from eyelab.core.errors import SpecError
+from eyelab.core.parallel import map_row_chunks
+from eyelab.core.progress import bar as progress_bar
+from eyelab.core.vecmath import UP, cross, unit
 from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL
-from eyelab.parallel import map_row_chunks
-from eyelab.progress import bar as progress_bar
-from eyelab.vecmath import UP, cross, unit
 
 #: Angular step (rad) for the retina -> NDC Jacobian: central differences, error ~h^2.
 JACOBIAN_STEP = 1e-5

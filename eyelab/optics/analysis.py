@@ -8,17 +8,18 @@ For each object point: chief ray (path finding) -> wavefront creation at the len
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.constants import RAD_TO_ARCMIN
+from eyelab.core.constants import RAD_TO_ARCMIN
+from eyelab.core.vecmath import UP, cross, dot
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL, Status
 from eyelab.optics.wavefront import Wavefront
-from eyelab.vecmath import UP, cross, dot
 
 
 @dataclass
@@ -98,7 +99,7 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
         centre, radius the vertex distance).
     """
     if fixation not in ("fixed", "rotating"):
-        from eyelab.errors import SpecError
+        from eyelab.core.errors import SpecError
 
         raise SpecError("fixation", f"must be 'fixed' or 'rotating', got {fixation!r}")
     cor = np.array([0.0, 0.0, eye.rotation_centre])
@@ -124,7 +125,7 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         pupil = np.zeros((n, 3))
     vs_wave = exit_wave = vs_info = None
     if vertex_sphere not in ("rotation_centre", "pupil"):
-        from eyelab.errors import SpecError
+        from eyelab.core.errors import SpecError
 
         raise SpecError("analysis.vertex_sphere", f"must be 'rotation_centre' or 'pupil', "
                                                   f"got {vertex_sphere!r}")
@@ -240,3 +241,20 @@ def chief_prism(res: PointAnalysis) -> tuple:
     d_in, d_out = res.chief.dir_in, res.chief.dir_out
     cosang = np.clip(dot(d_in, d_out), -1.0, 1.0)
     return 100.0 * np.tan(np.arccos(cosang)), d_out - cosang[:, None] * d_in
+
+
+def lens_angle(lens, v) -> float:
+    """Angle (deg, [0, 360)) of the world vector ``v`` projected on the lens plane,
+    counter-clockwise from the lens's x (the wearer's right) seen from behind the wearer."""
+    local = np.asarray(lens.pose.rotation, float).T @ np.asarray(v, float)
+    return math.degrees(math.atan2(local[1], local[0])) % 360.0
+
+
+def prism_row(delta, dev, lens) -> dict:
+    """One row of :func:`~eyelab.optics.analysis.chief_prism`: prism dioptres and the
+    base direction (the way the light is bent) in the lens plane."""
+    delta = float(delta)
+    base = lens_angle(lens, dev) if np.linalg.norm(dev) > 1e-15 else 0.0
+    return {"prism_d": delta, "base_deg": base,
+            "base_right_d": delta * math.cos(math.radians(base)),
+            "base_up_d": delta * math.sin(math.radians(base))}

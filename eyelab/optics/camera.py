@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 from eyelab.optics.prescription import Prescription
 
 GH_RETINA_DISTANCE = 22.785e-3   # m, Table 2

@@ -10,7 +10,7 @@ x, y as in the world when the lens is not tilted. Lens frame -> world:
 p_w = R p_l + t with t = (decentration_x, decentration_y, -vertex_distance) and
 R = R_y(-wrap) R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the
 cheeks, wrap turns the +x rim (the temporal rim of a right eye's lens) toward the face; a
-left eye's lens of a face-form frame has the opposite wrap (:mod:`eyelab.binocular`). The
+left eye's lens of a face-form frame has the opposite wrap (:mod:`eyelab.optics.binocular`). The
 rotation is about the back vertex. The front surface's vertex is at z_l = -center_thickness.
 """
 
@@ -21,7 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 from eyelab.optics.fresnel import COATINGS, transmittance
 from eyelab.optics.materials import Material, get_material
 from eyelab.optics.prescription import Prescription

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.constants import TOL
+from eyelab.core.constants import TOL
+from eyelab.core.vecmath import any_tangent, cross, dot
 from eyelab.optics.trace import FATAL, Status
-from eyelab.vecmath import any_tangent, cross, dot
 
 
 @dataclass

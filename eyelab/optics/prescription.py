@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 
 SPHERE_RANGE = (-30.0, 30.0)
 CYLINDER_RANGE = (-12.0, 12.0)
@@ -151,7 +151,7 @@ class Prescription:
     eye: str | None = None
 
     def __post_init__(self):
-        from eyelab.errors import check_range
+        from eyelab.core.checks import check_range
 
         object.__setattr__(self, "sphere", check_range("rx.sphere", self.sphere, *SPHERE_RANGE))
         object.__setattr__(self, "cylinder",

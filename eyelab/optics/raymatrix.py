@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from eyelab.core.vecmath import any_tangent, cross, dot
 from eyelab.optics.wavefront import refraction_frame
-from eyelab.vecmath import any_tangent, cross, dot
 
 
 def _blocks(a, b, c, d):

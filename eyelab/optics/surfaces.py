@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 
 
 @dataclass(frozen=True)
@@ -284,14 +284,14 @@ class FreeForm(Surface):
         self._spline = RectBivariateSpline(x, y, z.T, kx=degree, ky=degree, s=0)
 
     def __repr__(self):
-        from eyelab.cache import array_digest
+        from eyelab.core.cache import array_digest
 
         return (f"FreeForm({len(self.x)}x{len(self.y)} grid, x [{self.x[0]:g}, {self.x[-1]:g}]"
                 f", y [{self.y[0]:g}, {self.y[-1]:g}] m, sag {array_digest(self.z)[:12]})")
 
     @property
     def content_key(self) -> str:
-        from eyelab.cache import array_digest
+        from eyelab.core.cache import array_digest
 
         return array_digest(np.concatenate([self.x, self.y, self.z.ravel(), [self.degree]]))
 

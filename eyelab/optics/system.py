@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 from eyelab.optics.fresnel import transmittance
 from eyelab.optics.materials import Material
 from eyelab.optics.surfaces import Asphere, Surface

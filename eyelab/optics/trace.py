@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.constants import TOL
+from eyelab.core.constants import TOL
 from eyelab.optics.surfaces import Surface
 
 

@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.constants import TOL
+from eyelab.core.constants import TOL
+from eyelab.core.vecmath import any_tangent, cross, dot
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import Hit, Status, refract
-from eyelab.vecmath import any_tangent, cross, dot
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """The reference renderer (distribution ray tracing on embree) and image metrics. No VTK."""
 
-from eyelab.options import ReferenceQuality
+from eyelab.imaging.options import ReferenceQuality
 from eyelab.reference.metrics import compare_images
 from eyelab.reference.tracer import ReferenceRenderer
 

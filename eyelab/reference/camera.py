@@ -5,7 +5,7 @@ exactly through every surface and the stop (a vignetted ray carries nothing), th
 the scene; the film irradiance E(x') = A/n sum L W T (Heidrich Eq. 3 with many random
 samples; W = cos th' cos th'' / |x'' - x'|^2, T the surfaces' Fresnel transmission),
 normalised by the exact unvignetted, lossless value at the film centre
-(:meth:`eyelab.imagebased.CameraRays.white_level`). The truth the image-based renderer's
+(:meth:`eyelab.render.imagebased.plan.CameraRays.white_level`). The truth the image-based renderer's
 camera images are measured against; its approximations (perspective slices, morph, few
 lens samples) are absent here.
 """
@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-from eyelab.imagebased import CameraRays
-from eyelab.imaging import finish, new_report
+from eyelab.core.parallel import map_row_chunks
+from eyelab.core.sampling import disc_seeds, pixel_jitter
+from eyelab.imaging.contract import finish, new_report
+from eyelab.optics.film import CameraRays
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
-from eyelab.parallel import map_row_chunks
-from eyelab.sampling import disc_seeds, pixel_jitter
 from eyelab.scene.raycast import EmbreeIntersector
 
 
@@ -29,7 +29,7 @@ def render_camera(scene, system, view, quality, name: str = "reference"):
     """The film image of ``system`` (a :class:`~eyelab.optics.system.LensSystem`) for
     ``view`` (pixels, field of view through the paraxial focal length, clipping) with
     ``quality.samples`` rays per pixel and channel (a :class:`ReferenceQuality`); returns
-    a :class:`~eyelab.imaging.RenderResult` in the common schema."""
+    a :class:`~eyelab.imaging.contract.RenderResult` in the common schema."""
     t0 = time.perf_counter()
     report = new_report(name, view, quality)
     maker = CameraRays(system, view.width, view.height, view.fov_y_deg, view.near)

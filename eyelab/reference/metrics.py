@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from eyelab.color import srgb_to_linear
+from eyelab.core.color import srgb_to_linear
 
 
 def to_linear(img_u8):

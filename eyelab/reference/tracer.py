@@ -39,18 +39,18 @@ import time
 
 import numpy as np
 
-from eyelab.imaging import Renderer, View, channel_wavelengths, finish, new_report
+from eyelab.core.parallel import map_row_chunks
+from eyelab.core.sampling import disc_seeds, pixel_jitter
+from eyelab.core.vecmath import UP, cross, unit
+from eyelab.imaging.contract import Renderer, View, channel_wavelengths, finish, new_report
+from eyelab.imaging.options import ReferenceQuality
 from eyelab.optics.trace import FATAL
-from eyelab.options import ReferenceQuality
-from eyelab.parallel import map_row_chunks
-from eyelab.sampling import disc_seeds, pixel_jitter
 from eyelab.scene.focus import (  # noqa: F401 (fons_accommodation: part of this API)
     fons_accommodation,
     pixel_accommodation,
     rms_accommodation,
 )
 from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
-from eyelab.vecmath import UP, cross, unit
 
 
 class ReferenceRenderer(Renderer):
@@ -79,7 +79,7 @@ class ReferenceRenderer(Renderer):
         from eyelab.optics.system import LensSystem
 
         if isinstance(eye, LensSystem):        # a camera lens: eyelab.reference.camera
-            from eyelab.errors import SpecError
+            from eyelab.core.errors import SpecError
             from eyelab.reference.camera import render_camera
 
             if lens is not None:
@@ -114,7 +114,7 @@ class ReferenceRenderer(Renderer):
                     counts["acc_diff_max"] = max(counts["acc_diff_max"], float(np.abs(diff).max()))
                     counts["acc_n"] += len(diff)
 
-        from eyelab.progress import bar as progress_bar
+        from eyelab.core.progress import bar as progress_bar
 
         with progress_bar(n, f"reference {view.width}x{view.height}, {len(samples)} spp",
                           "px", force=q.progress) as bar:

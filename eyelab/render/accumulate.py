@@ -20,9 +20,9 @@ import sys
 
 import numpy as np
 
-from eyelab.color import linear_to_srgb, srgb_to_linear
-from eyelab.options import MAX_PASSES
-from eyelab.parallel import split_rows
+from eyelab.core.color import linear_to_srgb, srgb_to_linear
+from eyelab.core.parallel import split_rows
+from eyelab.imaging.options import MAX_PASSES
 
 if sys.byteorder != "little":          # the pair look-ups read RGBA bytes as uint16 / uint32
     raise ImportError("eyelab's pass accumulation assumes a little-endian host")

@@ -13,8 +13,8 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from eyelab.cache import LRUCache
-from eyelab.color import decode_srgb
+from eyelab.core.cache import LRUCache
+from eyelab.core.color import decode_srgb
 from eyelab.render import _vtk
 from eyelab.render.accumulate import encode_linear
 from eyelab.render.actors import (

@@ -11,7 +11,7 @@ import numpy as np
 import pyvista as pv
 
 from eyelab.blur.field import ARRAY_NAMES, BlurField, slice_bounds
-from eyelab.fileio import atomic_path
+from eyelab.core.fileio import atomic_path
 
 
 def _cell_arrays(field: BlurField):

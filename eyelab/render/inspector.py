@@ -1,5 +1,5 @@
 """The inspector's window: one PyVista ``Plotter`` (no Qt) around an inspector model
-(:class:`eyelab.inspect.InspectorModel`, passed in: this module never imports it).
+(:class:`eyelab.jobs.inspector.InspectorModel`, passed in: this module never imports it).
 
 Layout (a 3 x 2 grid): the simulated view on the left, pixel for pixel (a textured plane
 under a parallel camera whose scale matches the viewport's height, nearest-texel

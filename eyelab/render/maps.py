@@ -1,4 +1,4 @@
-"""As-worn maps (:mod:`eyelab.maps`) as PyVista data: an image over gaze angles whose point
+"""As-worn maps (:mod:`eyelab.optics.asworn`) as PyVista data: an image over gaze angles whose point
 arrays are the maps, and their iso-lines — for ParaView or a PyVista window."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 
-from eyelab.maps import AsWornMaps
+from eyelab.optics.asworn import AsWornMaps
 
 MAP_ARRAYS = ("mean_error_d", "cylinder_d", "axis_tabo_deg", "sphere_error_d", "prism_d",
               "object_vergence_d")

@@ -37,8 +37,9 @@ from eyelab.blur.reconstruct import (
     sigma_volume,
 )
 from eyelab.blur.wavefront import compute_blur_field
-from eyelab.cache import LRUCache, content_key
-from eyelab.imaging import (
+from eyelab.core.cache import LRUCache, content_key
+from eyelab.core.progress import bar as progress_bar
+from eyelab.imaging.contract import (
     Renderer,
     RenderResult,
     View,
@@ -46,36 +47,30 @@ from eyelab.imaging import (
     finish,
     new_report,
 )
+from eyelab.imaging.options import RasterQuality
 from eyelab.optics.camera import fit_virtual_camera, fit_window
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
-from eyelab.options import RasterQuality
-from eyelab.progress import bar as progress_bar
 from eyelab.render.accumulate import PassAccumulator, encode_linear
-from eyelab.render.actors import field_actor_factory
 from eyelab.render.composite import LensCompositor, compose
+from eyelab.render.stages import (
+    env_width,
+    field_details,
+    lens_details,
+    lens_geometry,
+    passes_for,
+    progressive_checkpoints,
+    scene_items,
+    select_channel,
+)
 from eyelab.render.window import OffscreenWindow
-from eyelab.sampling import antialias_jitter, pass_samples
 from eyelab.scene.lensview import (
-    lens_back_mesh,
     lens_covers_view,
     lens_in_view_of,
-    lens_view_mesh,
-    widened_lens,
 )
-from eyelab.scene.pervertex import lens_texcoords
-from eyelab.scene.prefilter import prefiltered, reduction_factor
-from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
+from eyelab.scene.prefilter import prefiltered
+from eyelab.scene.raycast import scene_warnings
 from eyelab.scene.refine import refine_for_fields
-
-#: Scene textures are mip-mapped (trilinear, in linear light) only below this many passes.
-#: With few passes a minified texture would alias (point samples of many texels per pixel);
-#: with more, the jittered passes themselves supersample the pixel, and the mip-maps' own
-#: blur (a box of the pixel's size, then a tent of the same size) only costs accuracy.
-#: Measured (quick quality scenes, RMSE against 256-spp references, 160x120): mip-maps
-#: lower the error at S = 1-2 in every case (e.g. 0.055 vs 0.081), are mixed at S = 4-8,
-#: and raise it at S = 32 in every case (e.g. 0.044 vs 0.008, the room).
-MIPMAP_BELOW_SAMPLES = 8
 
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
@@ -123,7 +118,7 @@ class RasterRenderer(Renderer):
     # ------------------------------------------------------------------ render
     def _render(self, scene, eye, lens, view: View, q: RasterQuality, progressive: bool
                 ) -> RenderResult:
-        checkpoints = _checkpoints(q.samples) if progressive else [q.samples]
+        checkpoints = progressive_checkpoints(q.samples) if progressive else [q.samples]
         results = list(self._run(scene, eye, lens, view, q, checkpoints))
         final = results[-1]
         if progressive:
@@ -145,7 +140,7 @@ class RasterRenderer(Renderer):
         if images not in ("every", "doubling"):
             raise ValueError(f"images must be 'every' or 'doubling', got {images!r}")
         steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
-        shown = set(steps) if images == "every" else set(_checkpoints(quality.samples))
+        shown = set(steps) if images == "every" else set(progressive_checkpoints(quality.samples))
         yield from self._run(scene, eye, lens, view, quality, steps, shown)
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
@@ -226,30 +221,30 @@ class RasterRenderer(Renderer):
 
     def _lens_covers(self, lens, cam, report) -> bool:
         """Whether every pixel sees through the lens (then the naked view is not drawn)."""
-        key = content_key(what="covers", lens=lens, camera=cam)
-        covers, _ = self._cached("small", key, lambda: lens_covers_view(lens, cam), report,
-                                 "lens_covers_view")
-        if covers:
-            report["skipped"].append("naked view: the lens covers the whole view: the "
-                                     "naked-eye field and passes are not needed")
-        return covers
+        return self._lens_query("covers_view", lens_covers_view, lens, cam, report, True,
+                                "naked view: the lens covers the whole view: the naked-eye "
+                                "field and passes are not needed")
 
     def _lens_in_view(self, lens, cam, report) -> bool:
         if lens is None:
             report["skipped"].append("lens passes: no lens")
             return False
-        key = content_key(what="in_view", lens=lens, camera=cam)
-        inside, _ = self._cached("small", key, lambda: lens_in_view_of(lens, cam), report,
-                                 "lens_in_view")
-        if not inside:
-            report["skipped"].append("lens passes: the lens is outside the view")
-        return inside
+        return self._lens_query("in_view", lens_in_view_of, lens, cam, report, False,
+                                "lens passes: the lens is outside the view")
+
+    def _lens_query(self, what, fn, lens, cam, report, skip_if: bool, why: str) -> bool:
+        """``fn(lens, cam)``, cached; ``why`` goes to the skipped work when it is ``skip_if``."""
+        answer, _ = self._cached("small", content_key(what=what, lens=lens, camera=cam),
+                                 lambda: fn(lens, cam), report, f"lens_{what}")
+        if answer == skip_if:
+            report["skipped"].append(why)
+        return answer
 
     def _virtual_camera(self, lens, cam, view, q, report):
         """The virtual camera fitted to the refracted rays (§3.1), in an integer window."""
         def fit():
             fitted = fit_virtual_camera(lens, cam).camera
-            return fit_window(fitted, self._env_width(cam, fitted, view, q))[0]
+            return fit_window(fitted, env_width(cam, fitted, view, q))[0]
 
         key = content_key(what="vcam", lens=lens, camera=cam, oversample=q.env_oversample,
                           width=view.width)
@@ -284,13 +279,7 @@ class RasterRenderer(Renderer):
             eye, lens, cam, shape=q.field_shape, depth_mode=q.depth_mode, focus=view.focus_d,
             scene_bounds=bounds, pupil=pupil, wavelength_nm=wavelength_nm,
             accommodation=accommodation), report, f"field_{label}")
-        info = {"cache": "hit" if hit else "miss", "all_zero": f.all_zero,
-                "voxels_total": f.report["voxels_total"],
-                "voxels_computed": f.report["voxels_computed"],
-                "skipped_why": f.report["skipped_why"]}
-        if not hit:
-            info["time_s"] = f.report["timings"]["total_s"]
-        report["details"]["fields"][label] = info
+        report["details"]["fields"][label] = field_details(f, hit)
         return f
 
     def _refined(self, scene, f_naked, f_lens, view, q, report) -> list:
@@ -309,53 +298,13 @@ class RasterRenderer(Renderer):
         return meshes
 
     def _scene_items(self, meshes, fields, q, passes, cam, height, report) -> list:
-        """Per field (channel), the [(key, factory)] of the meshes' actors. Few passes:
-        textures mip-mapped; more: the passes supersample, and textures are prefiltered to
-        about two texels per pixel instead (:mod:`eyelab.scene.prefilter`), cached. On the
-        texture route an actor does not depend on the field (the shader samples it), so
-        the channels share their actors."""
-        mip = passes < MIPMAP_BELOW_SAMPLES
-        shown = []
-        for m in meshes:
-            f = 1 if mip else reduction_factor(m, cam, height)
-            if f > 1:
-                m, _ = self._cached("prefiltered", ("prefiltered", m.content_key, f),
-                                    lambda m=m, f=f: prefiltered(m, f), report,
-                                    f"prefiltered_{m.name}")
-            shown.append(m)
-        route = q.field_route
-        return [[((m.content_key, None if route == "texture" else field.key, route, mip),
-                  field_actor_factory(m, field, route, mipmap=mip)) for m in shown]
-                for field in fields]
+        """Per field (channel), the [(key, factory)] of the meshes' actors
+        (:func:`~eyelab.render.stages.scene_items`), prefiltered textures cached."""
+        def prefilter(m, f):
+            return self._cached("prefiltered", ("prefiltered", m.content_key, f),
+                                lambda: prefiltered(m, f), report, f"prefiltered_{m.name}")[0]
 
-    @staticmethod
-    def _select_channel(st, c, route) -> None:
-        """Make channel ``c``'s field and actors current in the stage's window."""
-        win, items = st["win"], st["items"][c]
-        win.use_field(st["fields"][c], route)
-        keys = [k for k, _ in items]
-        if st.get("shown_keys") != keys:
-            win.show(items)
-            st["shown_keys"] = keys
-
-    def _passes_for(self, fields, q, report, label) -> tuple:
-        """(passes, seeds (S, 2), jitter (S, 2) px) of a stage. A zero field needs no blur
-        samples: without antialiasing one pass is the exact image (the rest are skipped);
-        with it, the S passes still run, as jittered copies only (a skip may remove work,
-        never quality)."""
-        seeds, jit = pass_samples(q.samples)
-        if not q.antialias:
-            jit = np.zeros_like(jit)
-        if all(f.all_zero for f in fields) and q.skip_unneeded:
-            if not q.antialias and q.samples > 1:
-                report["skipped"].append(f"{label}: blur field all zero: 1 pass instead of "
-                                         f"{q.samples}")
-                return 1, np.zeros((1, 2)), np.zeros((1, 2))
-            if q.samples > 1:
-                report["skipped"].append(f"{label}: blur field all zero: the {q.samples} "
-                                         f"passes only antialias (jitter, no displacement)")
-                return q.samples, np.zeros_like(seeds), antialias_jitter(q.samples)
-        return q.samples, seeds, jit
+        return scene_items(meshes, fields, q.field_route, passes, cam, height, prefilter)
 
     def _reconstruction(self, fields, passes, size, q, report) -> tuple:
         """(fields the passes displace by, reconstruction state or None) of a stage of
@@ -386,7 +335,7 @@ class RasterRenderer(Renderer):
         if fields is None:                          # the lens covers the view
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
-        passes, seeds, jitter = self._passes_for(fields, q, report, "naked view")
+        passes, seeds, jitter = passes_for(fields, q, report, "naked view")
         fields, recon = self._reconstruction(fields, passes, (view.width, view.height), q,
                                              report)
         return {"win": win, "cam": cam, "fields": fields, "recon": recon,
@@ -395,18 +344,14 @@ class RasterRenderer(Renderer):
                 "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
 
-    def _env_width(self, cam, vcam, view, q) -> int:
-        ratio = vcam.tan_half[0] / cam.tan_half[0]
-        return int(min(4096, max(16, round(view.width * ratio * q.env_oversample))))
-
     def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report) -> dict:
         if self._env_win is None:
             self._env_win = OffscreenWindow()
         win = self._env_win
         win.render_s = win.readback_s = 0.0
-        vcam, (w_env, h_env) = fit_window(vcam, self._env_width(cam, vcam, view, q))
+        vcam, (w_env, h_env) = fit_window(vcam, env_width(cam, vcam, view, q))
         win.set_view(vcam, (w_env, h_env), scene.background)
-        passes, seeds, jitter = self._passes_for(fields, q, report, "environment")
+        passes, seeds, jitter = passes_for(fields, q, report, "environment")
         fields, recon = self._reconstruction(fields, passes, (w_env, h_env), q, report)
         items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
         disperses = q.chromatic and lens.material.dispersive
@@ -418,34 +363,14 @@ class RasterRenderer(Renderer):
         tkey = content_key(scene=scene.content_key, lens=lens, camera=vcam, wls=wls,
                            rings=q.lens_rings, segments=q.lens_segments, grid=q.lens_grid_px,
                            eye=cam, size=(view.width, view.height))
-        geo, _ = self._cached("texcoords", tkey, lambda: self._lens_geometry(
+        geo, _ = self._cached("texcoords", tkey, lambda: lens_geometry(
             scene, lens, vcam, cam, view, q, wls), report, "lens_texcoords")
-        tc, tcg = geo["tc"], geo["tc_grid"]
-        report["details"]["lens"] = {
-            "vertices": int(len(geo["grid_v"])), "outline_vertices": int(len(geo["lens_v"])),
-            "texcoord_sets": len(wls), "vertices_missing_lens": int((~tc.lens_ok).any(0).sum()),
-            "rays_missing_scene": int((~tcg.scene_hit).sum()),
-            "virtual_camera": {"position": list(map(float, vcam.position)),
-                               "fov_y_deg": vcam.fov_y_deg, "aspect": vcam.aspect}}
+        report["details"]["lens"] = lens_details(geo, len(wls), vcam)
         return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "items": items,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
                 "geo_key": tkey,
                 "acc": PassAccumulator(h_env, w_env)}
-
-    @staticmethod
-    def _lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:
-        """Lens outline mesh, view grid mesh and their texture coordinates (§3)."""
-        inter = EmbreeIntersector(scene)
-        lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
-        gv, gf, axes = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
-        tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls, pupil=cam.position)
-        # the grid's coordinates through the lens extended beyond its rim (the outline mask
-        # clips it), so that rim cells are filled
-        tcg = lens_texcoords(widened_lens(lens), gv, vcam, inter, wavelengths=wls,
-                             pupil=cam.position)
-        return {"lens_v": lv, "lens_f": lf, "grid_v": gv, "grid_f": gf, "tc": tc, "tc_grid": tcg,
-                "transmittance": transmittance_map(tcg.transmittance, axes, view)}
 
     # ------------------------------------------------------------------ passes
     def _passes(self, naked, env, view, q, report, checkpoints, shown=None):
@@ -454,7 +379,7 @@ class RasterRenderer(Renderer):
         is built and (passes done, None, None) is yielded."""
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
         for st in stages:
-            self._select_channel(st, 0, q.field_route)
+            select_channel(st, 0, q.field_route)
             if len(st["fields"]) > 1:
                 st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
         channels = [len(s["fields"]) for s in stages]
@@ -498,7 +423,7 @@ class RasterRenderer(Renderer):
             return win.grab_rgba()
         out = st["rgba"]
         for c in range(len(st["fields"])):       # the seed uniforms stay set across channels
-            self._select_channel(st, c, route)
+            select_channel(st, c, route)
             out[..., c] = win.grab_rgba()[..., c]
         out[..., 3] = 255
         return out
@@ -562,30 +487,3 @@ class RasterRenderer(Renderer):
         tm = report["timings_s"]
         tm["lens_composite"] = tm.get("lens_composite", 0.0) + time.perf_counter() - t
         return image, layers
-
-
-def transmittance_map(t_grid, axes, view) -> np.ndarray | None:
-    """(h, w, channels) float32 Fresnel transmittance per pixel (row 0 at the top), bilinear
-    between the lens grid's vertices (``t_grid`` (channels, ny * nx) on the NDC ``axes``);
-    None when the lens transmits everything (an index-1 lens)."""
-    from scipy.ndimage import map_coordinates
-
-    gx, gy = axes
-    t = np.asarray(t_grid, float).reshape(len(t_grid), len(gy), len(gx))
-    if np.all(t >= 1.0):
-        return None
-    x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
-    y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
-    fy, fx = np.meshgrid((y - gy[0]) / (gy[1] - gy[0]), (x - gx[0]) / (gx[1] - gx[0]),
-                         indexing="ij")
-    return np.stack([map_coordinates(tc, [fy, fx], order=1, mode="nearest")
-                     for tc in t], axis=-1).astype(np.float32)
-
-
-def _checkpoints(samples):
-    cps, k = [], 1
-    while k < samples:
-        cps.append(k)
-        k *= 2
-    return cps + [samples]
-

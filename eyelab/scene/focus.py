@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from eyelab.core.sampling import disc_seeds
+from eyelab.core.vecmath import UP, cross, unit
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.paths import ChiefRays
 from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
 from eyelab.optics.trace import FATAL
-from eyelab.sampling import disc_seeds
-from eyelab.vecmath import UP, cross, unit
 
 
 def pixel_accommodation(d, scene, inter, eye, lens, view, cam, model: str = "thin",

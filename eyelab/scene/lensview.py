@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.camera import Camera
 from eyelab.optics.trace import FATAL, intersect
 

@@ -138,7 +138,7 @@ def chart_scene(distance_m: float = 6.0, *, contrast: float = 1.0, seed: int = 0
     row, so that a renderer filters each row's texture for its own size. ``contrast``:
     Weber contrast of the letters (1: black; 0.1: a 10 % low-contrast chart), in linear
     light."""
-    from eyelab.color import encode_srgb
+    from eyelab.core.color import encode_srgb
 
     ink = int(encode_srgb(np.array([1.0 - float(contrast)]))[0]) if contrast < 1 else 0
     cell = GLYPH_PX + 2 * GLYPH_PAD

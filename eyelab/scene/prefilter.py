@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from eyelab.color import decode_srgb, encode_srgb
+from eyelab.core.color import decode_srgb, encode_srgb
 from eyelab.scene.scene import SceneMesh
 
 

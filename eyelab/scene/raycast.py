@@ -22,7 +22,7 @@ class Hits:
     def linear_colors(self, scene: Scene):
         """(n, 3) linear-light colours at the hits (:meth:`SceneMesh.linear_color_at`); the
         background's on misses."""
-        from eyelab.color import srgb_to_linear
+        from eyelab.core.color import srgb_to_linear
 
         bg = srgb_to_linear(np.asarray(scene.background, float) / 255.0)
         out = np.broadcast_to(bg, (len(self.t), 3)).copy()

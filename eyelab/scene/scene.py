@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.color import decode_srgb
-from eyelab.errors import SpecError
+from eyelab.core.color import decode_srgb
+from eyelab.core.errors import SpecError
 
 
 @dataclass
@@ -68,7 +68,7 @@ class SceneMesh:
         """Digest (hex) of the name and every array: equal keys, equal meshes."""
         key = self.__dict__.get("_key")
         if key is None:
-            from eyelab.cache import array_digest
+            from eyelab.core.cache import array_digest
 
             parts = [self.name] + [("-" if getattr(self, a) is None
                                     else array_digest(getattr(self, a))) for a in self._ARRAYS]
@@ -155,7 +155,7 @@ class Scene:
     @property
     def content_key(self) -> str:
         """Digest of the meshes' keys (in order), the background and the name."""
-        from eyelab.cache import content_key
+        from eyelab.core.cache import content_key
 
         return content_key(meshes=[m.content_key for m in self.meshes],
                            background=list(self.background), name=self.name)

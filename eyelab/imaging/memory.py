@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import os
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 
 GIB = 1024.0**3
 RASTER_BASE_BYTES = 0.5 * GIB
@@ -69,7 +70,7 @@ def memory_limit(max_memory_gb: float | None = None) -> float:
 def estimate_memory(renderer: str, view, quality) -> dict:
     """Estimated peak bytes of one render, by part: {"total", "image", "field", "base"}
     (raster) or {"total", "image", "rays", "base"} (reference). ``view``: a
-    :class:`~eyelab.imaging.View`; ``quality``: the renderer's options."""
+    :class:`~eyelab.imaging.contract.View`; ``quality``: the renderer's options."""
     pixels = float(view.width) * float(view.height)
     if renderer == "raster":
         nz, ny, nx = quality.field_shape

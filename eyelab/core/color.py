@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 
 # fmt: off
 _TABLES = {

@@ -41,8 +41,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from eyelab.cache import content_key
-from eyelab.errors import SpecError
+from eyelab.core.cache import content_key
+from eyelab.core.errors import SpecError
 
 FORMATS = ("png", "png16")
 JOB_KEYS = {"spec", "base", "output", "sweep", "cases"}
@@ -221,7 +221,7 @@ _RENDERERS = {}      # per process: renderers kept warm between jobs, by (name, 
 
 
 def _renderer(name, quality):
-    from eyelab.jobs import make_renderer
+    from eyelab.jobs.render import make_renderer
 
     key = (name, repr(quality))
     r = _RENDERERS.get(key)
@@ -236,7 +236,7 @@ _SCENES = {}         # per process: scenes built once, by name or (path, mtime, 
 
 
 def _scene(source):
-    from eyelab.jobs import build_scene
+    from eyelab.jobs.render import build_scene
 
     p = Path(source.name)
     key = (source, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (source,)
@@ -277,8 +277,8 @@ def run_job(job: Job, out_dir, formats) -> dict:
     done; a job that fails otherwise (an unreadable mesh) gets one with the error and is
     retried by the next run. Returns the summary row."""
     from eyelab import __version__
-    from eyelab.fileio import atomic_path, json_default
-    from eyelab.resources import check_memory, memory_limit
+    from eyelab.core.fileio import atomic_path, json_default
+    from eyelab.imaging.memory import check_memory, memory_limit
     from eyelab.spec import one_eye, parse_spec
 
     out_dir = Path(out_dir)
@@ -355,7 +355,7 @@ def _row(meta: dict) -> dict:
 def sweep_temporaries(out_dir: Path) -> int:
     """Remove the temporaries a killed run left beside the outputs (this run's folder is
     its own: every ``.eyelab-tmp.`` job, summary and sheet file)."""
-    from eyelab.fileio import TMP_PREFIX
+    from eyelab.core.fileio import TMP_PREFIX
 
     n = 0
     for pattern in ("job-*", "summary.csv.*", "index.html.*"):
@@ -439,7 +439,7 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
 def _bar(total, progress):
     if not progress:
         return None
-    from eyelab.progress import bar
+    from eyelab.core.progress import bar
 
     return bar(total, "batch", "job", force=True)
 
@@ -447,7 +447,7 @@ def _bar(total, progress):
 def write_summary(out: Path, rows: list) -> None:
     """``summary.csv`` (one row per job) and ``index.html`` (a contact sheet: each image
     with its parameters), both atomic; viewable offline."""
-    from eyelab.fileio import atomic_path
+    from eyelab.core.fileio import atomic_path
 
     cols = list(dict.fromkeys(k for r in rows for k in r))
     with atomic_path(out / "summary.csv", suffix=".csv") as tmp, \

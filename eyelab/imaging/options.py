@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from eyelab.errors import SpecError, check_range
-from eyelab.imaging import check_bool, check_choice, check_int, check_rgb
+from eyelab.core.checks import check_bool, check_choice, check_int, check_range, check_rgb
+from eyelab.core.errors import SpecError
 
 #: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
 MAX_PASSES = 256

@@ -13,8 +13,10 @@ import numpy as np
 from eyelab.optics.analysis import (
     analyze_points,
     chief_prism,
+    lens_angle,
     power_error,
     principal_angles,
+    prism_row,
     status_text,
 )
 from eyelab.optics.prescription import tabo_axis
@@ -34,25 +36,12 @@ def _principal(wave, x_axis, i, lens=None):
     if lens is not None:
         y_axis = np.cross(wave.N[i], x_axis[i])
         e1 = math.cos(ang[i]) * x_axis[i] + math.sin(ang[i]) * y_axis
-        out["direction_1_tabo_deg"] = tabo_axis(_lens_angle(lens, e1) % 180.0)
+        out["direction_1_tabo_deg"] = tabo_axis(lens_angle(lens, e1) % 180.0)
     return out
 
 
-def _lens_angle(lens, v) -> float:
-    """Angle (deg, [0, 360)) of the world vector ``v`` projected on the lens plane,
-    counter-clockwise from the lens's x (the wearer's right) seen from behind the wearer."""
-    local = np.asarray(lens.pose.rotation, float).T @ np.asarray(v, float)
-    return math.degrees(math.atan2(local[1], local[0])) % 360.0
 
 
-def _prism(delta, dev, lens) -> dict:
-    """One row of :func:`~eyelab.optics.analysis.chief_prism`: prism dioptres and the
-    base direction (the way the light is bent) in the lens plane."""
-    delta = float(delta)
-    base = _lens_angle(lens, dev) if np.linalg.norm(dev) > 1e-15 else 0.0
-    return {"prism_d": delta, "base_deg": base,
-            "base_right_d": delta * math.cos(math.radians(base)),
-            "base_up_d": delta * math.sin(math.radians(base))}
 
 
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
@@ -115,7 +104,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
             entry["wavefront_at_exit"] = _principal(res.wave_exit, res.eye_x, i, lens)
             entry["wavefront_at_vertex_sphere"] = _principal(res.wave_vertex_sphere,
                                                              res.eye_x, i, lens)
-            entry["prism"] = _prism(prism[i], deviation[i], lens)
+            entry["prism"] = prism_row(prism[i], deviation[i], lens)
             if err is not None:
                 entry["power_error"] = {
                     "sphere_d": float(err["sphere_d"][i]),
@@ -155,12 +144,12 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
 
 
 def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
-    """Both eyes of a binocular spec (:mod:`eyelab.binocular`): the points are in the head
+    """Both eyes of a binocular spec (:mod:`eyelab.optics.binocular`): the points are in the head
     frame (the cyclopean pupil at the origin); each eye's report as :func:`analyze_spec`
     gives it (objects in that eye's frame), with one accommodative response per point
     (the less-blurred-eye rule, or ``eye.accommodation_d``) and the binocular prism
     (total horizontal base out, vertical imbalance) at each point."""
-    from eyelab.binocular import SIDES, analyze_binocular, prism_rows
+    from eyelab.optics.binocular import SIDES, analyze_binocular, prism_rows
 
     b = spec.binocular
     an = analyze_binocular(b, spec.points, wavelength_nm=spec.wavelength_nm,

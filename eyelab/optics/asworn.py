@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_range
+from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import analyze_points, chief_prism, power_error
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import tabo_axis
@@ -146,57 +147,5 @@ def _surface_maps(lens, res, ok, wavelength_nm) -> dict:
     return out
 
 
-def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
-    """Contour maps as lens designers read them: mean power error and cylinder (0.25 D
-    steps), with the gaze grid in degrees, as a PNG at ``path``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
-    for ax, key, label in ((axes[0], "mean_error_d", "mean power error (D)"),
-                           (axes[1], "cylinder_d", "cylinder (D)")):
-        z = np.ma.masked_invalid(getattr(maps, key))
-        span = float(np.nanmax(np.abs(getattr(maps, key)))) if z.count() else 1.0
-        # designers' 0.25 D contours, finer where the whole map is within a dioptre
-        step = next((s for s in (0.05, 0.1, 0.25, 0.5) if span / s <= 12), 1.0)
-        top = step * max(1, math.ceil(span / step))
-        if key == "mean_error_d":
-            lv, cmap = np.arange(-top, top + step / 2, step), "RdBu_r"
-        else:
-            lv, cmap = np.arange(-top, step / 2, step), "magma"
-        cs = ax.contourf(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, cmap=cmap,
-                         extend="both")
-        ax.contour(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, colors="k",
-                   linewidths=0.4)
-        fig.colorbar(cs, ax=ax, shrink=0.85)
-        for (name, (mx, my)), marker in zip(maps.marks.items(), ("+", "o", "o"),
-                                            strict=False):
-            ax.plot(mx, my, marker, color="k", mfc="none", ms=9, mew=1.5)
-            ax.annotate(name, (mx, my), textcoords="offset points", xytext=(6, 4),
-                        fontsize=7)
-        ax.set_title(label)
-        ax.set_xlabel("gaze right (deg)")
-        ax.set_ylabel("gaze up (deg)")
-        ax.set_aspect("equal")
-    if title:
-        fig.suptitle(title)
-    fig.savefig(path, dpi=100, format="png")
-    plt.close(fig)
 
 
-def maps_summary(maps: AsWornMaps) -> list:
-    """Lines a designer reads first: the extremes and the central value."""
-    c = len(maps.gaze_y_deg) // 2
-    lines = [f"gaze +-{maps.gaze_x_deg[-1]:g} deg, {len(maps.gaze_x_deg)}^2 points; object "
-             f"distances: {maps.model['above']} above, {maps.model['below']}"]
-    for key, label in (("mean_error_d", "mean power error"), ("cylinder_d", "cylinder")):
-        z = getattr(maps, key)
-        lines.append(f"{label}: centre {z[c, c]:+.3f} D, range {np.nanmin(z):+.3f} .. "
-                     f"{np.nanmax(z):+.3f} D")
-    lines.append(f"prism: up to {np.nanmax(maps.prism_d):.2f} Δ; "
-                 f"{int((~maps.ok).sum())} gazes without a path through the lens")
-    if not math.isfinite(float(np.nanmax(maps.prism_d))):
-        lines.append("no gaze passes the lens")
-    return lines

@@ -18,60 +18,24 @@ from __future__ import annotations
 import copy
 import dataclasses
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from eyelab.color import CVD_KINDS, cvd_linear, encode_srgb
-from eyelab.errors import SpecError
+from eyelab.core.color import CVD_KINDS, cvd_linear, encode_srgb
+from eyelab.core.errors import SpecError
+from eyelab.jobs.controls import (
+    CONTROLS,
+    CVD_CYCLE,
+    PREVIEW_AFTER,
+    PREVIEW_FIELD,
+    TOGGLES,
+    edit_spec_data,
+    snap,
+)
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.prescription import Prescription
 from eyelab.spec import dump_spec, one_eye, parse_spec, read_spec_data
-
-#: CVD types the inspector cycles through (None: normal colour vision).
-CVD_CYCLE = (None, *CVD_KINDS)
-
-#: Eye keys an Rx control replaces (the explicit powers and the Rx exclude each other).
-_EXPLICIT_EYE = ("power_min_d", "astigmatism_d", "astigmatism_axis_deg")
-
-
-@dataclass(frozen=True)
-class Control:
-    """A slider: its label, range, step and default formatting."""
-
-    name: str
-    label: str
-    lo: float
-    hi: float
-    step: float
-    fmt: str
-
-
-#: The sliders, in display order. "focus_d" below 0 means best effort per point (Eq. 13).
-CONTROLS = (
-    Control("sphere", "eye sphere (D)", -10.0, 6.0, 0.25, "%+.2f"),
-    Control("cylinder", "eye cylinder (D)", -4.0, 0.0, 0.25, "%+.2f"),
-    Control("axis", "eye axis (deg)", 1.0, 180.0, 1.0, "%.0f"),
-    Control("pupil_mm", "pupil (mm)", 1.0, 8.0, 0.1, "%.1f"),
-    Control("age", "age (years)", 10.0, 70.0, 1.0, "%.0f"),
-    Control("focus_d", "focus (D, <0 auto)", -0.5, 10.0, 0.25, "%.2f"),
-    Control("samples", "samples S", 1.0, 64.0, 1.0, "%.0f"),
-    Control("cvd_severity", "CVD severity", 0.0, 1.0, 0.05, "%.2f"),
-)
-CONTROL_NAMES = tuple(c.name for c in CONTROLS)
-#: The toggles.
-TOGGLES = ("lens", "chromatic", "reconstruct")
-#: Changes that need new blur fields: the first frame after one is a preview (one pass on
-#: a coarse field, one wavelength, no refinement), then the full frames follow.
-PREVIEW_AFTER = {"sphere", "cylinder", "axis", "pupil_mm", "age", "focus_d", "gaze", "lens",
-                 "lens_rx", "loaded", "reset"}
-#: The preview's blur-field grid (nz, ny, nx).
-PREVIEW_FIELD = (32, 16, 16)
-
-
-def _snap(value, step):
-    return round(float(value) / step) * step
 
 
 class InspectorModel:
@@ -219,7 +183,7 @@ class InspectorModel:
                 elif name == "cvd_severity":
                     sev = min(max(float(v), 0.0), 1.0)
                 else:
-                    _edit(data, name, v, self)
+                    edit_spec_data(data, name, v, self)
             spec = parse_spec(data, self.source, self.base)
         except SpecError as e:
             self.message = str(e)
@@ -245,9 +209,9 @@ class InspectorModel:
         if name in ("sphere", "cylinder", "focus_d"):
             if name == "focus_d" and float(v) < 0:
                 return cur < 0
-            return _snap(v, 0.25) == cur
+            return snap(v, 0.25) == cur
         if name == "axis":
-            return _snap(v, 1.0) == cur
+            return snap(v, 1.0) == cur
         if name in ("samples", "age"):
             return int(round(float(v))) == int(cur)
         if name in ("pupil_mm", "cvd_severity"):
@@ -278,7 +242,7 @@ class InspectorModel:
 
     # ----------------------------------------------------------------- frames
     def scene(self):
-        from eyelab.jobs import build_scene
+        from eyelab.jobs.render import build_scene
 
         name = self.spec.render.scene
         if name not in self._scenes:
@@ -454,45 +418,12 @@ class InspectorModel:
         self.renderer.close()
 
 
-def _edit(data: dict, name: str, v, model: InspectorModel) -> None:
-    """Apply one control's value to the spec table ``data`` (in place)."""
-    eye = data.setdefault("eye", {})
-    render = data.setdefault("render", {})
-    if name in ("sphere", "cylinder", "axis"):
-        rx = model.eye_rx() if "rx" in eye else Prescription()
-        rx = dataclasses.replace(rx, **{name: _snap(v, 1.0 if name == "axis" else 0.25)})
-        for k in _EXPLICIT_EYE:
-            eye.pop(k, None)
-        eye["rx"] = rx.format()
-    elif name == "lens_rx":
-        data.setdefault("lens", {})["rx"] = str(v)
-    elif name == "pupil_mm":
-        eye.pop("luminance_cd_m2", None)
-        eye["pupil_diameter_mm"] = round(float(v), 2)
-    elif name == "age":
-        eye.pop("accommodation_max_d", None)
-        eye["age"] = int(round(float(v)))
-    elif name == "focus_d":           # the eye's accommodation, one state for every job
-        if float(v) < 0:
-            eye.pop("accommodation_d", None)
-        else:
-            eye["accommodation_d"] = _snap(v, 0.25)
-    elif name == "samples":
-        render["samples"] = int(round(float(v)))
-    elif name in ("chromatic", "reconstruct"):
-        render[name] = bool(v)
-    elif name == "gaze":
-        render["gaze_deg"] = [float(v[0]), float(v[1])]
-    else:
-        raise SpecError("inspector", f"unknown control {name!r}; controls: "
-                                     f"{', '.join(CONTROL_NAMES + TOGGLES)}")
 
 
 def write_state(model: InspectorModel, image_path, *, image=None) -> tuple:
     """Write the displayed view (PNG) and, beside it, the spec that reproduces it
     (``<stem>.toml``), each atomically. Returns the two paths."""
-    from eyelab.fileio import atomic_path
-    from eyelab.jobs import write_png
+    from eyelab.core.fileio import atomic_path, write_png
 
     image_path = Path(image_path)
     spec_path = image_path.with_suffix(".toml")

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
-from eyelab.errors import SpecError, check_range
+from eyelab.core.checks import check_choice, check_int, check_range
+from eyelab.core.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
+from eyelab.core.errors import SpecError
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
 from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
@@ -35,37 +36,12 @@ REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", 
                "cache", "details")
 
 
-def check_int(field_name: str, value, lo: int, hi: int) -> int:
-    """``value`` as an int in [lo, hi], or a :class:`SpecError` naming the field (booleans
-    and non-integral numbers are refused)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise SpecError(field_name, f"must be an integer in [{lo}, {hi}], got {value!r}")
-    if not lo <= int(value) <= hi:          # exact: no float rounding of huge integers
-        text = repr(int(value))
-        raise SpecError(field_name, f"must be an integer in [{lo}, {hi}], got "
-                        f"{text if len(text) <= 40 else text[:20] + '...'}")
-    return int(value)
 
 
-def check_rgb(field_name: str, value) -> tuple:
-    """An sRGB colour [r, g, b] of integers 0-255 as a tuple, or a :class:`SpecError`
-    naming the field (or the element)."""
-    if not (isinstance(value, (tuple, list)) and len(value) == 3):
-        raise SpecError(field_name, f"must be [r, g, b] in 0-255, got {value!r}")
-    return tuple(check_int(f"{field_name}[{i}]", v, 0, 255) for i, v in enumerate(value))
 
 
-def check_bool(field_name: str, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise SpecError(field_name, f"must be true or false, got {value!r}")
-    return bool(value)
 
 
-def check_choice(field_name: str, value, choices):
-    if value not in choices:
-        raise SpecError(field_name, f"must be one of {', '.join(map(repr, choices))}, "
-                                    f"got {value!r}")
-    return value
 
 
 @dataclass(frozen=True)

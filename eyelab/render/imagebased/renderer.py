@@ -4,10 +4,10 @@ onto the film grid with the traced rays' image-plane intersections as texture
 coordinates, weighted by W_i (§3.5) and accumulated in linear light.
 
 The plan (rays, centres of projection, quad-tree, vignetting, weights) is
-:mod:`eyelab.imagebased`. The slices are drawn by GL; the morph — the paper's texture
+:mod:`eyelab.render.imagebased.plan`. The slices are drawn by GL; the morph — the paper's texture
 mapping of each slice onto its film grid with Gouraud-interpolated texture coordinates and
 bilinear texture filtering, alpha-blended with the weight grid — runs in numpy on the
-read-back slice (:func:`eyelab.imagebased.morph_pixels`, :func:`~eyelab.imagebased.bilinear`):
+read-back slice (:mod:`eyelab.render.imagebased.morph`):
 the same arithmetic the texture unit does, in float, so that the accumulation stays in
 linear light without one more 8-bit read-back per slice.
 """
@@ -19,18 +19,15 @@ import time
 
 import numpy as np
 
-from eyelab.imagebased import (
-    CameraRays,
-    EyeRays,
-    bilinear,
-    morph_pixels,
-    plan_projections,
-)
-from eyelab.imaging import Renderer, channel_wavelengths, finish, new_report
+from eyelab.imaging.contract import Renderer, channel_wavelengths, finish, new_report
+from eyelab.imaging.options import ImageBasedQuality
 from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.film import CameraRays
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
-from eyelab.options import ImageBasedQuality
 from eyelab.render.accumulate import DECODE16
+from eyelab.render.imagebased.morph import bilinear, morph_pixels
+from eyelab.render.imagebased.plan import plan_projections
+from eyelab.render.imagebased.rays import EyeRays
 
 
 class ImageBasedRenderer(Renderer):
@@ -48,7 +45,7 @@ class ImageBasedRenderer(Renderer):
     Quality = ImageBasedQuality
 
     def __init__(self, quality=None):
-        from eyelab.cache import LRUCache
+        from eyelab.core.cache import LRUCache
 
         super().__init__(quality)
         self._window = None
@@ -70,7 +67,7 @@ class ImageBasedRenderer(Renderer):
 
     # ------------------------------------------------------------------ rendering
     def _render(self, scene, observer, lens, view, q, progressive):
-        from eyelab.errors import SpecError
+        from eyelab.core.errors import SpecError
         from eyelab.optics.system import LensSystem
 
         t0 = time.perf_counter()
@@ -88,7 +85,7 @@ class ImageBasedRenderer(Renderer):
             maker = EyeRays(observer, lens, view, view.focus_d, scene)
             wls = channel_wavelengths(observer, lens, q.chromatic, report)
             radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
-        from eyelab.sampling import pass_samples
+        from eyelab.core.sampling import pass_samples
 
         samples = pass_samples(q.samples)[0]
         h, w = view.height, view.width
@@ -99,7 +96,7 @@ class ImageBasedRenderer(Renderer):
         win = self._win()
         items = [(m.content_key, _factory(m)) for m in scene.meshes]
         win.show(items)
-        from eyelab.cache import content_key
+        from eyelab.core.cache import content_key
 
         base_key = content_key(observer=observer, lens=lens, quality=q,
                                view=view.replace(cvd=None, cvd_severity=1.0),

@@ -42,7 +42,7 @@ def _measure(model, changes: dict) -> dict:
 
 
 def run_inspect_bench(width: int = 800, height: int = 600, samples: int = 16) -> dict:
-    from eyelab.inspect import InspectorModel
+    from eyelab.jobs.inspector import InspectorModel
 
     model = InspectorModel(None, size=(width, height), samples=samples)
     try:

@@ -4,19 +4,17 @@ images and reports. The one place that knows every renderer by name."""
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 
-from eyelab.fileio import atomic_path, json_default
-from eyelab.imaging import Renderer
+from eyelab.imaging.contract import Renderer
 from eyelab.scene.scene import Scene
 
 
 def make_renderer(name: str, quality=None) -> Renderer:
     """A renderer by name ("raster", "reference" or "imagebased",
-    :data:`eyelab.options.RENDERERS`)."""
+    :data:`eyelab.imaging.options.RENDERERS`)."""
     if name == "imagebased":
         from eyelab.render.imagebased import ImageBasedRenderer
 
@@ -29,8 +27,8 @@ def make_renderer(name: str, quality=None) -> Renderer:
         from eyelab.reference.tracer import ReferenceRenderer
 
         return ReferenceRenderer(quality)
-    from eyelab.errors import SpecError
-    from eyelab.options import RENDERERS
+    from eyelab.core.errors import SpecError
+    from eyelab.imaging.options import RENDERERS
 
     raise SpecError("render.renderer", f"must be one of {', '.join(map(repr, RENDERERS))}, "
                                        f"got {name!r}")
@@ -62,33 +60,12 @@ def build_scene(source) -> Scene:
     return scene
 
 
-def png_writer(image: np.ndarray):
-    """A writer (``write(path)``) of an (h, w, 3) uint8 image as PNG."""
-    def write(path):
-        import matplotlib.image as mpimg
-
-        mpimg.imsave(path, image, format="png")
-    return write
 
 
-def json_writer(obj):
-    """A writer (``write(path)``) of ``obj`` as JSON (numpy values converted)."""
-    def write(path):
-        with open(path, "w") as f:
-            json.dump(obj, f, indent=2, default=json_default)
-    return write
 
 
-def write_png(path, image: np.ndarray) -> None:
-    """Atomic PNG write of an (h, w, 3) uint8 image (no partial file on failure)."""
-    with atomic_path(path, suffix=".png") as tmp:
-        png_writer(image)(tmp)
 
 
-def write_json(path, obj) -> None:
-    """Atomic JSON write (numpy values converted)."""
-    with atomic_path(path) as tmp:
-        json_writer(obj)(tmp)
 
 
 def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
@@ -107,10 +84,10 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
 
 
 def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
-    """Both eyes of a binocular spec (:func:`eyelab.binocular.render_binocular`) with the
+    """Both eyes of a binocular spec (:func:`eyelab.optics.binocular.render_binocular`) with the
     spec's renderer, view and quality; ``renderer`` reuses an open renderer of that kind.
-    Returns a :class:`~eyelab.binocular.BinocularResult`."""
-    from eyelab.binocular import render_binocular
+    Returns a :class:`~eyelab.optics.binocular.BinocularResult`."""
+    from eyelab.imaging.stereo import render_binocular
 
     rs = spec.render
     scene = build_scene(rs.scene)
@@ -133,7 +110,7 @@ def demo(spec):
     (image, report)."""
     rs = spec.render
     if rs.camera is not None:
-        from eyelab.errors import SpecError
+        from eyelab.core.errors import SpecError
 
         raise SpecError("render.camera", "the demo compares eyes; render a camera lens with "
                                          "eyelab render")
@@ -160,7 +137,8 @@ def demo(spec):
 
 
 def _demo_binocular(spec, scene):
-    from eyelab.binocular import SIDES, render_binocular
+    from eyelab.imaging.stereo import render_binocular
+    from eyelab.optics.binocular import SIDES
 
     rs = spec.render
     b = spec.binocular

@@ -44,25 +44,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.color import encode_srgb
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import trace_chain
-from eyelab.optics.eye import EYE_REFERENCE_NM, Eye
+from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 
 SIDES = ("right", "left")
-#: Binocular images: both side by side for parallel or crossed free viewing, a red/cyan
-#: anaglyph (red filter over the left eye), or one eye alone.
-OUTPUTS = ("side-by-side", "crossed", "anaglyph", "right", "left")
-#: Gaze limit of each eye (deg, each Fick angle), as :class:`eyelab.imaging.View`.
+#: Gaze limit of each eye (deg, each Fick angle), as :class:`eyelab.imaging.contract.View`.
 MAX_GAZE_DEG = 60.0
-#: Dubois red/cyan anaglyph matrices (linear RGB in -> linear RGB out), left and right.
-DUBOIS_LEFT = np.array([[0.437, 0.449, 0.164],
-                        [-0.062, -0.062, -0.024],
-                        [-0.048, -0.050, -0.017]])
-DUBOIS_RIGHT = np.array([[-0.011, -0.032, -0.007],
-                         [0.377, 0.761, 0.009],
-                         [-0.026, -0.093, 1.234]])
 
 
 @dataclass(frozen=True)
@@ -225,19 +214,19 @@ def prism_rows(bino: Binocular, an: dict, i: int) -> dict | None:
     """Point ``i``'s induced prism per eye (:func:`line_of_sight_prism`, in each lens's
     plane) and binocularly (:func:`prism_imbalance`); None without lenses or where a line
     of sight misses a lens."""
-    from eyelab.analyze import _prism
+    from eyelab.optics.analysis import prism_row
 
     los = an["line_of_sight_prism"]
     if len(los) < 2 or not all(los[s][2][i] for s in SIDES):
         return None
-    rows = {s: _prism(los[s][0][i], los[s][1][i], bino.lens(s)) for s in SIDES}
+    rows = {s: prism_row(los[s][0][i], los[s][1][i], bino.lens(s)) for s in SIDES}
     return {"right": rows["right"], "left": rows["left"],
             "binocular": prism_imbalance(rows["right"], rows["left"])}
 
 
 def prism_imbalance(right: dict, left: dict) -> dict:
     """Binocular prism from the two eyes' prism rows (``base_right_d``, ``base_up_d`` in
-    each lens's plane, :func:`eyelab.analyze._prism`): the total horizontal prism, base
+    each lens's plane, :func:`eyelab.optics.analysis.prism_row`): the total horizontal prism, base
     out positive (the right eye's base toward +x, the left's toward -x), and the vertical
     imbalance, right base up positive."""
     out = right["base_right_d"] - left["base_right_d"]
@@ -268,97 +257,9 @@ def line_of_sight_prism(eye: Eye, lens, points: ObjectPoints, wavelength_nm=587.
     return 100.0 * np.tan(np.arccos(cos)), d_out - cos[:, None] * d_in, ok
 
 
-# ---------------------------------------------------------------------- rendering
-@dataclass
-class BinocularResult:
-    """Both eyes' :class:`~eyelab.imaging.RenderResult` and the composed image.
-
-    right, left : RenderResult; report : {"binocular": {...}, "right": ..., "left": ...}.
-    """
-
-    right: object
-    left: object
-    report: dict
-
-    def linear(self, output: str) -> np.ndarray:
-        """(h, w', 3) float32 linear image for ``output`` (:data:`OUTPUTS`)."""
-        return compose(self.right.linear, self.left.linear, output)
-
-    def srgb(self, output: str) -> np.ndarray:
-        """(h, w', 3) uint8 sRGB image for ``output``."""
-        if output in SIDES:
-            return (self.right if output == "right" else self.left).srgb
-        return encode_srgb(self.linear(output))
 
 
-def compose(right: np.ndarray, left: np.ndarray, output: str) -> np.ndarray:
-    """Two (h, w, 3) linear images -> the ``output`` image, linear: "side-by-side" (left
-    eye's image on the left: parallel viewing), "crossed" (right eye's on the left),
-    "anaglyph" (Dubois red/cyan, clipped to [0, 1]), or one eye."""
-    if output not in OUTPUTS:
-        raise SpecError("binocular.output", f"must be one of {', '.join(map(repr, OUTPUTS))},"
-                                            f" got {output!r}")
-    right = np.asarray(right, np.float32)
-    left = np.asarray(left, np.float32)
-    if output == "right":
-        return right
-    if output == "left":
-        return left
-    if output == "side-by-side":
-        return np.concatenate([left, right], axis=1)
-    if output == "crossed":
-        return np.concatenate([right, left], axis=1)
-    return anaglyph(right, left)
 
 
-def anaglyph(right: np.ndarray, left: np.ndarray) -> np.ndarray:
-    """Dubois red/cyan anaglyph (linear RGB (h, w, 3) each -> (h, w, 3) in [0, 1]); the
-    red filter goes over the left eye."""
-    out = np.asarray(left, float) @ DUBOIS_LEFT.T + np.asarray(right, float) @ DUBOIS_RIGHT.T
-    return np.clip(out, 0.0, 1.0).astype(np.float32)
 
 
-def render_binocular(renderer, scene, bino: Binocular, view, quality=None, *,
-                     no_lens: bool = False, progressive: bool = False) -> BinocularResult:
-    """Render what each eye sees of the head-frame ``scene`` with ``renderer`` (any
-    :class:`~eyelab.imaging.Renderer`): each eye turned toward the fixated point
-    (``view.gaze_deg`` is the cyclopean gaze), both with one accommodative response
-    (``view.focus_d``, or the less-blurred-eye rule for the fixated point when it is
-    None, at the eye's reference wavelength). The report lists the per-eye gaze,
-    accommodation, figures at the fixated point and the binocular prism there."""
-    b = bino.without_lenses() if no_lens else bino
-    fix = b.fixation(view.gaze_deg)
-    gazes = {s: b.gaze(s, view.gaze_deg) for s in SIDES}
-    an = analyze_binocular(b, fix, wavelength_nm=EYE_REFERENCE_NM, fixation="rotating",
-                           accommodation=view.focus_d)
-    acc = float(an["accommodation_d"][0])
-    results, per_eye = {}, {}
-    for side in SIDES:
-        eye, lens = b.eye(side), b.lens(side)
-        v = view.replace(gaze_deg=gazes[side], focus_d=min(acc, eye.accommodation_max))
-        res = renderer.render(b.scene_for(side, scene), eye, lens, v, quality,
-                              progressive=progressive)
-        results[side] = res
-        r = an[side]
-        maj, mnr, _ = r.blur_axes()
-        info = {"pupil_mm": [float(x) for x in b.pupil(side) * 1e3],
-                "gaze_deg": list(gazes[side]),
-                "accommodation_d": float(r.accommodation[0]),
-                "blur_at_fixation_arcmin": [float(r.to_arcmin(maj[0])),
-                                            float(r.to_arcmin(mnr[0]))],
-                "rx": None if lens is None or lens.rx is None else lens.rx.format()}
-        per_eye[side] = info
-    prism = prism_rows(b, an, 0)
-    report = {"binocular": {
-        "output": b.output, "monocular_pd_mm": [v * 1e3 for v in b.monocular_pd],
-        "frame_pd_mm": None if b.frame_pd is None or no_lens else b.frame_pd * 1e3,
-        "fixation_distance_m": b.fixation_distance if math.isfinite(b.fixation_distance)
-        else "inf",
-        "fixation_point_m": [float(x) for x in fix.positions()[0]] if fix.finite[0] else None,
-        "accommodation_d": acc,
-        "accommodation_rule": "fixed (eye.accommodation_d)" if view.focus_d is not None
-        else f"less-blurred eye: the {an['driving_eye'][0]} eye's response",
-        "eyes": per_eye,
-        "prism_at_fixation": prism},
-        "right": results["right"].report, "left": results["left"].report}
-    return BinocularResult(results["right"], results["left"], report)

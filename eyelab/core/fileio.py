@@ -9,6 +9,7 @@ temporaries first and renamed last, back to back (:func:`atomic_group`).
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from contextlib import contextmanager
@@ -16,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from eyelab.errors import SpecError
+from eyelab.core.errors import SpecError
 
 #: Temporaries are named ``.eyelab-tmp.<final name>.<random><suffix>`` beside the final
 #: file: recognisable, and swept by the next write of the same file (:func:`sweep_for`).
@@ -125,3 +126,32 @@ def atomic_group(writers: dict) -> None:
         raise
     for cm, _ in stack:
         cm.__exit__(None, None, None)
+
+
+def png_writer(image: np.ndarray):
+    """A writer (``write(path)``) of an (h, w, 3) uint8 image as PNG."""
+    def write(path):
+        import matplotlib.image as mpimg
+
+        mpimg.imsave(path, image, format="png")
+    return write
+
+
+def json_writer(obj):
+    """A writer (``write(path)``) of ``obj`` as JSON (numpy values converted)."""
+    def write(path):
+        with open(path, "w") as f:
+            json.dump(obj, f, indent=2, default=json_default)
+    return write
+
+
+def write_png(path, image: np.ndarray) -> None:
+    """Atomic PNG write of an (h, w, 3) uint8 image (no partial file on failure)."""
+    with atomic_path(path, suffix=".png") as tmp:
+        png_writer(image)(tmp)
+
+
+def write_json(path, obj) -> None:
+    """Atomic JSON write (numpy values converted)."""
+    with atomic_path(path) as tmp:
+        json_writer(obj)(tmp)

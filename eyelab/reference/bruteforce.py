@@ -7,8 +7,8 @@ and ``eyelab bench stability`` use them.
 
 import numpy as np
 
+from eyelab.core.vecmath import any_tangent
 from eyelab.optics.trace import FATAL
-from eyelab.vecmath import any_tangent
 
 
 def bundle_vergence(lens, start, dir_in, finite, pupil, n_chief, x_axis, *,

@@ -1,0 +1,16 @@
+"""What the command-line front ends share: common flags."""
+
+from __future__ import annotations
+
+
+def add_quiet(parser) -> None:
+    """``--quiet``: no progress bars (they show on a terminal for work longer than 2 s)."""
+    parser.add_argument("--quiet", action="store_true", help="no progress bars (shown on "
+                        "stderr when it is a terminal, for work longer than 2 s)")
+
+
+def add_max_memory(parser) -> None:
+    """``--max-memory GIB``: the memory limit renders are checked against up front."""
+    parser.add_argument("--max-memory", type=float, metavar="GIB",
+                        help="refuse renders whose estimated memory exceeds this many GiB "
+                        "(default: $EYELAB_MAX_MEMORY_GB, else half the machine's memory)")

@@ -1,0 +1,98 @@
+"""The inspector's controls: its sliders and toggles, the changes after which a preview
+frame comes first, and how a control's value is written into the spec it edits."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from eyelab.core.color import CVD_KINDS
+from eyelab.core.errors import SpecError
+from eyelab.optics.prescription import Prescription
+
+#: CVD types the inspector cycles through (None: normal colour vision).
+CVD_CYCLE = (None, *CVD_KINDS)
+
+
+#: Eye keys an Rx control replaces (the explicit powers and the Rx exclude each other).
+EXPLICIT_EYE = ("power_min_d", "astigmatism_d", "astigmatism_axis_deg")
+
+
+@dataclass(frozen=True)
+class Control:
+    """A slider: its label, range, step and default formatting."""
+
+    name: str
+    label: str
+    lo: float
+    hi: float
+    step: float
+    fmt: str
+
+
+#: The sliders, in display order. "focus_d" below 0 means best effort per point (Eq. 13).
+CONTROLS = (
+    Control("sphere", "eye sphere (D)", -10.0, 6.0, 0.25, "%+.2f"),
+    Control("cylinder", "eye cylinder (D)", -4.0, 0.0, 0.25, "%+.2f"),
+    Control("axis", "eye axis (deg)", 1.0, 180.0, 1.0, "%.0f"),
+    Control("pupil_mm", "pupil (mm)", 1.0, 8.0, 0.1, "%.1f"),
+    Control("age", "age (years)", 10.0, 70.0, 1.0, "%.0f"),
+    Control("focus_d", "focus (D, <0 auto)", -0.5, 10.0, 0.25, "%.2f"),
+    Control("samples", "samples S", 1.0, 64.0, 1.0, "%.0f"),
+    Control("cvd_severity", "CVD severity", 0.0, 1.0, 0.05, "%.2f"),
+)
+
+
+CONTROL_NAMES = tuple(c.name for c in CONTROLS)
+
+
+#: The toggles.
+TOGGLES = ("lens", "chromatic", "reconstruct")
+
+
+#: Changes that need new blur fields: the first frame after one is a preview (one pass on
+#: a coarse field, one wavelength, no refinement), then the full frames follow.
+PREVIEW_AFTER = {"sphere", "cylinder", "axis", "pupil_mm", "age", "focus_d", "gaze", "lens",
+                 "lens_rx", "loaded", "reset"}
+
+
+#: The preview's blur-field grid (nz, ny, nx).
+PREVIEW_FIELD = (32, 16, 16)
+
+
+def snap(value, step):
+    return round(float(value) / step) * step
+
+
+def edit_spec_data(data: dict, name: str, v, model) -> None:
+    """Apply one control's value to the spec table ``data`` (in place)."""
+    eye = data.setdefault("eye", {})
+    render = data.setdefault("render", {})
+    if name in ("sphere", "cylinder", "axis"):
+        rx = model.eye_rx() if "rx" in eye else Prescription()
+        rx = dataclasses.replace(rx, **{name: snap(v, 1.0 if name == "axis" else 0.25)})
+        for k in EXPLICIT_EYE:
+            eye.pop(k, None)
+        eye["rx"] = rx.format()
+    elif name == "lens_rx":
+        data.setdefault("lens", {})["rx"] = str(v)
+    elif name == "pupil_mm":
+        eye.pop("luminance_cd_m2", None)
+        eye["pupil_diameter_mm"] = round(float(v), 2)
+    elif name == "age":
+        eye.pop("accommodation_max_d", None)
+        eye["age"] = int(round(float(v)))
+    elif name == "focus_d":           # the eye's accommodation, one state for every job
+        if float(v) < 0:
+            eye.pop("accommodation_d", None)
+        else:
+            eye["accommodation_d"] = snap(v, 0.25)
+    elif name == "samples":
+        render["samples"] = int(round(float(v)))
+    elif name in ("chromatic", "reconstruct"):
+        render[name] = bool(v)
+    elif name == "gaze":
+        render["gaze_deg"] = [float(v[0]), float(v[1])]
+    else:
+        raise SpecError("inspector", f"unknown control {name!r}; controls: "
+                                     f"{', '.join(CONTROL_NAMES + TOGGLES)}")

@@ -1,0 +1,21 @@
+"""Spec files: the TOML a user writes, read into the engine's objects.
+
+:mod:`.tables` reads one table, :mod:`.parse` the eye, the lens and the object points,
+:mod:`.render` the ``[render]`` table, :mod:`.sides` two eyes, :mod:`.load` the whole
+document; :mod:`.docs` writes the README's reference tables.
+"""
+
+from eyelab.spec.load import Spec, dump_spec, load_spec, one_eye, parse_spec, read_spec_data
+from eyelab.spec.parse import (
+    ANALYSIS_KEYS,
+    BINOCULAR_KEYS,
+    EYE_KEYS,
+    LENS_KEYS,
+    POINT_KEYS,
+    SURFACE_KEYS,
+)
+from eyelab.spec.render import SCENE_KEYS, RenderSpec, parse_render, renderer_keys
+
+__all__ = ["ANALYSIS_KEYS", "BINOCULAR_KEYS", "EYE_KEYS", "LENS_KEYS", "POINT_KEYS",
+           "SCENE_KEYS", "SURFACE_KEYS", "RenderSpec", "Spec", "dump_spec", "load_spec",
+           "one_eye", "parse_render", "parse_spec", "read_spec_data", "renderer_keys"]

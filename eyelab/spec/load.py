@@ -1,0 +1,180 @@
+"""The whole spec document: :class:`Spec` (what a TOML file describes), parsed from a dict,
+loaded from a file (or the built-in default), and written back as TOML."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from eyelab.core.checks import check_choice
+from eyelab.core.errors import SpecError
+from eyelab.optics.binocular import SIDES
+from eyelab.optics.eye import (
+    Eye,
+)
+from eyelab.optics.lens import SpectacleLens
+from eyelab.optics.paths import ObjectPoints
+from eyelab.spec.parse import ANALYSIS_KEYS, eye_accommodation, parse_eye, parse_lens, parse_points
+from eyelab.spec.render import RenderSpec, parse_render
+from eyelab.spec.sides import has_sides, parse_binocular
+from eyelab.spec.tables import check_keys, number, rx_value
+
+
+@dataclass(frozen=True)
+class Spec:
+    eye: Eye
+    lens: SpectacleLens | None
+    points: ObjectPoints
+    wavelength_nm: float = 587.56
+    fixation: str = "fixed"
+    accommodation: float | None = None
+    source: str = "<built-in>"
+    render: RenderSpec = field(default_factory=RenderSpec)
+    vertex_sphere: str = "rotation_centre"
+    #: Two eyes (:class:`eyelab.optics.binocular.Binocular`) when the spec has [binocular] or
+    #: per-eye tables; ``eye`` and ``lens`` are then the right eye's.
+    binocular: object = None
+
+
+def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:
+    check_keys(data, {"eye", "lens", "analysis", "points", "render", "binocular"}, "spec")
+    eye_t = data.get("eye", {})
+    bino = None
+    if "binocular" in data or has_sides(eye_t) or has_sides(data.get("lens")):
+        bino = parse_binocular(data)
+        eye, lens = bino.right, bino.right_lens
+        eye_t = {k: v for k, v in eye_t.items() if k not in SIDES}
+    else:
+        eye = parse_eye(eye_t)
+        lens = None
+        if "lens" in data:
+            eye_rx = rx_value(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
+            lens = parse_lens(data["lens"], eye_rx)
+    an = data.get("analysis", {})
+    check_keys(an, ANALYSIS_KEYS, "analysis")
+    wl = number(an, "wavelength_nm", "analysis", 380, 780, 587.56)
+    # two eyes fixate each point (vergence) unless the spec says otherwise
+    fix = an.get("fixation", "fixed" if bino is None else "rotating")
+    if fix not in ("fixed", "rotating"):
+        raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
+    acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
+    vsph = check_choice("analysis.vertex_sphere", an.get("vertex_sphere", "rotation_centre"),
+                        ("rotation_centre", "pupil"))
+    points = parse_points(data.get("points", [{"distance_m": "inf"}]))
+    render = parse_render(data.get("render", {}), base)
+    if render.camera is not None:
+        for table in ("lens", "binocular"):
+            if table in data:
+                raise SpecError("render.camera", f"a camera lens sees the scene; [{table}] "
+                                                 "has no meaning with it")
+        if data.get("eye"):
+            raise SpecError("render.camera", "a camera lens sees the scene; [eye] has no "
+                                             "meaning with it")
+    render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
+    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino)
+
+
+def one_eye(spec: Spec, what: str) -> Spec:
+    """``spec``, or a one-line error naming ``[binocular]`` when it has two eyes and
+    ``what`` (the inspector, batch, maps) shows one."""
+    if spec.binocular is not None:
+        raise SpecError("binocular", f"{what} shows one eye; this spec has two ([binocular] "
+                                     "or per-eye tables): use eyelab render, demo or analyze")
+    return spec
+
+
+def load_spec(path: str | Path | None = None) -> Spec:
+    """Load a TOML spec; ``None`` loads the built-in default scene."""
+    data, source, base = read_spec_data(path)
+    return parse_spec(data, source, base)
+
+
+def read_spec_data(path: str | Path | None = None) -> tuple:
+    """(table, source, base folder) of a TOML spec file, unvalidated (:func:`parse_spec`
+    checks it); ``None``: the built-in default."""
+    if path is None:
+        text = resources.files("eyelab").joinpath("data/default.toml").read_text()
+        source = "<built-in default>"
+        base = None
+    else:
+        p = Path(path)
+        shown = str(p) if len(str(p)) <= 80 else f"{str(p)[:40]}... ({len(str(p))} characters)"
+        try:
+            if not p.is_file():
+                raise SpecError("spec", f"file not found (or not a file): {shown!r}")
+            raw = p.read_bytes()
+        except OSError as e:
+            raise SpecError("spec", f"cannot read {shown!r}: {e.strerror}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise SpecError("spec", f"{shown} is not a UTF-8 text file (byte {e.start}): a "
+                                    "spec is TOML text; a mesh goes in [render] scene") from None
+        source = str(p)
+        base = p.parent
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise SpecError("spec", f"{source} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise SpecError("spec", f"{source}: nesting too deep") from None
+    return data, source, base
+
+
+def dump_spec(data: dict) -> str:
+    """A spec table as TOML text that :func:`tomllib.loads` reads back equal: tables of
+    scalars, strings, lists of scalars, nested tables ([lens.front]) and arrays of tables
+    ([[points]]); floats written exactly (``repr``), infinities as ``inf``.
+
+    >>> import tomllib
+    >>> d = {"eye": {"rx": "-2.00 DS", "age": 40}, "points": [{"distance_m": "inf"}]}
+    >>> tomllib.loads(dump_spec(d)) == d
+    True
+    """
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, float):
+            return ("inf" if v > 0 else "-inf") if math.isinf(v) else \
+                ("nan" if math.isnan(v) else repr(v))
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
+        raise SpecError("spec", f"cannot write {v!r} as TOML")
+
+    def table(name, t, lines):
+        scalars = {k: v for k, v in t.items() if not isinstance(v, dict)
+                   and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))}
+        lines.append(f"[{name}]")
+        lines.extend(f"{k} = {value(v)}" for k, v in scalars.items())
+        lines.append("")
+        for k, v in t.items():
+            if isinstance(v, dict):
+                table(f"{name}.{k}", v, lines)
+            elif k not in scalars:
+                for item in v:
+                    lines.append(f"[[{name}.{k}]]")
+                    lines.extend(f"{kk} = {value(vv)}" for kk, vv in item.items())
+                    lines.append("")
+
+    lines = []
+    for name, t in data.items():
+        if isinstance(t, dict):
+            table(name, t, lines)
+        elif isinstance(t, list):
+            for item in t:
+                lines.append(f"[[{name}]]")
+                lines.extend(f"{k} = {value(v)}" for k, v in item.items())
+                lines.append("")
+        else:
+            raise SpecError(f"spec.{name}", "top-level entries must be tables")
+    return "\n".join(lines)

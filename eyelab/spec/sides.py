@@ -1,0 +1,141 @@
+"""Two eyes in one spec: ``[eye]`` / ``[lens]`` hold what both sides share, ``[eye.right]``,
+``[lens.left]``, ... one side's own keys, ``[binocular]`` the pupillary distances, the
+frame PD, the fixation distance and the output."""
+
+from __future__ import annotations
+
+import math
+
+from eyelab.core.checks import check_choice, check_range
+from eyelab.core.errors import SpecError
+from eyelab.optics.binocular import SIDES
+from eyelab.optics.prescription import Prescription
+from eyelab.spec.parse import BINOCULAR_KEYS, parse_eye, parse_lens
+from eyelab.spec.tables import check_keys, number, rx_value
+
+#: Keys a side's table ([eye.right], [lens.left], ...) may not hold: one value for both.
+SHARED_ONLY = {"eye": ("accommodation_d",), "lens": ()}
+
+
+def has_sides(t) -> bool:
+    return isinstance(t, dict) and any(s in t for s in SIDES)
+
+
+def _split_sides(t, where) -> tuple:
+    """(shared keys, {side: that side's table}) of an [eye] or [lens] table."""
+    if t is None:
+        return None, {}
+    if not isinstance(t, dict):
+        raise SpecError(where, f"must be a table, got {t!r}")
+    sides = {}
+    for side in SIDES:
+        st = t.get(side, {})
+        if not isinstance(st, dict):
+            raise SpecError(f"{where}.{side}", f"must be a table of {where} keys, got {st!r}")
+        for key in SHARED_ONLY[where]:
+            if key in st:
+                raise SpecError(f"{where}.{side}.{key}", f"one value for both eyes: give it "
+                                                         f"in [{where}]")
+        sides[side] = st
+    return {k: v for k, v in t.items() if k not in SIDES}, sides
+
+
+def _for_side(where, side, own, fn):
+    """``fn()``, with an error in a key the side's own table holds renamed to it."""
+    try:
+        return fn()
+    except SpecError as e:
+        head, _, rest = e.field.partition(".")
+        key = rest.split("[")[0].split(".")[0]
+        if head == where and key in own:
+            raise SpecError(f"{where}.{side}.{rest}", e.message) from None
+        raise
+
+
+def parse_binocular(data: dict):
+    """A spec with two eyes -> :class:`eyelab.optics.binocular.Binocular`.
+
+    ``[eye]`` and ``[lens]`` hold what both sides share; ``[eye.right]``, ``[eye.left]``,
+    ``[lens.right]``, ``[lens.left]`` any key of their table for one side (over the
+    shared value); ``[binocular]`` the pupillary distances, the frame PD, the fixation
+    distance and the output. Each lens's optical centre goes ``frame_pd_mm`` / 2 from the
+    midline (in front of its pupil without it), plus any ``decentration_mm`` written
+    (world frame: x to the wearer's right); ``wrap_deg`` is face-form for both lenses (the
+    left lens's pose takes its mirror image); a progressive design gets its side's inset.
+    """
+    from eyelab.imaging.stereo import OUTPUTS
+    from eyelab.optics.binocular import Binocular
+
+    bt = data.get("binocular", {})
+    check_keys(bt, BINOCULAR_KEYS, "binocular")
+    if "pd_mm" in bt and "monocular_pd_mm" in bt:
+        raise SpecError("binocular.pd_mm", "give either pd_mm or monocular_pd_mm, not both")
+    if "monocular_pd_mm" in bt:
+        m = bt["monocular_pd_mm"]
+        if not (isinstance(m, list) and len(m) == 2):
+            raise SpecError("binocular.monocular_pd_mm", f"must be [right, left] in mm, "
+                                                         f"got {m!r}")
+        mpd = tuple(check_range(f"binocular.monocular_pd_mm[{i}]", v, 20, 40) * 1e-3
+                    for i, v in enumerate(m))
+    else:
+        pd = number(bt, "pd_mm", "binocular", 40, 80, 64.0) * 1e-3
+        mpd = (pd / 2, pd / 2)
+    fpd = number(bt, "frame_pd_mm", "binocular", 40, 80)
+    fix = bt.get("fixation_distance_m", "inf")
+    if isinstance(fix, str) and fix.strip().lower() in ("inf", "infinity"):
+        fix = math.inf
+    else:
+        fix = check_range("binocular.fixation_distance_m", fix, 0.1, 1e7)
+    output = check_choice("binocular.output", bt.get("output", "side-by-side"), OUTPUTS)
+    eye_shared, eye_sides = _split_sides(data.get("eye", {}), "eye")
+    lens_shared, lens_sides = _split_sides(data.get("lens"), "lens")
+    eyes, lenses = {}, {}
+    for side in SIDES:
+        letter = side[0].upper()
+        et = {**eye_shared, **eye_sides[side]}
+        eyes[side] = _for_side("eye", side, eye_sides[side], lambda et=et: parse_eye(et))
+        eye_rx = None
+        if "rx" in et:
+            where = _written("eye", side, eye_sides[side], "rx")
+            eye_rx = rx_value(et["rx"], where)
+            _check_side(eye_rx, side, where)
+        if lens_shared is None:
+            lenses[side] = None
+            continue
+        own = lens_sides[side]
+        lt = {**lens_shared, **own}
+        if "rx" in lt:
+            where = _written("lens", side, own, "rx")
+            _check_side(rx_value(lt["rx"], where), side, where)
+        dec = lt.get("decentration_mm", [0.0, 0.0])
+        where = _written("lens", side, own, "decentration_mm")
+        if not (isinstance(dec, list) and len(dec) == 2):
+            raise SpecError(where, f"must be [x, y] in mm, got {dec!r}")
+        dec = [check_range(f"{where}[{i}]", v, -20, 20) for i, v in enumerate(dec)]
+        if fpd is not None:
+            sign = 1.0 if side == "right" else -1.0
+            dec[0] += sign * (fpd / 2 - mpd[0 if side == "right" else 1] * 1e3)
+            if abs(dec[0]) > 20:
+                raise SpecError("binocular.frame_pd_mm", f"puts the {side} lens's optical "
+                                f"centre {dec[0]:+.1f} mm from its pupil; at most 20 mm")
+        lt["decentration_mm"] = dec
+        if "wrap_deg" in lt and side == "left":
+            lt["wrap_deg"] = -check_range(_written("lens", side, own, "wrap_deg"),
+                                          lt["wrap_deg"], -30, 30)
+        lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
+                                 parse_lens(lt, rx, side=s))
+    return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
+                     None if fpd is None else fpd * 1e-3, fix, output)
+
+
+def _written(table: str, side: str, own: dict, key: str) -> str:
+    """The field a binocular value came from: the side's table where it holds the key,
+    else the shared one."""
+    return f"{table}.{side}.{key}" if key in own else f"{table}.{key}"
+
+
+def _check_side(rx: Prescription, side: str, where: str) -> None:
+    """An Rx that names an eye (R/L/OD/OS) must be the side it is given for."""
+    if rx.eye in ("R", "L") and rx.eye != side[0].upper():
+        eye = "right" if rx.eye == "R" else "left"
+        raise SpecError(where, f"{rx.format()!r} is for the {eye} eye, given for the {side}")
