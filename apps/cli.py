@@ -11,14 +11,10 @@ import argparse
 import json
 import sys
 
-from eyelab.apps.common import add_max_memory, add_quiet
+from eyelab.apps import bench
+from eyelab.apps.common import add_max_memory, add_quiet, apply_max_memory
 from eyelab.core.errors import SpecError
-from eyelab.core.fileio import atomic_path
-
-
-def _atomic_write(path: str, text: str) -> None:
-    with atomic_path(path) as tmp, open(tmp, "w") as fh:
-        fh.write(text)
+from eyelab.core.fileio import write_json
 
 
 class _Parser(argparse.ArgumentParser):
@@ -38,7 +34,9 @@ def _build_parser() -> argparse.ArgumentParser:
     an.add_argument("--json", action="store_true", help="print JSON instead of text")
     an.add_argument("-o", "--output", help="also write the JSON report to this file")
     an.add_argument("--no-lens", action="store_true", help="naked-eye values")
-    an.add_argument("--fixation", choices=("fixed", "rotating"),
+    from eyelab.optics.analysis import FIXATIONS
+
+    an.add_argument("--fixation", choices=FIXATIONS,
                     help="override the spec's fixation model")
     rn = sub.add_parser("render", help="render what the spec's eye sees to a PNG")
     rn.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
@@ -63,46 +61,19 @@ def _build_parser() -> argparse.ArgumentParser:
     mp.add_argument("--half-angle", type=float, default=30.0,
                     help="gazes within +-this many degrees (default 30)")
     mp.add_argument("--points", type=int, default=31, help="gazes per axis (default 31)")
-    be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
-    be.add_argument("what", choices=("optics", "blurfield", "render", "quality", "stability",
-                                     "memory", "inspect", "batch", "imagebased"))
-    pre = be.add_mutually_exclusive_group()
-    pre.add_argument("--quick", action="store_true",
-                     help="quality: 160x120, two configurations (the default; CI runs it); "
-                     "stability: 10^4 engine cases (CI runs it; the default is 10^5)")
-    pre.add_argument("--full", action="store_true",
-                     help="quality: 1024x768 and every configuration; stability: 10^6 cases")
-    add_quiet(be)
-    be.add_argument("--plot", help="quality: also write the error-vs-time plot (PNG) here")
-    be.add_argument("-o", "--output", help="JSON output file (default bench-WHAT.json)")
-    be.add_argument("--points", type=int, default=1_000_000,
-                    help="optics: points per wavefront-tracing batch (default 1e6)")
-    be.add_argument("--repeats", type=int, default=3)
-    be.add_argument("--truth-spp", type=int,
-                    help="quality: samples per pixel of the converged reference")
-    be.add_argument("--reference-spp", help="quality: the reference's ladder, e.g. 4,16,64")
-    be.add_argument("--configs", help="quality: only these eye/lens configurations or "
-                    "camera cases (comma-separated names)")
-    be.add_argument("--scenes", help="quality: only these scenes (comma-separated names)")
-    be.add_argument("--merge", nargs="+", metavar="JSON",
-                    help="quality: combine these partial runs' JSON files into one "
-                    "(checks, summary and plot recomputed) instead of running")
-    be.add_argument("--omit", help="quality: leave out these optional rows (comma-"
-                    "separated: variants, imagebased), for partial runs on small machines")
-    be.add_argument("--truth-cache", help="quality: folder where converged references are "
-                    "kept and re-used (keyed by scene, configuration, size and spp)")
+    bench.add_parser(sub)
     return ap
 
 
 #: [render] keys whose command-line flag has another name.
 _FLAGS = {"gaze_deg": "gaze"}
-#: binocular.output's choices (eyelab.optics.binocular.OUTPUTS; listed here so that building the
-#: parser imports nothing heavy).
-BINOCULAR_OUTPUTS = ("side-by-side", "crossed", "anaglyph", "right", "left")
 
 
 def _render_overrides(parser) -> None:
-    parser.add_argument("--renderer", choices=("raster", "reference", "imagebased"),
+    from eyelab.imaging.registry import RENDERERS
+    from eyelab.imaging.stereo import OUTPUTS
+
+    parser.add_argument("--renderer", choices=RENDERERS,
                         help="override render.renderer")
     parser.add_argument("--samples", type=int, help="override render.samples (passes S of "
                         "the raster renderer, rays per pixel of the reference)")
@@ -116,10 +87,10 @@ def _render_overrides(parser) -> None:
                         help="override render.gaze_deg: the eye turned this many degrees "
                         "right and up behind the lens (both eyes' cyclopean gaze, binocular)")
     parser.add_argument("--binocular", nargs="?", const="spec", metavar="OUTPUT",
-                        choices=("spec", *BINOCULAR_OUTPUTS),
+                        choices=("spec", *OUTPUTS),
                         help="two eyes: a spec without [binocular] gets both eyes from [eye] "
                         "and [lens] (PD 64 mm); OUTPUT overrides binocular.output: "
-                        + ", ".join(BINOCULAR_OUTPUTS))
+                        + ", ".join(OUTPUTS))
 
 
 def main(argv=None) -> int:
@@ -147,7 +118,7 @@ def _main(args) -> int:
         if args.command == "analyze":
             return _analyze(args)
         if args.command == "bench":
-            return _bench(args)
+            return bench.run(args)
         if args.command in ("render", "demo"):
             return _render(args)
         if args.command == "maps":
@@ -190,7 +161,7 @@ def _analyze(args) -> int:
     rep = analyze_spec(spec, no_lens=args.no_lens)
     text = json.dumps(rep, indent=2)
     if args.output:
-        _atomic_write(args.output, text + "\n")
+        write_json(args.output, rep)
     print(text if args.json else format_report(rep))
     return 0
 
@@ -239,9 +210,10 @@ def _render(args) -> int:
         key = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
-    from eyelab.imaging.memory import check_memory, memory_limit
+    from eyelab.imaging.memory import check_memory
 
-    check_memory(rs, memory_limit(args.max_memory))
+    apply_max_memory(args)
+    check_memory(rs)          # up front, before the scene is built (each render checks too)
     from eyelab.core.fileio import atomic_group, json_writer, png_writer
     from eyelab.jobs.render import demo, render_spec
 
@@ -298,7 +270,7 @@ def _render(args) -> int:
 
 
 def _maps(args) -> int:
-    from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_default
+    from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
     from eyelab.jobs.maps import maps_summary, plot_maps
     from eyelab.optics.asworn import as_worn_maps
     from eyelab.spec import load_spec, one_eye
@@ -317,116 +289,11 @@ def _maps(args) -> int:
     title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
     writers = {args.output: lambda tmp: plot_maps(maps, tmp, title)}
     if args.json:
-        text = json.dumps(maps.to_json(), indent=1, default=json_default)
-
-        def write_json(tmp):
-            with open(tmp, "w") as fh:
-                fh.write(text)
-
-        writers[args.json] = write_json
+        writers[args.json] = json_writer(maps.to_json())
     atomic_group(writers)
     print("\n".join(maps_summary(maps)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
-
-
-def _bench(args) -> int:
-    if args.points < 1000 or args.points > 20_000_000:
-        raise SpecError("--points", f"must be in [1000, 20000000], got {args.points}")
-    if args.repeats < 1 or args.repeats > 50:
-        raise SpecError("--repeats", f"must be in [1, 50], got {args.repeats}")
-    output = args.output or f"bench-{args.what}.json"
-    from eyelab.core.fileio import check_distinct, check_output
-
-    check_output("--output", output)
-    if args.plot:
-        check_output("--plot", args.plot)
-        check_distinct(**{"--output": output, "--plot": args.plot})
-    if args.what == "optics":
-        from eyelab.bench.optics import run_optics_bench
-
-        res = run_optics_bench(points=args.points, repeats=args.repeats)
-    elif args.what == "render":
-        from eyelab.bench.render import run_render_bench
-
-        res = run_render_bench(repeats=min(args.repeats, 3))
-    elif args.what == "quality":
-        from eyelab.bench.quality import run_quality_bench
-
-        if args.merge:
-            from eyelab.bench.quality import merge_results
-
-            res = merge_results([_read_json("--merge", p) for p in args.merge],
-                                plot_path=args.plot)
-        else:
-            res = run_quality_bench(quick=not args.full, plot_path=args.plot,
-                                    truth_spp=args.truth_spp,
-                                    ref_spp=_int_list("--reference-spp", args.reference_spp),
-                                    only_configs=_names(args.configs),
-                                    only_scenes=_names(args.scenes),
-                                    truth_cache=args.truth_cache,
-                                    omit=_names(args.omit))
-    elif args.what == "inspect":
-        import os
-
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-        from eyelab.bench.inspector import run_inspect_bench
-
-        res = run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
-    elif args.what == "imagebased":
-        import os
-
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-        from eyelab.bench.imagebased import run_imagebased_bench
-
-        res = run_imagebased_bench(quick=args.quick, repeats=min(args.repeats, 3))
-    elif args.what == "batch":
-        from eyelab.bench.batch import run_batch_bench
-
-        res = run_batch_bench(10 if args.quick else 100)
-    elif args.what == "memory":
-        from eyelab.bench.memory import run_memory_bench
-
-        res = run_memory_bench(*((40, 100) if args.quick else (200, 500)))
-    elif args.what == "stability":
-        from eyelab.bench.stability import QUICK, run_stability_bench
-
-        if args.quick:     # what CI runs (tests/test_bench_quality.py)
-            res = run_stability_bench(**QUICK)
-        else:
-            res = run_stability_bench(cases=1_000_000 if args.full else 100_000)
-    else:
-        from eyelab.bench.blurfield import run_blurfield_bench
-
-        res = run_blurfield_bench(repeats=args.repeats)
-    args.output = output
-    _atomic_write(output, json.dumps(res, indent=2) + "\n")
-    for line in res["summary"]:
-        print(line)
-    print(f"wrote {args.output}")
-    return 0
-
-
-def _read_json(flag, path):
-    try:
-        with open(path) as fh:
-            return json.load(fh)
-    except (OSError, ValueError) as e:
-        raise SpecError(flag, f"cannot read {path}: {e}") from None
-
-
-def _names(text):
-    return None if text is None else [t.strip() for t in text.split(",") if t.strip()]
-
-
-def _int_list(flag, text):
-    if text is None:
-        return None
-    try:
-        vals = [int(t) for t in text.split(",")]
-    except ValueError:
-        raise SpecError(flag, f"must be comma-separated integers, got {text!r}") from None
-    return vals
 
 
 if __name__ == "__main__":

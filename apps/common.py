@@ -9,6 +9,13 @@ def add_quiet(parser) -> None:
                         "stderr when it is a terminal, for work longer than 2 s)")
 
 
+def apply_max_memory(args) -> None:
+    """``--max-memory``, when given, becomes this process's limit (every render checks it)."""
+    from eyelab.imaging.memory import set_memory_limit
+
+    set_memory_limit(getattr(args, "max_memory", None))
+
+
 def add_max_memory(parser) -> None:
     """``--max-memory GIB``: the memory limit renders are checked against up front."""
     parser.add_argument("--max-memory", type=float, metavar="GIB",

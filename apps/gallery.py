@@ -9,7 +9,6 @@ inside the eye) and the datasets as ``.vti`` / ``.vtp`` for ParaView.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 
@@ -20,7 +19,9 @@ def main(argv=None) -> int:
     ap.add_argument("--pal-views", metavar="SPEC", help="instead: write pal_views.png, the "
                     "room seen through the spec's progressive lens at three gazes")
     args = ap.parse_args(argv)
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+    from eyelab.render import use_offscreen
+
+    use_offscreen()
     if args.pal_views:
         print(pal_views(args.pal_views, args.out))
         return 0
@@ -48,7 +49,8 @@ def pal_views(spec_path, out) -> str:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from eyelab.jobs.render import build_scene, make_renderer
+    from eyelab.imaging.registry import make_renderer
+    from eyelab.jobs.render import build_scene
     from eyelab.spec import load_spec
 
     spec = load_spec(spec_path)

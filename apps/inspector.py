@@ -8,9 +8,6 @@ window shows it (PNG) and the spec that reproduces it (``FILE`` with ``.toml``),
 
 from __future__ import annotations
 
-import os
-import sys
-
 from eyelab.core.errors import SpecError
 
 
@@ -57,16 +54,20 @@ def run(args) -> int:
             raise SpecError(f"--{flag.replace('_', '-')}", f"must be a .png file, got {p!r}")
     if args.window_shot and not args.screenshot:
         raise SpecError("--window-shot", "only with --screenshot")
-    offscreen = args.offscreen or (args.screenshot is not None and not _display())
-    if not offscreen and not _display():
+    from eyelab.render import has_display, use_offscreen
+
+    offscreen = args.offscreen or (args.screenshot is not None and not has_display())
+    if not offscreen and not has_display():
         raise SpecError("inspect", "no display to open a window on (DISPLAY is not set); "
                         "use --screenshot FILE or --offscreen, or run under xvfb-run")
     if offscreen:
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-    model = InspectorModel(args.spec, size=size, samples=args.samples, scene=args.mesh)
-    from eyelab.imaging.memory import check_memory, memory_limit
+        use_offscreen()
+    from eyelab.apps.common import apply_max_memory
+    from eyelab.imaging.memory import check_memory
 
-    check_memory(model.spec.render, memory_limit(args.max_memory))
+    apply_max_memory(args)
+    model = InspectorModel(args.spec, size=size, samples=args.samples, scene=args.mesh)
+    check_memory(model.spec.render)
     from eyelab.render.inspector import InspectorWindow
 
     win = InspectorWindow(model, off_screen=offscreen)
@@ -84,10 +85,3 @@ def run(args) -> int:
         return 0
     finally:
         win.close()
-
-
-def _display() -> bool:
-    """Whether a window can be shown: a display on Linux/BSD; always on macOS/Windows."""
-    if sys.platform in ("darwin", "win32"):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))

@@ -1,9 +1,75 @@
 """eyelab: what a person sees through spectacle lenses.
 
-The optics engine (:mod:`eyelab.optics`) is pure numpy and needs no display.
+The public API — everything a notebook needs, imported on first use (``import eyelab``
+loads no VTK and no embree)::
+
+    import eyelab
+    result = eyelab.render("spec.toml", width=320, samples=8)   # or a dict, a Spec, None
+    result.save("view.png")                                     # Jupyter shows `result`
+    eye = eyelab.Eye.from_rx("-3.00 / -1.00 x 180")
+
+Functions: :func:`render`, :func:`analyze`, :func:`maps`, :func:`load_spec`,
+:func:`make_renderer` (a renderer by name), :func:`builtin_scene`. Types:
+:class:`Eye`, :class:`Prescription`, :class:`SpectacleLens`, :class:`LensPose`,
+:class:`Material`, :class:`Scene`, :class:`View`, :class:`RenderResult`, :class:`Spec`,
+:class:`SpecError`. The packages below are the layers (docs/ARCHITECTURE.md).
 """
 
-from eyelab.core.errors import SpecError
+from __future__ import annotations
 
-__all__ = ["SpecError", "__version__"]
+import importlib
+import sys
+import types
+
 __version__ = "0.1.0"
+
+#: Public name -> the module that defines it (imported on first use).
+_API = {
+    "SpecError": "eyelab.core.errors",
+    "Prescription": "eyelab.optics.prescription",
+    "Eye": "eyelab.optics.eye",
+    "SpectacleLens": "eyelab.optics.lens",
+    "LensPose": "eyelab.optics.lens",
+    "Material": "eyelab.optics.materials",
+    "get_material": "eyelab.optics.materials",
+    "Scene": "eyelab.scene.scene",
+    "SCENE_NAMES": "eyelab.scene.library",
+    "View": "eyelab.imaging.contract",
+    "RenderResult": "eyelab.imaging.contract",
+    "RENDERERS": "eyelab.imaging.registry",
+    "make_renderer": "eyelab.imaging.registry",
+    "Spec": "eyelab.spec",
+    "load_spec": "eyelab.spec",
+    "render": "eyelab.jobs.api",
+    "analyze": "eyelab.jobs.api",
+    "maps": "eyelab.jobs.api",
+    "builtin_scene": "eyelab.jobs.api",
+}
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name: str):
+    if name in _API:
+        value = getattr(importlib.import_module(_API[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'eyelab' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_API))
+
+
+class _Package(types.ModuleType):
+    """``eyelab`` itself: importing the subpackage ``eyelab.render`` (the GL renderers)
+    binds it as an attribute of the package, which would hide the function
+    :func:`render`; the function stays (the subpackage is reached by ``import
+    eyelab.render.raster`` or ``from eyelab.render import ...``)."""
+
+    def __setattr__(self, name, value):
+        if name in _API and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

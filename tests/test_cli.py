@@ -268,3 +268,16 @@ def test_a_full_disk_at_the_write_is_one_line_and_keeps_the_old_outputs(tmp_path
     assert rc == 1 and len(err.splitlines()) == 1 and "No space left on device" in err
     assert out.read_bytes() == b"old" and not rep.exists()
     assert [p.name for p in tmp_path.iterdir()] == ["o.png"]
+
+
+@pytest.mark.parametrize("argv", [["bench", "optics", "--plot", "x.png"],
+                                  ["bench", "render", "--truth-spp", "64"],
+                                  ["bench", "stability", "--points", "2000"],
+                                  ["bench", "nothing"]])
+def test_bench_refuses_a_flag_of_another_benchmark(argv, capsys):
+    """Each benchmark takes only its own flags: another's is a one-line usage error."""
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error:" in err[0]

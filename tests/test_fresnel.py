@@ -7,7 +7,7 @@ import pytest
 
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
-from eyelab.jobs.render import make_renderer
+from eyelab.imaging.registry import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.fresnel import AR_REFLECTANCE, reflectance, transmittance
 from eyelab.optics.lens import SpectacleLens

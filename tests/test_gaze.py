@@ -12,7 +12,7 @@ from eyelab.blur.field import VoxelStatus
 from eyelab.core.color import linear_to_srgb
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
-from eyelab.jobs.render import make_renderer
+from eyelab.imaging.registry import make_renderer
 from eyelab.optics.analysis import analyze_points
 from eyelab.optics.camera import eye_camera, gaze_camera
 from eyelab.optics.eye import Eye

@@ -9,8 +9,8 @@ import pytest
 from eyelab.core.color import decode_srgb, encode_srgb
 from eyelab.core.errors import SpecError
 from eyelab.imaging.contract import REPORT_KEYS, RenderResult, View
-from eyelab.imaging.options import QUALITIES, ImageBasedQuality, RasterQuality, ReferenceQuality
-from eyelab.jobs.render import make_renderer
+from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQuality
+from eyelab.imaging.registry import QUALITIES, make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription

@@ -8,7 +8,7 @@ import pytest
 from eyelab.core.color import linear_to_srgb, srgb_to_linear
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
-from eyelab.jobs.render import make_renderer
+from eyelab.imaging.registry import make_renderer
 from eyelab.optics.eye import Eye
 from eyelab.optics.prescription import Prescription
 from eyelab.render.accumulate import ENCODE16, PassAccumulator, check_tables, encode_linear

@@ -83,7 +83,7 @@ def test_in_focus_checkerboard_edges_match_the_reference():
     position, < 0.05 px rms."""
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import RasterQuality, ReferenceQuality
-    from eyelab.jobs.render import make_renderer
+    from eyelab.imaging.registry import make_renderer
     from eyelab.optics.eye import Eye
     from eyelab.scene.scene import Scene, SceneMesh
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.imaging.options import RENDERERS
+from eyelab.imaging.registry import RENDERERS
 from eyelab.spec import (
     ANALYSIS_KEYS,
     BINOCULAR_KEYS,

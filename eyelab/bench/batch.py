@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from eyelab.render import OFFSCREEN_WINDOW, WINDOW_ENV
+
 JOB_SPEC = """
 [base]
 render = {{scene = "chart", width = 320, height = 240, samples = 8, fov_y_deg = 10.0}}
@@ -35,7 +37,7 @@ def _rx(i: int) -> str:
 
 
 def run_batch_bench(jobs: int = 100) -> dict:
-    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    env = dict(os.environ, **{WINDOW_ENV: OFFSCREEN_WINDOW})
     cli = [sys.executable, "-P", "-m", "eyelab.apps.cli"]
     with tempfile.TemporaryDirectory(prefix="eyelab-bench-batch-") as tmp:
         tmp = Path(tmp)

@@ -128,25 +128,70 @@ def atomic_group(writers: dict) -> None:
         cm.__exit__(None, None, None)
 
 
-def png_writer(image: np.ndarray):
-    """A writer (``write(path)``) of an (h, w, 3) uint8 image as PNG."""
-    def write(path):
-        import matplotlib.image as mpimg
+#: cHRM of the sRGB / Rec. 709 primaries and D65 white (x, y x 100000: white, r, g, b).
+_SRGB_CHRM = (31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000)
 
-        mpimg.imsave(path, image, format="png")
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An (h, w, 3) image as PNG bytes, deterministic (zlib level 6, filter 0), with the
+    colour chunks that say how to read it:
+
+    - uint8: sRGB-encoded, 24-bit RGB with an ``sRGB`` chunk (perceptual intent) and the
+      ``gAMA`` (1/2.2) and ``cHRM`` an sRGB encoder writes beside it for older readers;
+    - uint16: *linear* light (0-65535 = 0-1 relative to white), 48-bit RGB with ``gAMA``
+      1.0 and the sRGB primaries' ``cHRM`` (Pillow cannot write 16-bit RGB, hence this
+      encoder, used for both depths)."""
+    import struct
+    import zlib
+
+    a = np.asarray(image)
+    if a.ndim != 3 or a.shape[2] != 3 or a.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"png_bytes takes an (h, w, 3) uint8 or uint16 image, got "
+                         f"{a.shape} {a.dtype}")
+    h, w = a.shape[:2]
+    depth = 8 * a.dtype.itemsize
+    rows = np.ascontiguousarray(a.astype(">u2") if depth == 16 else a).reshape(h, -1)
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), rows.view(np.uint8)], axis=1)
+
+    def chunk(tag, data):
+        return (struct.pack(">I", len(data)) + tag + data
+                + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF))
+
+    colour = ([chunk(b"sRGB", b"\x00"), chunk(b"gAMA", struct.pack(">I", 45455))]
+              if depth == 8 else [chunk(b"gAMA", struct.pack(">I", 100000))])
+    return b"".join([b"\x89PNG\r\n\x1a\n",
+                     chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, 2, 0, 0, 0)),
+                     *colour, chunk(b"cHRM", struct.pack(">8I", *_SRGB_CHRM)),
+                     chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)), chunk(b"IEND", b"")])
+
+
+def linear_to_png16(linear: np.ndarray) -> np.ndarray:
+    """(h, w, 3) linear values (1 = white) -> uint16 codes for :func:`png_bytes`."""
+    return np.clip(np.round(np.asarray(linear, float) * 65535.0), 0, 65535).astype(np.uint16)
+
+
+def png_writer(image: np.ndarray):
+    """A writer (``write(path)``) of an (h, w, 3) image as PNG (:func:`png_bytes`: uint8
+    sRGB, or uint16 linear light)."""
+    data = png_bytes(image)
+
+    def write(path):
+        Path(path).write_bytes(data)
     return write
 
 
 def json_writer(obj):
     """A writer (``write(path)``) of ``obj`` as JSON (numpy values converted)."""
+    text = json.dumps(obj, indent=2, default=json_default) + "\n"
+
     def write(path):
-        with open(path, "w") as f:
-            json.dump(obj, f, indent=2, default=json_default)
+        Path(path).write_text(text)
     return write
 
 
 def write_png(path, image: np.ndarray) -> None:
-    """Atomic PNG write of an (h, w, 3) uint8 image (no partial file on failure)."""
+    """Atomic PNG write of an (h, w, 3) image (:func:`png_bytes`; no partial file on
+    failure)."""
     with atomic_path(path, suffix=".png") as tmp:
         png_writer(image)(tmp)
 

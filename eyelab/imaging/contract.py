@@ -27,6 +27,7 @@ import numpy as np
 from eyelab.core.checks import check_choice, check_int, check_range
 from eyelab.core.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.core.errors import SpecError
+from eyelab.imaging.memory import check_render_memory
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
 from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
@@ -166,6 +167,37 @@ class RenderResult:
     def shape(self) -> tuple:
         return (self._srgb if self._srgb is not None else self._linear).shape
 
+    def __repr__(self) -> str:
+        r = self.report
+        h, w = self.shape[:2]
+        done = r.get("samples", {}).get("done_passes")
+        target = r.get("samples", {}).get("target")
+        samples = (f", {done} of {target} samples" if done is not None and target
+                   else f", {target} samples" if target else "")
+        total = r.get("timings_s", {}).get("total")
+        took = f", {total:.2f} s" if total is not None else ""
+        notes = len(r.get("warnings", []))
+        warn = f", {notes} warning{'s' * (notes != 1)}" if notes else ""
+        return f"<RenderResult {w}x{h} {r.get('renderer', '?')}{samples}{took}{warn}>"
+
+    def _repr_png_(self) -> bytes:
+        """The image as PNG bytes: how Jupyter shows a result."""
+        from eyelab.core.fileio import png_bytes
+
+        return png_bytes(self.srgb)
+
+    def save(self, path, *, report=None, linear: bool = False) -> None:
+        """Write the image to ``path`` (PNG: 8-bit sRGB, or with ``linear`` 16-bit linear
+        light) and, with ``report`` (a path), the render report as JSON — written whole or
+        not at all, both renamed into place together."""
+        from eyelab.core.fileio import atomic_group, json_writer, linear_to_png16, png_writer
+
+        image = linear_to_png16(self.linear) if linear else self.srgb
+        writers = {path: png_writer(image)}
+        if report is not None:
+            writers[report] = json_writer(self.report)
+        atomic_group(writers)
+
 
 def new_report(renderer: str, view: View, quality) -> dict:
     """An empty report of the common schema (see :data:`REPORT_KEYS`)."""
@@ -236,6 +268,8 @@ class Renderer(abc.ABC):
         if not isinstance(quality, self.Quality):
             raise TypeError(f"{type(self).__name__} takes a {self.Quality.__name__}, got "
                             f"{type(quality).__name__}")
+        # refused before any work when its estimated memory is over the limit
+        check_render_memory(self.name, view, quality)
         return view, quality
 
     @abc.abstractmethod

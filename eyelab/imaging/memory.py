@@ -94,10 +94,28 @@ def estimate_memory(renderer: str, view, quality) -> dict:
     return parts
 
 
-def check_memory(render_spec, limit: float) -> dict:
-    """Refuse (:class:`SpecError`) a render whose estimate exceeds ``limit`` bytes, naming
-    the ``[render]`` key of its largest part; returns the estimate."""
-    est = estimate_memory(render_spec.renderer, render_spec.view, render_spec.quality)
+def check_memory(render_spec, limit: float | None = None) -> dict:
+    """Refuse (:class:`SpecError`) a render whose estimate exceeds ``limit`` bytes (None:
+    :func:`memory_limit`), naming the ``[render]`` key of its largest part; returns the
+    estimate. ``render_spec``: anything with ``renderer``, ``view`` and ``quality``."""
+    return check_render_memory(render_spec.renderer, render_spec.view, render_spec.quality,
+                               limit)
+
+
+def set_memory_limit(max_memory_gb: float | None) -> None:
+    """Make ``max_memory_gb`` (validated; None: leave as it is) this process's limit, as
+    ``$EYELAB_MAX_MEMORY_GB``: every render checks against it, and so do worker processes
+    started after this call."""
+    if max_memory_gb is not None:
+        memory_limit(max_memory_gb)
+        os.environ[ENV_MAX_MEMORY] = repr(float(max_memory_gb))
+
+
+def check_render_memory(renderer: str, view, quality, limit: float | None = None) -> dict:
+    """:func:`check_memory` for a renderer's name, view and quality options; every
+    :meth:`Renderer.render <eyelab.imaging.contract.Renderer.render>` calls it."""
+    limit = memory_limit() if limit is None else limit
+    est = estimate_memory(renderer, view, quality)
     if est["total"] > limit:
         key = {"image": "render.width", "field": "render.field_shape",
                "rays": "render.samples", "base": "render"}[

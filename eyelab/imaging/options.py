@@ -2,12 +2,13 @@
 renderer, validated with the spec field's name (``render.<key>``) in every error.
 
 Pure data (no VTK), so that specs can be validated, documented and round-tripped without
-loading any renderer. :data:`QUALITIES` maps each renderer name to its options class.
+loading any renderer. :data:`eyelab.imaging.registry.REGISTRY` maps each renderer name to
+its options class.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 from eyelab.core.checks import check_bool, check_choice, check_int, check_range, check_rgb
 from eyelab.core.errors import SpecError
@@ -170,13 +171,3 @@ class ImageBasedQuality:
         check_int("render.max_slice", self.max_slice, 64, 4096)
         check_choice("render.radiometry", self.radiometry, RADIOMETRY)
         check_bool("render.chromatic", self.chromatic)
-
-
-def quality_keys(renderer: str) -> tuple:
-    """The option names (spec keys) of a renderer's quality class."""
-    return tuple(f.name for f in fields(QUALITIES[renderer]))
-
-
-QUALITIES = {"raster": RasterQuality, "reference": ReferenceQuality,
-             "imagebased": ImageBasedQuality}
-RENDERERS = tuple(QUALITIES)

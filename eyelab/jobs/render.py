@@ -1,5 +1,5 @@
-"""High-level jobs for the apps: pick a renderer, render a spec, the comparison demo, write
-images and reports. The one place that knows every renderer by name."""
+"""High-level jobs for the apps: build a spec's scene, render a spec (one eye or two), the
+comparison demo."""
 
 from __future__ import annotations
 
@@ -9,29 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.imaging.contract import Renderer
+from eyelab.imaging.registry import make_renderer
 from eyelab.scene.scene import Scene
-
-
-def make_renderer(name: str, quality=None) -> Renderer:
-    """A renderer by name ("raster", "reference" or "imagebased",
-    :data:`eyelab.imaging.options.RENDERERS`)."""
-    if name == "imagebased":
-        from eyelab.render.imagebased import ImageBasedRenderer
-
-        return ImageBasedRenderer(quality)
-    if name == "raster":
-        from eyelab.render.raster import RasterRenderer
-
-        return RasterRenderer(quality)
-    if name == "reference":
-        from eyelab.reference.tracer import ReferenceRenderer
-
-        return ReferenceRenderer(quality)
-    from eyelab.core.errors import SpecError
-    from eyelab.imaging.options import RENDERERS
-
-    raise SpecError("render.renderer", f"must be one of {', '.join(map(repr, RENDERERS))}, "
-                                       f"got {name!r}")
 
 
 def build_scene(source) -> Scene:

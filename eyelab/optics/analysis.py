@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from eyelab.core.checks import check_choice
 from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.core.vecmath import UP, cross, dot
 from eyelab.optics.eye import Eye
@@ -20,6 +21,13 @@ from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL, Status
 from eyelab.optics.wavefront import Wavefront
+
+#: How the eye meets each object point: "fixed" (looking straight ahead, the points seen
+#: off axis) or "rotating" (turned about its centre of rotation toward each point).
+FIXATIONS = ("fixed", "rotating")
+#: Where the vertex-sphere wave is taken: centred on the eye's centre of rotation (the lens
+#: designer's sphere) or on the pupil.
+VERTEX_SPHERES = ("rotation_centre", "pupil")
 
 
 @dataclass
@@ -98,10 +106,7 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
         + rotation_centre, through the lens's back vertex) or "pupil" (centred on the pupil
         centre, radius the vertex distance).
     """
-    if fixation not in ("fixed", "rotating"):
-        from eyelab.core.errors import SpecError
-
-        raise SpecError("fixation", f"must be 'fixed' or 'rotating', got {fixation!r}")
+    check_choice("fixation", fixation, FIXATIONS)
     cor = np.array([0.0, 0.0, eye.rotation_centre])
     target = cor if fixation == "rotating" else np.zeros(3)
     chief = find_chief_rays(lens, target, objects, wavelength_nm)
@@ -124,11 +129,7 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
     else:
         pupil = np.zeros((n, 3))
     vs_wave = exit_wave = vs_info = None
-    if vertex_sphere not in ("rotation_centre", "pupil"):
-        from eyelab.core.errors import SpecError
-
-        raise SpecError("analysis.vertex_sphere", f"must be 'rotation_centre' or 'pupil', "
-                                                  f"got {vertex_sphere!r}")
+    check_choice("vertex_sphere", vertex_sphere, VERTEX_SPHERES)
     if lens is None:
         dist = np.where(objects.finite, np.linalg.norm(chief.start - pupil, axis=1), np.inf)
         wave = Wavefront.spherical(N_out, dist)

@@ -44,8 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import trace_chain
+from eyelab.optics.analysis import FIXATIONS, trace_chain
 from eyelab.optics.eye import Eye
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 
@@ -172,8 +173,7 @@ def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=58
     "driving_eye": (n,) of "right"/"left"/"fixed", "points": {side: ObjectPoints},
     "line_of_sight_prism": {side: (prism (n,), deviation (n, 3), ok (n,))} (lenses only)}.
     """
-    if fixation not in ("fixed", "rotating"):
-        raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fixation!r}")
+    check_choice("fixation", fixation, FIXATIONS)
     chief, pts = {}, {}
     for side in SIDES:
         eye = bino.eye(side)

@@ -156,9 +156,10 @@ class Eye:
 
     # ---------------------------------------------------------------- builders
     @classmethod
-    def from_rx(cls, rx: Prescription, *, vertex_distance: float = 0.012,
+    def from_rx(cls, rx: Prescription | str, *, vertex_distance: float = 0.012,
                 kind: str = "refractive", **kwargs) -> Eye:
-        """The eye whose far point is corrected by ``rx`` worn at ``vertex_distance`` (m).
+        """The eye whose far point is corrected by ``rx`` (a :class:`Prescription` or its
+        clinical string, e.g. ``"-3.00 / -1.00 x 180"``) worn at ``vertex_distance`` (m).
 
         Per principal meridian the ocular refraction is K = F / (1 - d F) (SCIENCE.md §2) and
         the eye's relaxed power in that meridian is n_2/z_r - K. ``kind="refractive"`` keeps
@@ -168,6 +169,8 @@ class Eye:
         """
         if not isinstance(kind, str) or kind not in EYE_KINDS:
             raise SpecError("eye.kind", f"must be 'refractive' or 'axial', got {kind!r}")
+        if isinstance(rx, str):
+            rx = Prescription.parse(rx)
         d = vertex_distance
         (f_a, dir_a), (f_b, _) = rx.principal_meridians()
         k_a, k_b = f_a / (1 - d * f_a), f_b / (1 - d * f_b)

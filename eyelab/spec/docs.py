@@ -19,6 +19,7 @@ from eyelab.imaging.options import (
     MODELS,
     RADIOMETRY,
 )
+from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
 from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, MAX_ACCOMMODATION_D
 from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.materials import ALIASES, CATALOGUE
@@ -217,11 +218,11 @@ KEYS = [
     Key("analysis", "fixation", "choice", "", '`"fixed"`', "for `analyze`: pupil fixed at "
         "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
         "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",
-        choices=("fixed", "rotating")),
+        choices=FIXATIONS),
     Key("analysis", "vertex_sphere", "choice", "", '`"rotation_centre"`', "the sphere "
         "through the lens's back vertex that `analyze` reports the wave on: centred on the "
         "eye's centre of rotation (radius vertex distance + 13.5 mm: the designer's) or on "
-        "the pupil (radius the vertex distance)", choices=("rotation_centre", "pupil")),
+        "the pupil (radius the vertex distance)", choices=VERTEX_SPHERES),
     # ------------------------------------------------------------- [binocular]
     Key("binocular", "pd_mm", "number", "mm", "64", "interpupillary distance (pupil "
         "centres, primary gaze), split evenly about the midline", 40, 80),

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
+from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
 from eyelab.optics.binocular import SIDES
 from eyelab.optics.eye import (
     Eye,
@@ -59,11 +60,10 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     wl = number(an, "wavelength_nm", "analysis", 380, 780, 587.56)
     # two eyes fixate each point (vergence) unless the spec says otherwise
     fix = an.get("fixation", "fixed" if bino is None else "rotating")
-    if fix not in ("fixed", "rotating"):
-        raise SpecError("analysis.fixation", f"must be 'fixed' or 'rotating', got {fix!r}")
+    check_choice("analysis.fixation", fix, FIXATIONS)
     acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
     vsph = check_choice("analysis.vertex_sphere", an.get("vertex_sphere", "rotation_centre"),
-                        ("rotation_centre", "pupil"))
+                        VERTEX_SPHERES)
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
     if render.camera is not None:

@@ -11,7 +11,8 @@ from pathlib import Path
 from eyelab.core.checks import check_choice, check_range, check_rgb
 from eyelab.core.errors import SpecError
 from eyelab.imaging.contract import View
-from eyelab.imaging.options import QUALITIES, RENDERERS, RasterQuality, quality_keys
+from eyelab.imaging.options import RasterQuality
+from eyelab.imaging.registry import CAMERA_RENDERERS, QUALITIES, RENDERERS, quality_keys
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS, SceneSource
 from eyelab.spec.tables import check_keys
@@ -63,10 +64,8 @@ RENDER_VIEW_KEYS = {"width": "width", "height": "height", "fov_y_deg": "fov_y_de
 _NOT_SPEC_KEYS = {"progress"}
 
 
-#: Renderers that can look through a camera lens system instead of the eye, and the keys.
-CAMERA_RENDERERS = ("reference", "imagebased")
-
-
+#: The keys of a camera lens that sees the scene instead of the eye (renderers in
+#: :data:`~eyelab.imaging.registry.CAMERA_RENDERERS`).
 CAMERA_KEYS = ("camera", "camera_focus_m", "camera_f_number")
 
 

@@ -1,0 +1,205 @@
+"""``eyelab bench WHAT``: one subcommand per benchmark (each with only its own flags), the
+run it starts, and its JSON written atomically with the summary printed."""
+
+from __future__ import annotations
+
+import json
+
+from eyelab.apps.common import add_quiet
+from eyelab.core.errors import SpecError
+from eyelab.core.fileio import write_json
+
+#: The benchmarks: name -> (help, the flags it takes beyond -o/--quiet).
+BENCHES = {
+    "optics": ("throughput of the optics engine", ("points", "repeats")),
+    "blurfield": ("blur-field precompute time and accuracy", ("repeats",)),
+    "render": ("raster frame times per stage and per skip", ("repeats",)),
+    "quality": ("error against converged references vs time, every renderer",
+                ("preset", "plot", "truth_spp", "reference_spp", "configs", "scenes", "merge",
+                 "omit", "truth_cache")),
+    "stability": ("random configurations against the engine and the renderers", ("preset",)),
+    "memory": ("resident memory over many renders", ("quick",)),
+    "inspect": ("the inspector's response to changes", ("quick",)),
+    "batch": ("eyelab batch against one process per image", ("quick",)),
+    "imagebased": ("Heidrich's image-based model per angle threshold", ("quick", "repeats")),
+}
+
+
+def add_parser(sub) -> None:
+    """``eyelab bench WHAT``: one subcommand per benchmark, each with its own flags (a flag
+    of another benchmark is refused by argparse)."""
+    be = sub.add_parser("bench", help="benchmarks (print numbers and write JSON)")
+    sub = be.add_subparsers(dest="what", required=True, metavar="WHAT")
+    for name, (text, flags) in BENCHES.items():
+        b = sub.add_parser(name, help=text, description=text)
+        add_quiet(b)
+        b.add_argument("-o", "--output", help=f"JSON output file (default bench-{name}.json)")
+        for flag in flags:
+            _BENCH_FLAGS[flag](b, name)
+
+
+def _add_preset(b, name) -> None:
+    pre = b.add_mutually_exclusive_group()
+    quick, full = (("160x120, two configurations (the default; CI runs it)",
+                    "1024x768 and every configuration") if name == "quality" else
+                   ("10^4 engine cases (CI runs it; the default is 10^5)", "10^6 cases"))
+    pre.add_argument("--quick", action="store_true", help=quick)
+    pre.add_argument("--full", action="store_true", help=full)
+
+
+_BENCH_FLAGS = {
+    "preset": _add_preset,
+    "quick": lambda b, name: b.add_argument("--quick", action="store_true",
+                                            help="a small, fast run"),
+    "points": lambda b, name: b.add_argument(
+        "--points", type=int, default=1_000_000,
+        help="points per wavefront-tracing batch (default 1e6)"),
+    "repeats": lambda b, name: b.add_argument("--repeats", type=int, default=3,
+                                              help="repeats, best taken (default 3)"),
+    "plot": lambda b, name: b.add_argument("--plot", help="also write the error-vs-time "
+                                           "plot (PNG) here"),
+    "truth_spp": lambda b, name: b.add_argument(
+        "--truth-spp", type=int, help="samples per pixel of the converged reference"),
+    "reference_spp": lambda b, name: b.add_argument(
+        "--reference-spp", help="the reference's ladder, e.g. 4,16,64"),
+    "configs": lambda b, name: b.add_argument(
+        "--configs", help="only these eye/lens configurations or camera cases "
+        "(comma-separated names)"),
+    "scenes": lambda b, name: b.add_argument("--scenes", help="only these scenes "
+                                             "(comma-separated names)"),
+    "merge": lambda b, name: b.add_argument(
+        "--merge", nargs="+", metavar="JSON", help="combine these partial runs' JSON files "
+        "into one (checks, summary and plot recomputed) instead of running"),
+    "omit": lambda b, name: b.add_argument(
+        "--omit", help="leave out these optional rows (comma-separated: variants, "
+        "imagebased), for partial runs on small machines"),
+    "truth_cache": lambda b, name: b.add_argument(
+        "--truth-cache", help="folder where converged references are kept and re-used "
+        "(keyed by scene, configuration, size and spp)"),
+}
+
+
+def run(args) -> int:
+    if getattr(args, "points", None) is not None:
+        check_range_int("--points", args.points, 1000, 20_000_000)
+    if getattr(args, "repeats", None) is not None:
+        check_range_int("--repeats", args.repeats, 1, 50)
+    output = args.output or f"bench-{args.what}.json"
+    from eyelab.core.fileio import check_distinct, check_output
+
+    check_output("--output", output)
+    if getattr(args, "plot", None):
+        check_output("--plot", args.plot)
+        check_distinct(**{"--output": output, "--plot": args.plot})
+    res = _BENCH_RUNS[args.what](args)
+    write_json(output, res)
+    for line in res["summary"]:
+        print(line)
+    print(f"wrote {output}")
+    return 0
+
+
+def check_range_int(flag: str, value: int, lo: int, hi: int) -> None:
+    """A one-line error naming ``flag`` unless lo <= value <= hi."""
+    if not lo <= value <= hi:
+        raise SpecError(flag, f"must be in [{lo}, {hi}], got {value}")
+
+
+def _bench_optics(args):
+    from eyelab.bench.optics import run_optics_bench
+
+    return run_optics_bench(points=args.points, repeats=args.repeats)
+
+
+def _bench_render(args):
+    from eyelab.bench.render import run_render_bench
+
+    return run_render_bench(repeats=min(args.repeats, 3))
+
+
+def _bench_quality(args):
+    from eyelab.bench.quality import merge_results, run_quality_bench
+
+    if args.merge:
+        return merge_results([_read_json("--merge", p) for p in args.merge],
+                             plot_path=args.plot)
+    return run_quality_bench(quick=not args.full, plot_path=args.plot,
+                             truth_spp=args.truth_spp,
+                             ref_spp=_int_list("--reference-spp", args.reference_spp),
+                             only_configs=_names(args.configs),
+                             only_scenes=_names(args.scenes),
+                             truth_cache=args.truth_cache, omit=_names(args.omit))
+
+
+def _bench_inspect(args):
+    from eyelab.render import use_offscreen
+
+    use_offscreen()
+    from eyelab.bench.inspector import run_inspect_bench
+
+    return run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
+
+
+def _bench_imagebased(args):
+    from eyelab.render import use_offscreen
+
+    use_offscreen()
+    from eyelab.bench.imagebased import run_imagebased_bench
+
+    return run_imagebased_bench(quick=args.quick, repeats=min(args.repeats, 3))
+
+
+def _bench_batch(args):
+    from eyelab.bench.batch import run_batch_bench
+
+    return run_batch_bench(10 if args.quick else 100)
+
+
+def _bench_memory(args):
+    from eyelab.bench.memory import run_memory_bench
+
+    return run_memory_bench(*((40, 100) if args.quick else (200, 500)))
+
+
+def _bench_stability(args):
+    from eyelab.bench.stability import QUICK, run_stability_bench
+
+    if args.quick:     # what CI runs (tests/test_bench_quality.py)
+        return run_stability_bench(**QUICK)
+    return run_stability_bench(cases=1_000_000 if args.full else 100_000)
+
+
+def _bench_blurfield(args):
+    from eyelab.bench.blurfield import run_blurfield_bench
+
+    return run_blurfield_bench(repeats=args.repeats)
+
+
+#: Each benchmark's run (the keys of :data:`BENCHES`).
+_BENCH_RUNS = {"optics": _bench_optics, "blurfield": _bench_blurfield,
+               "render": _bench_render, "quality": _bench_quality,
+               "stability": _bench_stability, "memory": _bench_memory,
+               "inspect": _bench_inspect, "batch": _bench_batch,
+               "imagebased": _bench_imagebased}
+
+
+def _read_json(flag, path):
+    try:
+        with open(path) as fh:
+            return json.load(fh)
+    except (OSError, ValueError) as e:
+        raise SpecError(flag, f"cannot read {path}: {e}") from None
+
+
+def _names(text):
+    return None if text is None else [t.strip() for t in text.split(",") if t.strip()]
+
+
+def _int_list(flag, text):
+    if text is None:
+        return None
+    try:
+        vals = [int(t) for t in text.split(",")]
+    except ValueError:
+        raise SpecError(flag, f"must be comma-separated integers, got {text!r}") from None
+    return vals

@@ -1,0 +1,65 @@
+"""The renderers by name: each name's quality options, where its implementation lives and
+whether it can look through a camera lens system instead of an eye.
+
+The one table every other place derives from (the spec's ``render.renderer`` choices and
+keys, the command line's ``--renderer``, :func:`make_renderer`). Implementations are
+imported on first use, so that validating a spec or importing :mod:`eyelab` loads no VTK
+and no embree.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, fields
+
+from eyelab.core.checks import check_choice
+from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQuality
+
+
+@dataclass(frozen=True)
+class RendererEntry:
+    """One renderer: ``name`` (``render.renderer``), its options class ``quality``, its
+    implementation ``"module:Class"`` and whether it renders camera lens systems."""
+
+    name: str
+    quality: type
+    implementation: str
+    sees_cameras: bool
+
+    def load(self) -> type:
+        """The renderer class (imports its module)."""
+        module, _, cls = self.implementation.partition(":")
+        return getattr(importlib.import_module(module), cls)
+
+
+REGISTRY = {e.name: e for e in (
+    RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False),
+    RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
+                  True),
+    RendererEntry("imagebased", ImageBasedQuality,
+                  "eyelab.render.imagebased:ImageBasedRenderer", True),
+)}
+#: Renderer names, the default first.
+RENDERERS = tuple(REGISTRY)
+#: Options class of each renderer.
+QUALITIES = {name: e.quality for name, e in REGISTRY.items()}
+#: Renderers that can look through a camera lens system instead of the eye.
+CAMERA_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_cameras)
+
+
+def quality_keys(renderer: str) -> tuple:
+    """The option names (spec keys) of a renderer's quality class."""
+    return tuple(f.name for f in fields(QUALITIES[renderer]))
+
+
+def make_renderer(name: str, quality=None, **options):
+    """A new renderer by name (one of :data:`RENDERERS`) with its quality options: an
+    options object, or the options by keyword (``make_renderer("raster", samples=16)``),
+    or neither (the defaults). Use it as a context manager, or :meth:`close` it, to
+    release its GL contexts and caches."""
+    check_choice("render.renderer", name, RENDERERS)
+    if options:
+        if quality is not None:
+            raise TypeError("give quality or its options by keyword, not both")
+        quality = QUALITIES[name](**options)
+    return REGISTRY[name].load()(quality)
