@@ -4,7 +4,6 @@ invalid or failed (listed), 2 for a bad job spec or option."""
 
 from __future__ import annotations
 
-import os
 import sys
 
 
@@ -24,6 +23,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from eyelab.apps.common import apply_max_memory
     from eyelab.core.errors import SpecError
     from eyelab.jobs.batch import load_job_spec, run_batch
 
@@ -33,12 +33,10 @@ def run(args) -> int:
                                                                       "inproc://")):
         raise SpecError("--scheduler", f"must be an address like tcp://host:8786, got "
                                        f"{args.scheduler!r}")
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
-    if args.max_memory is not None:      # the jobs (and Dask workers) read it from here
-        from eyelab.imaging.memory import ENV_MAX_MEMORY, memory_limit
+    from eyelab.render import use_offscreen
 
-        memory_limit(args.max_memory)
-        os.environ[ENV_MAX_MEMORY] = repr(args.max_memory)
+    use_offscreen()
+    apply_max_memory(args)       # the jobs (and Dask workers, via the environment) check it
     js = load_job_spec(args.jobspec, out_dir=args.output)
     res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
                     progress=not args.quiet and sys.stderr.isatty())

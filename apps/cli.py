@@ -214,59 +214,77 @@ def _render(args) -> int:
 
     apply_max_memory(args)
     check_memory(rs)          # up front, before the scene is built (each render checks too)
-    from eyelab.core.fileio import atomic_group, json_writer, png_writer
-    from eyelab.jobs.render import demo, render_spec
-
     # outputs as one set: all written to temporaries, then renamed back to back
-    if args.command == "render" and spec.binocular is not None:
-        from eyelab.jobs.render import render_binocular_spec
-
-        res = render_binocular_spec(spec, no_lens=args.no_lens)
-        mode = spec.binocular.output
-        image = res.srgb(mode)
-        writers = {args.output: png_writer(image)}
-        if args.report:
-            writers[args.report] = json_writer(res.report)
-        atomic_group(writers)
-        b = res.report["binocular"]
-        print(f"wrote {args.output} ({image.shape[1]}x{image.shape[0]}, {mode}; "
-              f"accommodation {b['accommodation_d']:.2f} D, {b['accommodation_rule']})")
-        for side, info in b["eyes"].items():
-            rep = res.report[side]
-            print(f"  {side} eye: gaze ({info['gaze_deg'][0]:+.2f}, {info['gaze_deg'][1]:+.2f})"
-                  f" deg, blur at fixation {info['blur_at_fixation_arcmin'][0]:.2f}' x "
-                  f"{info['blur_at_fixation_arcmin'][1]:.2f}', {rep['renderer']} "
-                  f"{rep['timings_s']['total']:.2f} s")
-        if b["prism_at_fixation"] is not None:
-            p = b["prism_at_fixation"]["binocular"]
-            print(f"  induced prism at fixation: {p['horizontal']}, {p['vertical']}")
-        warnings = dict.fromkeys(w for s in ("right", "left") for w in res.report[s]["warnings"])
-        for warning in warnings:
-            print(f"eyelab: warning: {warning}", file=sys.stderr)
-    elif args.command == "render":
-        res = render_spec(spec, no_lens=args.no_lens)
-        writers = {args.output: png_writer(res.srgb)}
-        if args.report:
-            writers[args.report] = json_writer(res.report)
-        atomic_group(writers)
-        rep = res.report
-        done = ", ".join(f"{k} {v}" for k, v in rep["samples"]["done"].items())
-        print(f"wrote {args.output} ({res.srgb.shape[1]}x{res.srgb.shape[0]}, "
-              f"{rep['renderer']}: {done} of {rep['samples']['target']} samples, "
-              f"{rep['timings_s']['total']:.2f} s)")
-        for why in rep["skipped"]:
-            print(f"  skipped {why}")
-        for warning in rep["warnings"]:
-            print(f"eyelab: warning: {warning}", file=sys.stderr)
+    if args.command == "demo":
+        _write_demo(args, spec)
+    elif spec.binocular is not None:
+        _write_binocular(args, spec)
     else:
-        image, rep = demo(spec)
-        atomic_group({args.output: png_writer(image),
-                      args.output[:-4] + ".json": json_writer(rep)})
-        print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
-        warnings = dict.fromkeys(w for r in rep["panels"].values() for w in r["warnings"])
-        for warning in warnings:
-            print(f"eyelab: warning: {warning}", file=sys.stderr)
+        _write_render(args, spec)
     return 0
+
+
+def _warn(warnings) -> None:
+    for warning in dict.fromkeys(warnings):
+        print(f"eyelab: warning: {warning}", file=sys.stderr)
+
+
+def _write_outputs(args, image, report) -> None:
+    """The image and (with ``--report``) its report, written as one set."""
+    from eyelab.core.fileio import atomic_group, json_writer, png_writer
+
+    writers = {args.output: png_writer(image)}
+    if args.report:
+        writers[args.report] = json_writer(report)
+    atomic_group(writers)
+
+
+def _write_render(args, spec) -> None:
+    from eyelab.jobs.render import render_spec
+
+    res = render_spec(spec, no_lens=args.no_lens)
+    _write_outputs(args, res.srgb, res.report)
+    rep = res.report
+    done = ", ".join(f"{k} {v}" for k, v in rep["samples"]["done"].items())
+    print(f"wrote {args.output} ({res.srgb.shape[1]}x{res.srgb.shape[0]}, "
+          f"{rep['renderer']}: {done} of {rep['samples']['target']} samples, "
+          f"{rep['timings_s']['total']:.2f} s)")
+    for why in rep["skipped"]:
+        print(f"  skipped {why}")
+    _warn(rep["warnings"])
+
+
+def _write_binocular(args, spec) -> None:
+    from eyelab.jobs.render import render_binocular_spec
+
+    res = render_binocular_spec(spec, no_lens=args.no_lens)
+    mode = spec.binocular.output
+    image = res.srgb(mode)
+    _write_outputs(args, image, res.report)
+    b = res.report["binocular"]
+    print(f"wrote {args.output} ({image.shape[1]}x{image.shape[0]}, {mode}; "
+          f"accommodation {b['accommodation_d']:.2f} D, {b['accommodation_rule']})")
+    for side, info in b["eyes"].items():
+        rep = res.report[side]
+        print(f"  {side} eye: gaze ({info['gaze_deg'][0]:+.2f}, {info['gaze_deg'][1]:+.2f})"
+              f" deg, blur at fixation {info['blur_at_fixation_arcmin'][0]:.2f}' x "
+              f"{info['blur_at_fixation_arcmin'][1]:.2f}', {rep['renderer']} "
+              f"{rep['timings_s']['total']:.2f} s")
+    if b["prism_at_fixation"] is not None:
+        p = b["prism_at_fixation"]["binocular"]
+        print(f"  induced prism at fixation: {p['horizontal']}, {p['vertical']}")
+    _warn(w for s in ("right", "left") for w in res.report[s]["warnings"])
+
+
+def _write_demo(args, spec) -> None:
+    from eyelab.core.fileio import atomic_group, json_writer, png_writer
+    from eyelab.jobs.render import demo
+
+    image, rep = demo(spec)
+    atomic_group({args.output: png_writer(image),
+                  args.output[:-4] + ".json": json_writer(rep)})
+    print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
+    _warn(w for r in rep["panels"].values() for w in r["warnings"])
 
 
 def _maps(args) -> int:

@@ -14,7 +14,7 @@ import math
 import sys
 from pathlib import Path
 
-from eyelab.spec.docs import KEYS, SURFACES
+from eyelab.spec.schema import KEYS, LIMITS, SURFACES
 
 HUGE = 10**400                       # TOML reads it; no float holds it
 
@@ -25,7 +25,7 @@ NON_FINITE = [math.nan, -math.inf, HUGE, -HUGE, 1e300, -1e300]
 NOT_BOOLS = [1, 0, "true", "yes", 1.0, [True]]
 NOT_STRINGS = [1, 2.5, True, ["a"], {"a": 1}]
 
-# The fields come from the spec reference (eyelab/spec/docs.py, itself checked against the
+# The fields come from the schema (eyelab/spec/schema.py, itself checked against the
 # validator): every documented key gets the bad values of its kind.
 TEXT_KINDS = {"rx": "rx", "material": "material", "scene": "scene", "path": "scene",
               "coefficients": "list"}
@@ -46,47 +46,50 @@ FIELDS = [(k.table, k.key, _kind(k), k.lo, k.hi,
            k.base or ({"render": {"renderer": k.renderer}} if k.renderer != "all" else {}))
           for k in KEYS if _kind(k) is not None]
 # the surface keys of the other surface, and a table's own keys under a plain sphere
-FIELDS += [("lens.back", "conic", "num", -100, 100, SURFACES),
-           ("lens.back", "radius_mm", "num", -1e9, 1e9, SURFACES),
-           ("lens.front", "coefficients", "list", -1e12, 1e12, SURFACES)]
+FIELDS += [("lens.back", "conic", "num", *LIMITS["lens.front.conic"], SURFACES),
+           ("lens.back", "radius_mm", "num", *LIMITS["lens.front.radius_mm"], SURFACES),
+           ("lens.front", "coefficients", "list", *LIMITS["lens.front.coefficients"],
+            SURFACES)]
+
+
+#: Values a field of each kind must refuse: kind -> f(lo, hi) (a field's bounds) -> list.
+BAD_VALUES = {
+    "num": lambda lo, hi: NOT_NUMBERS + NON_FINITE + [lo - 1 - abs(lo), hi + 1 + abs(hi)],
+    "int": lambda lo, hi: NOT_NUMBERS + NON_FINITE + [lo - 1, hi + 1, lo + 0.5, float(lo)],
+    "bool": lambda lo, hi: NOT_BOOLS,
+    "enum": lambda lo, hi: ["banana", "", " ", "RASTER!"] + NOT_STRINGS,
+    "rx": lambda lo, hi: [
+        "-2.00 DS banana", "", "x", "-3" + " " * 400 + "!", "+40.00 DS", "-2 -1 x 400",
+        "-2 -1 x", "1e400", "-1.00 DC", "-2.00 -1.00 x 90 add 9", "-2.00 -20.00 x 90", 1, True,
+        [-2.0]],
+    "pair": lambda lo, hi: [
+        [0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0], [0.0, HUGE],
+        [hi + 1, 0.0], [0.0, lo - 1], ["1", 0.0]],
+    "polar": lambda lo, hi: [
+        [0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0], [0.0, HUGE],
+        [81.0, 0.0], [-1.0, 0.0], [0.0, 361.0], ["1", 0.0]],
+    "triple": lambda lo, hi: [
+        [0.0, 0.0], [0.0, 0.0, 0.0, 0.0], "0 0 1", [True, 0.0, 1.0], [math.nan, 0.0, 1.0],
+        [0.0, 0.0, HUGE], [hi * 2, 0.0, 1.0], ["1", 0.0, 1.0]],
+    "triple_int": lambda lo, hi: [
+        [8, 8], [8, 8, 8, 8], "8", [1.5, 8, 8], [True, 8, 8], [8, "8", 8], [hi + 1, 8, 8],
+        [8, 8, lo - 1], [8, HUGE, 8], 8],
+    "list": lambda lo, hi: ["1e-6", 1e-6, [True], [math.nan], [HUGE], [1e300], ["a"], [[1.0]]],
+    "material": lambda lo, hi: [
+        "banana", "", "air", 1.5, True, ["cr39"], {"n_d": 1.0}, {"n_d": "1.5"},
+        {"n_d": 1.5, "v_d": "40"}, {"n_d": 1.5, "v_d": -10.0}, {"n_d": math.nan},
+        {"v_d": 40.0}, {"n_d": 1.5, "colour": "red"}, {"n_d": HUGE}, {"n_d": 1.0001},
+        {"n_d": 5.0}],
+    "scene": lambda lo, hi: ["banana", "", 1, True, ["room"], {"path": 1},
+                             "/nonexistent/mesh.ply"],
+}
 
 
 def _bad_values(kind, lo, hi):
-    """Values a field of this kind must refuse."""
-    if kind == "num":
-        return NOT_NUMBERS + NON_FINITE + [lo - 1 - abs(lo), hi + 1 + abs(hi)]
-    if kind == "int":
-        return NOT_NUMBERS + NON_FINITE + [lo - 1, hi + 1, lo + 0.5, float(lo)]
-    if kind == "bool":
-        return NOT_BOOLS
-    if kind == "enum":
-        return ["banana", "", " ", "RASTER!"] + NOT_STRINGS
-    if kind == "rx":
-        return ["-2.00 DS banana", "", "x", "-3" + " " * 400 + "!", "+40.00 DS",
-                "-2 -1 x 400", "-2 -1 x", "1e400", "-1.00 DC", "-2.00 -1.00 x 90 add 9",
-                "-2.00 -20.00 x 90", 1, True, [-2.0]]
-    if kind == "pair":
-        return [[0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0],
-                [0.0, HUGE], [hi + 1, 0.0], [0.0, lo - 1], ["1", 0.0]]
-    if kind == "polar":
-        return [[0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0],
-                [0.0, HUGE], [81.0, 0.0], [-1.0, 0.0], [0.0, 361.0], ["1", 0.0]]
-    if kind == "triple":
-        return [[0.0, 0.0], [0.0, 0.0, 0.0, 0.0], "0 0 1", [True, 0.0, 1.0],
-                [math.nan, 0.0, 1.0], [0.0, 0.0, HUGE], [hi * 2, 0.0, 1.0], ["1", 0.0, 1.0]]
-    if kind == "triple_int":
-        return [[8, 8], [8, 8, 8, 8], "8", [1.5, 8, 8], [True, 8, 8], [8, "8", 8],
-                [hi + 1, 8, 8], [8, 8, lo - 1], [8, HUGE, 8], 8]
-    if kind == "list":
-        return ["1e-6", 1e-6, [True], [math.nan], [HUGE], [1e300], ["a"], [[1.0]]]
-    if kind == "material":
-        return ["banana", "", "air", 1.5, True, ["cr39"], {"n_d": 1.0}, {"n_d": "1.5"},
-                {"n_d": 1.5, "v_d": "40"}, {"n_d": 1.5, "v_d": -10.0}, {"n_d": math.nan},
-                {"v_d": 40.0}, {"n_d": 1.5, "colour": "red"}, {"n_d": HUGE}, {"n_d": 1.0001},
-                {"n_d": 5.0}]
-    if kind == "scene":
-        return ["banana", "", 1, True, ["room"], {"path": 1}, "/nonexistent/mesh.ply"]
-    raise ValueError(kind)
+    """Values a field of this kind must refuse (:data:`BAD_VALUES`)."""
+    if kind not in BAD_VALUES:
+        raise ValueError(kind)
+    return BAD_VALUES[kind](lo, hi)
 
 
 def _merge(base, table, key, value):

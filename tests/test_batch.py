@@ -180,7 +180,7 @@ def test_killed_runs_resume_to_valid_outputs(tmp_path):
 def test_same_bytes_serial_local_cluster_and_real_scheduler(tmp_path):
     """20 jobs serially, on a LocalCluster of 2 worker processes, and on a `dask
     scheduler` with two `dask worker` processes started here on loopback: byte-identical
-    images."""
+    images; the workers, which outlive the run, hold none of its resources after it."""
     spec = _jobspec(tmp_path, n_rx=10)
     js = load_job_spec(spec, out_dir=tmp_path / "serial")
     assert run_batch(js, progress=False)["errors"] == []
@@ -209,6 +209,16 @@ def test_same_bytes_serial_local_cluster_and_real_scheduler(tmp_path):
         js3 = load_job_spec(spec, out_dir=tmp_path / "cluster")
         assert run_batch(js3, scheduler=address, progress=False)["errors"] == []
         assert _images(js3.out_dir) == ref
+        from distributed import Client
+
+        def batch_runs_held():
+            from eyelab.core import parallel
+
+            return sorted(str(k) for k in parallel._OWNED if str(k).startswith("eyelab-batch-"))
+
+        with Client(address) as client:
+            held = client.run(batch_runs_held)
+        assert len(held) == 2 and all(v == [] for v in held.values())
     finally:
         for p in procs:
             p.terminate()

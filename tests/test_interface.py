@@ -3,6 +3,8 @@ validated options, content-keyed bounded caches, no leaks."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -81,7 +83,7 @@ def test_encode_decode_are_exact_inverses_on_every_code():
     (View, {"width": 8}, "render.width"),
     (View, {"width": True}, "render.width"),
     (View, {"far": 0.01, "near": 0.05}, "render.far_m"),
-    (View, {"focus_d": -1}, "render.focus_d"),
+    (View, {"focus_d": -1}, "eye.accommodation_d"),
     (View, {"cvd": "red"}, "render.cvd"),
     (View, {"width": 4096, "height": 16}, "render.width"),
     (RasterQuality, {"samples": 0}, "render.samples"),
@@ -112,7 +114,7 @@ def test_every_option_is_reachable_from_a_spec():
 
     for name, cls in QUALITIES.items():
         keys = set(renderer_keys(name))
-        for f in cls.__dataclass_fields__:
+        for f in (x.name for x in dataclasses.fields(cls)):
             assert f in keys or f == "progress", (name, f)
     rs = parse_render({"renderer": "raster", "depth_mode": "linear", "field_shape": [16, 8, 8],
                        "skip_unneeded": False, "reconstruct": True})

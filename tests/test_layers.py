@@ -240,3 +240,16 @@ def test_the_maps_list_every_package():
     assert sorted(p.removeprefix("eyelab.") for row in LAYERS for p in row
                   if p.count(".") == 1 and p not in ("eyelab.apps", "eyelab.data_generators")
                   ) == pkgs
+
+
+def test_the_wheel_lists_every_package():
+    """pyproject.toml names every package of the tree (a missing one would ship a wheel
+    without it)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {".".join(["eyelab", *p.parent.relative_to(ROOT / "eyelab").parts])
+             for p in (ROOT / "eyelab").rglob("__init__.py")}
+    found |= {"eyelab.apps", "eyelab.data_generators"}
+    assert listed == found

@@ -1,6 +1,7 @@
-"""The spec reference (eyelab/spec/docs.py) is the validator's truth: the same keys, every
-range accepted at its ends and refused beyond (naming the key), every choice accepted and
-a wrong one refused; the README's tables are generated from it."""
+"""The schema (eyelab/spec/schema.py) is what the validator derives from: the same keys,
+every declared range accepted at its ends and refused just beyond (naming the key), every
+choice accepted and a wrong one refused, no range written a second time anywhere in the
+package; the README's tables are generated from it."""
 
 from __future__ import annotations
 
@@ -22,7 +23,8 @@ from eyelab.spec import (
     parse_spec,
     renderer_keys,
 )
-from eyelab.spec.docs import KEYS, markdown
+from eyelab.spec.docs import markdown
+from eyelab.spec.schema import KEYS
 
 README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
 
@@ -111,3 +113,73 @@ def test_the_readme_tables_are_generated():
     block = README[README.index(begin):README.index(end)]
     block = block[block.index("\n") + 1:].strip()
     assert block == markdown().strip(), "run: python -m eyelab.spec.docs --readme README.md"
+
+
+def _literal(node):
+    """A node's number if it is a numeric literal (signs, powers, differences), else None."""
+    import ast
+
+    try:
+        v = ast.literal_eval(node)
+    except (ValueError, TypeError, SyntaxError, MemoryError, RecursionError):
+        return None
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
+def _field_prefix(node):
+    """The field name a validator call names: a string, or an f-string's leading text."""
+    import ast
+
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value
+    if isinstance(node, ast.JoinedStr) and node.values and isinstance(node.values[0],
+                                                                        ast.Constant):
+        return node.values[0].value
+    return None
+
+
+def ranges_written_again(sources):
+    """(where, field) of every validator call in ``sources`` ({name: text}) that writes a
+    schema field's range as literal numbers instead of taking it from where it is
+    declared."""
+    import ast
+
+    from eyelab.spec.schema import declared
+
+    fields = {f"{k.table}.{k.key}" for k in KEYS if k.lo is not None}
+    bad = []
+    for name, text in sources.items():
+        for node in ast.walk(ast.parse(text)):
+            if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                    and node.func.id in ("check_range", "check_int", "number")):
+                continue
+            args = node.args
+            if node.func.id == "number":          # number(table, key, where, lo, hi)
+                field = (f"{_field_prefix(args[2])}.{_field_prefix(args[1])}"
+                         if len(args) >= 5 else None)
+                nums = args[3:5]
+            else:
+                field = _field_prefix(args[0]) if args else None
+                nums = args[2:4]
+            if field is None or len(nums) < 2:
+                continue
+            if (declared(field.rstrip("[.").split("{")[0].rstrip("[.")) in fields
+                    and _literal(nums[0]) is not None and _literal(nums[1]) is not None):
+                bad.append(f"{name}:{node.lineno} {field}")
+    return bad
+
+
+def test_every_range_is_declared_once():
+    """No validator in the package writes a schema field's range as numbers: each range
+    lives where it is declared (an engine module's LIMITS or the schema's SPEC_LIMITS)."""
+    root = Path(__file__).resolve().parents[1] / "eyelab"
+    sources = {str(p.relative_to(root)): p.read_text() for p in root.rglob("*.py")}
+    assert ranges_written_again(sources) == []
+
+
+def test_the_range_check_sees_a_range_written_again():
+    fake = ('def f(t, v):\n    check_range("eye.pupil_diameter_mm", v, 0.5, 10)\n'
+            '    number(t, "wrap_deg", "lens", -30, 30)\n'
+            '    check_range(f"lens.decentration_mm[{0}]", v, -20, 20)\n'
+            '    check_range("eye.pupil_diameter_mm", v, *LIMITS["x"])\n')
+    assert len(ranges_written_again({"fake.py": fake})) == 3

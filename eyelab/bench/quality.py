@@ -26,6 +26,7 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -143,6 +144,20 @@ def _rmse(a, b):
     return float(np.sqrt(np.mean((to_linear(a) - to_linear(b)) ** 2)))
 
 
+class _Ladders(NamedTuple):
+    """What every case of a run measures: image size (px), the raster renderer's S values,
+    the reference's spp values, the converged reference's spp and where it is kept."""
+
+    width: int
+    height: int
+    raster_s: tuple
+    ref_spp: tuple
+    truth_spp: int
+    truth_cache: object
+    quick: bool
+    omit: tuple
+
+
 def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_spp=None,
                       ref_spp=None, only_configs=None, only_scenes=None,
                       truth_cache=None, omit=()) -> dict:
@@ -152,6 +167,30 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     run); ``omit`` leaves out optional rows (:data:`OPTIONAL_ROWS`, recorded in the JSON);
     ``truth_cache`` (a folder) keeps the converged references as ``.npz`` and re-uses them,
     so a renderer change is re-measured without re-tracing the ground truth."""
+    w, h, raster_s, ref_spp, truth_spp = _preset(quick, size, truth_spp, ref_spp)
+    omit = _check_selection(quick, omit, only_scenes, only_configs)
+    lad = _Ladders(w, h, raster_s, ref_spp, truth_spp, truth_cache, quick, omit)
+    todo = sum(1 for _ in _selected_cases(quick, only_scenes, only_configs))
+    bar = progress_bar(todo, f"quality {w}x{h}", "case")
+    cases = []
+    for sname, (scene, fov, near, far), cname, (eye, lens) in _selected_cases(
+            quick, only_scenes, only_configs):
+        bar.set_postfix_str(f"{sname} / {cname}")
+        view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
+        cases.append(_measure_case(sname, cname, scene, eye, lens, view, lad))
+        bar.update(1)
+    bar.close()
+    cams = _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit,
+                         None if not (only_configs or only_scenes) else only_configs or ())
+    out = summarise(cases, preset="quick" if quick else "full", size=(w, h),
+                    plot_path=plot_path, camera_cases=cams)
+    out["omitted"] = list(omit)
+    return out
+
+
+def _preset(quick, size, truth_spp, ref_spp) -> tuple:
+    """(width, height, raster S values, reference spp values, converged reference spp) of
+    the preset with the overrides given, the spp values checked."""
     w, h = size or ((160, 120) if quick else (1024, 768))
     raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
     ref_spp = tuple(ref_spp or ((1, 4, 16, 64) if quick else (1, 4, 16, 64, 256, 1024)))
@@ -159,6 +198,12 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     check_range("truth_spp", truth_spp, 1, 65536)
     for spp in ref_spp:
         check_range("reference_spp", spp, 1, 65536)
+    return w, h, raster_s, ref_spp, truth_spp
+
+
+def _check_selection(quick, omit, only_scenes, only_configs) -> tuple:
+    """``omit`` as a tuple, after refusing (:class:`SpecError`) unknown optional rows, scenes
+    and configurations."""
     known_s, known_c = set(scenes()), set(configs(quick)) | set(camera_cases())
     omit = tuple(omit or ())
     for name in omit:
@@ -170,71 +215,89 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
         bad = sorted(set(names or ()) - known)
         if bad:
             raise SpecError(flag, f"unknown {bad}; allowed: {sorted(known)}")
-    cases = []
-    todo = [(s, c) for s in scenes() if not only_scenes or s in only_scenes
-            for c in configs(quick) if not only_configs or c in only_configs]
-    bar = progress_bar(len(todo), f"quality {w}x{h}", "case")
-    for sname, (scene, fov, near, far) in scenes().items():
+    return omit
+
+
+def _selected_cases(quick, only_scenes, only_configs):
+    """(scene name, (scene, fov, near, far), config name, (eye, lens)) of every case the
+    filters leave, scene by scene (each scene's configurations made afresh)."""
+    for sname, scene in scenes().items():
         if only_scenes and sname not in only_scenes:
             continue
-        for cname, (eye, lens) in configs(quick).items():
+        for cname, config in configs(quick).items():
             if only_configs and cname not in only_configs:
                 continue
-            bar.set_postfix_str(f"{sname} / {cname}")
-            view = View(width=w, height=h, fov_y_deg=fov, near=near, far=far)
-            truth, t_truth, trep = _truth(truth_cache, f"{sname}__{cname}__{w}x{h}__"
-                                          f"{truth_spp}spp__{TRUTH_FORMAT}", ReferenceQuality(
-                                              samples=truth_spp), view, scene, eye, lens)
-            case = {"scene": sname, "config": cname, "truth_spp": truth_spp,
-                    "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],
-                    "raster": [], "reference": []}
-            for s in raster_s:
-                with RasterRenderer(RasterQuality(samples=s, reconstruct=True)) as r:
-                    t = time.perf_counter()
-                    r.render(scene, eye, lens, view)
-                    cold = time.perf_counter() - t
-                    warm = np.inf
-                    for _ in range(3):      # best of 3 steady-state frames
-                        t = time.perf_counter()
-                        res = r.render(scene, eye, lens, view)
-                        warm = min(warm, time.perf_counter() - t)
-                m = compare_images(res.image, truth)
-                m.update(rmse=_rmse(res.image, truth), time_s=warm, cold_time_s=cold,
-                         samples=s, skipped=res.report["skipped"],
-                         reconstruct_s=res.report["timings_s"].get("reconstruct", 0.0))
-                case["raster"].append(m)
-            for spp in ref_spp:
+            yield sname, scene, cname, config
+
+
+def _measure_case(sname, cname, scene, eye, lens, view, lad: _Ladders) -> dict:
+    """One case: the converged reference, the raster and reference ladders against it, the
+    optional rows, and each raster row's comparison at equal wall time."""
+    truth, t_truth, trep = _truth(lad.truth_cache, f"{sname}__{cname}__{lad.width}x"
+                                  f"{lad.height}__{lad.truth_spp}spp__{TRUTH_FORMAT}",
+                                  ReferenceQuality(samples=lad.truth_spp), view, scene, eye,
+                                  lens)
+    case = {"scene": sname, "config": cname, "truth_spp": lad.truth_spp,
+            "truth_time_s": t_truth, "truth_rays_per_s": trep["rays_per_s"],
+            "raster": _raster_rows(scene, eye, lens, view, truth, lad.raster_s),
+            "reference": _reference_rows(scene, eye, lens, view, truth, lad.ref_spp)}
+    if "variants" not in lad.omit:
+        case["variants"] = _variants(scene, eye, lens, view, truth, lad.quick,
+                                     spp=lad.ref_spp[-1])
+    if "imagebased" not in lad.omit and (lad.quick or lens is not None):
+        case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
+                                              IMAGEBASED_SAMPLES[0 if lad.quick else 1])
+    _compare_at_equal_time(case)
+    return case
+
+
+def _raster_rows(scene, eye, lens, view, truth, raster_s) -> list:
+    """The raster renderer (reconstruction on) at each S: first frame and the best of 3
+    steady-state frames, error against ``truth``."""
+    rows = []
+    for s in raster_s:
+        with RasterRenderer(RasterQuality(samples=s, reconstruct=True)) as r:
+            t = time.perf_counter()
+            r.render(scene, eye, lens, view)
+            cold = time.perf_counter() - t
+            warm = np.inf
+            for _ in range(3):      # best of 3 steady-state frames
                 t = time.perf_counter()
-                ref = ReferenceRenderer(ReferenceQuality(samples=spp, seed=1)).render(
-                    scene, eye, lens, view)
-                img, rep = ref.srgb, ref.report["details"]
-                dt = time.perf_counter() - t
-                m = compare_images(img, truth)
-                m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,
-                         rays_per_s=rep["rays_per_s"])
-                case["reference"].append(m)
-            if "variants" not in omit:
-                case["variants"] = _variants(scene, eye, lens, view, truth, quick,
-                                             spp=ref_spp[-1])
-            if "imagebased" not in omit and (quick or lens is not None):
-                case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
-                                                      IMAGEBASED_SAMPLES[0 if quick else 1])
-            # equal wall time: the reference's RMSE interpolated (log-log) at each raster time
-            rt = np.array([m["time_s"] for m in case["reference"]])
-            re = np.array([m["rmse"] for m in case["reference"]])
-            for m in case["raster"]:
-                m["reference_rmse_at_same_time"] = float(np.exp(np.interp(
-                    np.log(m["time_s"]), np.log(rt), np.log(re))))
-                m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
-            cases.append(case)
-            bar.update(1)
-    bar.close()
-    cams = _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit,
-                         None if not (only_configs or only_scenes) else only_configs or ())
-    out = summarise(cases, preset="quick" if quick else "full", size=(w, h),
-                    plot_path=plot_path, camera_cases=cams)
-    out["omitted"] = list(omit)
-    return out
+                res = r.render(scene, eye, lens, view)
+                warm = min(warm, time.perf_counter() - t)
+        m = compare_images(res.image, truth)
+        m.update(rmse=_rmse(res.image, truth), time_s=warm, cold_time_s=cold,
+                 samples=s, skipped=res.report["skipped"],
+                 reconstruct_s=res.report["timings_s"].get("reconstruct", 0.0))
+        rows.append(m)
+    return rows
+
+
+def _reference_rows(scene, eye, lens, view, truth, ref_spp) -> list:
+    """The reference renderer (seed 1) at each spp: wall time and error against ``truth``."""
+    rows = []
+    for spp in ref_spp:
+        t = time.perf_counter()
+        ref = ReferenceRenderer(ReferenceQuality(samples=spp, seed=1)).render(
+            scene, eye, lens, view)
+        img, rep = ref.srgb, ref.report["details"]
+        dt = time.perf_counter() - t
+        m = compare_images(img, truth)
+        m.update(rmse=_rmse(img, truth), time_s=dt, spp=spp,
+                 rays_per_s=rep["rays_per_s"])
+        rows.append(m)
+    return rows
+
+
+def _compare_at_equal_time(case) -> None:
+    """Add to each raster row the reference's RMSE interpolated (log-log) at the raster
+    row's time, and whether the raster error is below it."""
+    rt = np.array([m["time_s"] for m in case["reference"]])
+    re = np.array([m["rmse"] for m in case["reference"]])
+    for m in case["raster"]:
+        m["reference_rmse_at_same_time"] = float(np.exp(np.interp(
+            np.log(m["time_s"]), np.log(rt), np.log(re))))
+        m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
 
 
 def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit=(), only=None):

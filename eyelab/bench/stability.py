@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import time
 import traceback
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -172,147 +173,218 @@ def _rederive(eye, lens, objects, res, fixation, rng, n_ok=2, n_fatal=1):
     return out
 
 
+@dataclass
+class _Tally:
+    """The stability bench's running counts: engine rows, NaN/inf, crashes, wrong statuses,
+    refused lenses, blur-field voxels and reference pixels with their failures, the
+    re-derivation's counters, and the worst cases as (value, description)."""
+
+    total: int = 0
+    nan: int = 0
+    wrong: int = 0
+    crashes: int = 0
+    ok_rows: int = 0
+    refused: int = 0
+    focal_wrong: int = 0
+    field_nan: int = 0
+    field_crash: int = 0
+    voxels: int = 0
+    ref_nan: int = 0
+    ref_crash: int = 0
+    pixels: int = 0
+    slowest: tuple = (0.0, None)
+    worst_iter: tuple = (0, None)
+    worst_curv: tuple = (0.0, None)
+    crash_examples: list = field(default_factory=list)
+    rederived: dict = field(default_factory=_rederived_counts)
+
+    def crash(self):
+        """Keep the exception being handled as a crash example."""
+        self.crash_examples.append(traceback.format_exc(limit=3))
+
+    def add_rederived(self, c, rd):
+        """Fold one configuration's re-derivation counts (:func:`_rederive`) in."""
+        for k, v in rd.items():
+            if k == "examples":
+                self.rederived["examples"].extend(f"config {c}: {e}" for e in v)
+            elif k.startswith("max_"):
+                self.rederived[k] = max(self.rederived[k], v)
+            else:
+                self.rederived[k] += v
+
+
+#: The worst cases kept: tally attribute <- the engine batch statistic it maximises.
+_WORST = (("slowest", "time_s"), ("worst_iter", "max_iterations"),
+          ("worst_curv", "max_curvature"))
+
+
 def run_stability_bench(cases: int = 100_000, seed: int = 0, points_per_config: int = 100,
                         field_configs: int = 100, reference_configs: int = 20) -> dict:
+    """Run ``cases`` engine rows (``points_per_config`` object points per random lens and
+    eye), 200 eyes at their meridians' far points, ``field_configs`` blur fields and
+    ``reference_configs`` 16 x 16 reference renders, all drawn from ``seed``; the JSON
+    report (counts, worst cases, ``all_clear``, ``summary`` lines)."""
     rng = np.random.default_rng(seed)
     # the rows re-derived are drawn from a stream of their own, so that configuration c is
     # the same whatever the checks drew before it (a failure can be replayed alone)
     check_rng = np.random.default_rng([seed, 1])
     t0 = time.perf_counter()
-    total = nan = wrong = crashes = ok_rows = 0
-    slowest = (0.0, None)
-    worst_iter = (0, None)
-    worst_curv = (0.0, None)
-    refused = 0
-    crash_examples = []
-    rederived = _rederived_counts()
+    tally = _Tally()
     n_configs = int(math.ceil(cases / points_per_config))
     bar = progress_bar(n_configs + field_configs + reference_configs, "stability", "config")
     for c in range(n_configs):
         bar.update(1)
-        try:
-            lens = None if rng.uniform() < 0.1 else _random_lens(rng)
-        except SpecError:
-            refused += 1        # an impossible lens is refused with a clear error: counted
-            lens = None
-        eye = _random_eye(rng)
-        dist = 10 ** rng.uniform(math.log10(0.05), 3, points_per_config)
-        dist[::9] = np.inf
-        obj = ObjectPoints.from_angles(dist, rng.uniform(-40, 40, points_per_config),
-                                       rng.uniform(-40, 40, points_per_config))
-        fixation = "rotating" if c % 2 else "fixed"
-        try:
-            res, n, bad, wr, st = _check_engine(eye, lens, obj, fixation)
-            rd = _rederive(eye, lens, obj, res, fixation, check_rng)
-        except Exception:  # a crash is what this benchmark counts
-            crashes += 1
-            crash_examples.append(traceback.format_exc(limit=3))
-            continue
-        for k, v in rd.items():
-            if k == "examples":
-                rederived["examples"].extend(f"config {c}: {e}" for e in v)
-            elif k.startswith("max_"):
-                rederived[k] = max(rederived[k], v)
-            else:
-                rederived[k] += v
-        total += n
-        nan += bad
-        wrong += wr
-        ok_rows += st["ok"]
-        desc = {"config": c, "lens": None if lens is None else repr(lens)[:200],
-                "eye": repr(eye)}
-        if st["time_s"] > slowest[0]:
-            slowest = (st["time_s"], desc)
-        if st["max_iterations"] > worst_iter[0]:
-            worst_iter = (st["max_iterations"], desc)
-        if st["max_curvature"] > worst_curv[0]:
-            worst_curv = (st["max_curvature"], desc)
-    # points exactly at a meridian's far point (naked eye): that semi-axis must vanish
-    focal_wrong = 0
+        _engine_config(tally, c, rng, check_rng, points_per_config)
+    _focal_points(tally, rng)
+    _blur_fields(tally, rng, field_configs, bar)
+    _reference_renders(tally, rng, reference_configs, bar)
+    bar.close()
+    return _stability_report(tally, seed, t0)
+
+
+def _engine_config(tally, c, rng, check_rng, points_per_config):
+    """Engine configuration ``c``: a random lens (none in 10 %; an impossible one refused
+    with a clear error is counted and replaced by none), eye and object points (every 9th
+    at infinity), run and re-derived; a crash is counted, not raised."""
+    try:
+        lens = None if rng.uniform() < 0.1 else _random_lens(rng)
+    except SpecError:
+        tally.refused += 1      # an impossible lens is refused with a clear error: counted
+        lens = None
+    eye = _random_eye(rng)
+    dist = 10 ** rng.uniform(math.log10(0.05), 3, points_per_config)
+    dist[::9] = np.inf
+    obj = ObjectPoints.from_angles(dist, rng.uniform(-40, 40, points_per_config),
+                                   rng.uniform(-40, 40, points_per_config))
+    fixation = "rotating" if c % 2 else "fixed"
+    try:
+        res, n, bad, wr, st = _check_engine(eye, lens, obj, fixation)
+        rd = _rederive(eye, lens, obj, res, fixation, check_rng)
+    except Exception:  # a crash is what this benchmark counts
+        tally.crashes += 1
+        tally.crash()
+        return
+    tally.add_rederived(c, rd)
+    tally.total += n
+    tally.nan += bad
+    tally.wrong += wr
+    tally.ok_rows += st["ok"]
+    desc = {"config": c, "lens": None if lens is None else repr(lens)[:200],
+            "eye": repr(eye)}
+    for attr, key in _WORST:
+        if st[key] > getattr(tally, attr)[0]:
+            setattr(tally, attr, (st[key], desc))
+
+
+def _focal_points(tally, rng):
+    """200 naked eyes with a point exactly at each meridian's far point: that semi-axis
+    must vanish (|.| < 1e-12 m), else a wrong status."""
     for _ in range(200):
         eye = Eye(power_min=rng.uniform(58.7, 66), astigmatism=rng.uniform(0, 4),
                   astigmatism_axis_deg=rng.uniform(0, 180), accommodation_max=0.0,
                   pupil_diameter=rng.uniform(1e-3, 9e-3))
         k1, k2 = eye.refraction()
         res = analyze_points(eye, None, ObjectPoints.from_angles([-1 / k1, -1 / k2], 0.0, 0.0))
-        total += 2
-        if not (abs(res.a[0]) < 1e-12 or abs(res.b[0]) < 1e-12):
-            focal_wrong += 1
-        if not (abs(res.a[1]) < 1e-12 or abs(res.b[1]) < 1e-12):
-            focal_wrong += 1
-    wrong += focal_wrong
-    # blur fields
+        tally.total += 2
+        for j in (0, 1):
+            if not (abs(res.a[j]) < 1e-12 or abs(res.b[j]) < 1e-12):
+                tally.focal_wrong += 1
+    tally.wrong += tally.focal_wrong
+
+
+def _eye_and_lens(tally, rng):
+    """(eye, lens) of a random configuration (a lens in 70 %), or None when the lens was
+    refused (counted)."""
+    eye = _random_eye(rng)
+    try:
+        lens = _random_lens(rng) if rng.uniform() < 0.7 else None
+    except SpecError:
+        tally.refused += 1
+        return None
+    return eye, lens
+
+
+def _blur_fields(tally, rng, field_configs, bar):
+    """``field_configs`` random 8 x 4 x 4 blur fields: voxels, NaN/inf and crashes (only
+    the lens may be refused; anything the field raises is a crash)."""
     from eyelab.blur import compute_blur_field
 
-    field_nan = field_crash = voxels = 0
     for _ in range(field_configs):
         bar.update(1)
-        eye = _random_eye(rng)
-        try:       # only the lens may be refused; anything the field raises is a crash
-            lens = _random_lens(rng) if rng.uniform() < 0.7 else None
-        except SpecError:
-            refused += 1
+        drawn = _eye_and_lens(tally, rng)
+        if drawn is None:
             continue
+        eye, lens = drawn
         try:
             f = compute_blur_field(eye, lens, shape=(8, 4, 4))
         except Exception:
-            field_crash += 1
-            crash_examples.append(traceback.format_exc(limit=3))
+            tally.field_crash += 1
+            tally.crash()
             continue
-        voxels += f.matrix.shape[0] * f.matrix.shape[1] * f.matrix.shape[2]
-        field_nan += int((~np.isfinite(f.matrix)).any(axis=(-1, -2)).sum())
-    # reference renderer
+        tally.voxels += f.matrix.shape[0] * f.matrix.shape[1] * f.matrix.shape[2]
+        tally.field_nan += int((~np.isfinite(f.matrix)).any(axis=(-1, -2)).sum())
+
+
+def _reference_renders(tally, rng, reference_configs, bar):
+    """``reference_configs`` random 16 x 16 renders of the room by the reference renderer
+    (4 spp, one worker): pixels, NaN/inf and crashes."""
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import ReferenceQuality
     from eyelab.reference.tracer import ReferenceRenderer
     from eyelab.scene.library import room_scene
 
     scene = room_scene()
-    ref_nan = ref_crash = pixels = 0
     for _ in range(reference_configs):
         bar.update(1)
-        eye = _random_eye(rng)
-        try:
-            lens = _random_lens(rng) if rng.uniform() < 0.7 else None
-        except SpecError:
-            refused += 1
+        drawn = _eye_and_lens(tally, rng)
+        if drawn is None:
             continue
+        eye, lens = drawn
         try:
             img = ReferenceRenderer(ReferenceQuality(samples=4, workers=1)).render(
                 scene, eye, lens, View(width=16, height=16)).linear
         except Exception:
-            ref_crash += 1
-            crash_examples.append(traceback.format_exc(limit=3))
+            tally.ref_crash += 1
+            tally.crash()
             continue
-        pixels += img.shape[0] * img.shape[1]
-        ref_nan += int((~np.isfinite(img)).any(axis=2).sum())
-    bar.close()
+        tally.pixels += img.shape[0] * img.shape[1]
+        tally.ref_nan += int((~np.isfinite(img)).any(axis=2).sum())
+
+
+def _stability_report(tally, seed, t0) -> dict:
+    """The benchmark's JSON from its ``tally`` (``t0``: its start, perf_counter s)."""
+    rederived = tally.rederived
+    slowest, worst_iter, worst_curv = tally.slowest, tally.worst_iter, tally.worst_curv
     out = {
         "benchmark": "stability", "seed": seed,
-        "engine_configurations": total, "engine_ok_rows": ok_rows,
-        "engine_nan_or_inf": nan, "engine_crashes": crashes, "wrong_statuses": wrong,
-        "focal_point_failures": focal_wrong,
-        "lenses_refused_with_clear_error": refused,
-        "blur_field_voxels": voxels, "blur_field_nan": field_nan,
-        "blur_field_crashes": field_crash,
-        "reference_pixels": pixels, "reference_nan": ref_nan, "reference_crashes": ref_crash,
+        "engine_configurations": tally.total, "engine_ok_rows": tally.ok_rows,
+        "engine_nan_or_inf": tally.nan, "engine_crashes": tally.crashes,
+        "wrong_statuses": tally.wrong,
+        "focal_point_failures": tally.focal_wrong,
+        "lenses_refused_with_clear_error": tally.refused,
+        "blur_field_voxels": tally.voxels, "blur_field_nan": tally.field_nan,
+        "blur_field_crashes": tally.field_crash,
+        "reference_pixels": tally.pixels, "reference_nan": tally.ref_nan,
+        "reference_crashes": tally.ref_crash,
         "slowest_batch": {"time_s": slowest[0], "case": slowest[1]},
         "most_path_iterations": {"iterations": worst_iter[0], "case": worst_iter[1]},
         "largest_curvature_1_per_m": {"value": worst_curv[0], "case": worst_curv[1]},
-        "crash_examples": crash_examples[:5],
+        "crash_examples": tally.crash_examples[:5],
         "rederived": dict(rederived, examples=rederived["examples"][:10]),
         "time_s": time.perf_counter() - t0,
     }
     rd_wrong = sum(rederived[k] for k in ("vergence_wrong", "blur_wrong",
                                           "accommodation_wrong", "missed_wrong"))
-    out["all_clear"] = (nan == crashes == wrong == field_nan == field_crash == ref_nan
-                        == ref_crash == rd_wrong == 0)
+    out["all_clear"] = (tally.nan == tally.crashes == tally.wrong == tally.field_nan
+                        == tally.field_crash == tally.ref_nan == tally.ref_crash == rd_wrong
+                        == 0)
     out["summary"] = [
-        f"engine: {total} configurations ({ok_rows} with a light path), {nan} NaN/inf, "
-        f"{crashes} crashes, {wrong} wrong statuses; {refused} impossible lenses refused "
-        f"with a clear error",
-        f"blur field: {voxels} voxels, {field_nan} NaN/inf, {field_crash} crashes; reference: "
-        f"{pixels} pixels, {ref_nan} NaN/inf, {ref_crash} crashes",
+        f"engine: {tally.total} configurations ({tally.ok_rows} with a light path), "
+        f"{tally.nan} NaN/inf, {tally.crashes} crashes, {tally.wrong} wrong statuses; "
+        f"{tally.refused} impossible lenses refused with a clear error",
+        f"blur field: {tally.voxels} voxels, {tally.field_nan} NaN/inf, {tally.field_crash} "
+        f"crashes; reference: {tally.pixels} pixels, {tally.ref_nan} NaN/inf, "
+        f"{tally.ref_crash} crashes",
         f"re-derived independently: {rederived['vergence_checked']} rows with a light path "
         f"(real-ray bundles, Eq. 13, rim rays): {rederived['vergence_wrong']} wrong waves, "
         f"{rederived['accommodation_wrong']} wrong accommodations, "

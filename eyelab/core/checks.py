@@ -7,6 +7,9 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 
+#: The range of an 8-bit sRGB code.
+RGB_RANGE = (0, 255)
+
 
 def check_int(field_name: str, value, lo: int, hi: int) -> int:
     """``value`` as an int in [lo, hi], or a :class:`SpecError` naming the field (booleans
@@ -25,7 +28,7 @@ def check_rgb(field_name: str, value) -> tuple:
     naming the field (or the element)."""
     if not (isinstance(value, (tuple, list)) and len(value) == 3):
         raise SpecError(field_name, f"must be [r, g, b] in 0-255, got {value!r}")
-    return tuple(check_int(f"{field_name}[{i}]", v, 0, 255) for i, v in enumerate(value))
+    return tuple(check_int(f"{field_name}[{i}]", v, *RGB_RANGE) for i, v in enumerate(value))
 
 
 def check_bool(field_name: str, value) -> bool:
@@ -74,3 +77,14 @@ def _short(value) -> str:
 
 def _fmt(lo, hi, lo_open, hi_open):
     return f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
+def check_in(field_name: str, value, limits: dict, *, integer: bool = False, **kw):
+    """:func:`check_range` (:func:`check_int` with ``integer``) against the range declared
+    for ``field_name`` in ``limits`` (a module's or class's ``LIMITS``: field -> (lo, hi)),
+    so that a range is written once. ``field_name`` may carry an element index
+    (``render.field_shape[2]``): the range is the field's."""
+    lo, hi = limits[field_name.split("[")[0]]
+    if integer:
+        return check_int(field_name, value, lo, hi)
+    return check_range(field_name, value, lo, hi, **kw)

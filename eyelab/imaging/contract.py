@@ -21,16 +21,19 @@ import abc
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from eyelab.core.checks import check_choice, check_int, check_range
+from eyelab.core.checks import check_choice, check_in
 from eyelab.core.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.core.errors import SpecError
 from eyelab.imaging.memory import check_render_memory
+from eyelab.optics.binocular import MAX_GAZE_DEG
 from eyelab.optics.camera import Camera, eye_camera, gaze_camera
 from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.optics.system import LensSystem
 
 #: Top-level keys of every renderer's report, in this order.
 REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", "timings_s",
@@ -74,26 +77,35 @@ class View:
     cvd_severity: float = 1.0
     gaze_deg: tuple = (0.0, 0.0)
 
+    #: Ranges of the view's values, by spec field (the schema documents them from here).
+    LIMITS: ClassVar[dict] = {"render.width": (16, 4096), "render.height": (16, 4096),
+                              "render.fov_y_deg": (1, 150), "render.near_m": (1e-3, 10),
+                              "render.far_m": (1e-3, 1e5),
+                              "eye.accommodation_d": (0, MAX_ACCOMMODATION_D),
+                              "render.cvd_severity": (0, 1),
+                              "render.gaze_deg": (-MAX_GAZE_DEG, MAX_GAZE_DEG)}
+
     def __post_init__(self):
-        check_int("render.width", self.width, 16, 4096)
-        check_int("render.height", self.height, 16, 4096)
-        check_range("render.fov_y_deg", self.fov_y_deg, 1, 150)
-        check_range("render.near_m", self.near, 1e-3, 10)
-        check_range("render.far_m", self.far, 1e-3, 1e5)
+        lim = self.LIMITS
+        check_in("render.width", self.width, lim, integer=True)
+        check_in("render.height", self.height, lim, integer=True)
+        check_in("render.fov_y_deg", self.fov_y_deg, lim)
+        check_in("render.near_m", self.near, lim)
+        check_in("render.far_m", self.far, lim)
         if not self.far > self.near:
             raise SpecError("render.far_m", f"must be > near_m ({self.near}), got {self.far}")
-        if self.focus_d is not None:
-            check_range("render.focus_d", self.focus_d, 0, MAX_ACCOMMODATION_D)
+        if self.focus_d is not None:      # the eye's accommodation (spec: eye.accommodation_d)
+            check_in("eye.accommodation_d", self.focus_d, lim)
         if self.cvd is not None:
             check_choice("render.cvd", self.cvd, CVD_KINDS)
-        check_range("render.cvd_severity", self.cvd_severity, 0, 1)
+        check_in("render.cvd_severity", self.cvd_severity, lim)
         g = self.gaze_deg
         if not (isinstance(g, (tuple, list)) and len(g) == 2):
             raise SpecError("render.gaze_deg", f"must be [right, up] in degrees, got {g!r}")
         for i, v in enumerate(g):
             if isinstance(v, bool):
                 raise SpecError(f"render.gaze_deg[{i}]", f"must be a number, got {v!r}")
-            check_range(f"render.gaze_deg[{i}]", v, -60, 60)
+            check_in(f"render.gaze_deg[{i}]", v, lim)
         object.__setattr__(self, "gaze_deg", (float(g[0]), float(g[1])))
         aspect = self.width / self.height
         if not 0.05 <= aspect <= 20:
@@ -253,11 +265,28 @@ class Renderer(abc.ABC):
 
     def render(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
                progressive: bool = False) -> RenderResult:
-        """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye).
+        """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye); the
+        observer may instead be a camera lens (a :class:`~eyelab.optics.system.LensSystem`,
+        no spectacle lens), dispatched here to :meth:`_render_camera`.
         ``progressive``: also return the images after 1, 2, 4, ... samples (renderers that
         refine in passes; others return the final image only)."""
         view, quality = self._checked(view, quality)
+        if isinstance(eye, LensSystem):     # the observer is a camera lens, not an eye
+            if lens is not None:
+                raise SpecError("lens", "a camera lens system takes no spectacle lens")
+            from eyelab.imaging.registry import CAMERA_RENDERERS
+
+            if self.name not in CAMERA_RENDERERS:
+                raise SpecError("render.camera", f"a camera lens renders with "
+                                f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not {self.name!r}")
+            return self._render_camera(scene, eye, view, quality, progressive)
         return self._render(scene, eye, lens, view, quality, progressive)
+
+    def _render_camera(self, scene, camera, view: View, quality, progressive: bool
+                       ) -> RenderResult:
+        """What a camera lens system (:class:`~eyelab.optics.system.LensSystem`) sees; for
+        the renderers registered as seeing cameras."""
+        raise NotImplementedError(f"{type(self).__name__} renders eyes only")
 
     def _checked(self, view, quality) -> tuple:
         """(view, quality) with the defaults filled in and their types checked."""

@@ -9,8 +9,9 @@ its options class.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
-from eyelab.core.checks import check_bool, check_choice, check_int, check_range, check_rgb
+from eyelab.core.checks import check_bool, check_choice, check_in, check_rgb
 from eyelab.core.errors import SpecError
 
 #: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
@@ -18,6 +19,8 @@ MAX_PASSES = 256
 #: Blur-field routes of the raster renderer: "texture" (3D texture sampled in the vertex
 #: shader, VTK_NOTES Q2 route A) or "attribute" (per-vertex look-up on the CPU, route D).
 FIELD_ROUTES = ("texture", "attribute")
+#: Depth slicing of the raster renderer's blur fields: uniform in NDC z (dioptres) or metres.
+DEPTH_MODES = ("ndc", "linear")
 #: Eye models of the reference renderer: Kakimoto's thin toric eye, or Fons et al.'s
 #: reduced-eye sampling.
 MODELS = ("thin", "fons")
@@ -48,6 +51,11 @@ class RasterQuality:
     of pixels whose rays fail in the lens.
     """
 
+    #: Ranges of the options, by spec field (the schema documents them from here).
+    LIMITS: ClassVar[dict] = {"render.samples": (1, MAX_PASSES), "render.field_shape": (1, 512),
+                              "render.lens_rings": (2, 256), "render.lens_segments": (8, 1024),
+                              "render.lens_grid_px": (1, 64), "render.env_oversample": (0.5, 4)}
+
     samples: int = 10
     field_shape: tuple = (128, 32, 32)
     depth_mode: str = "ndc"
@@ -65,21 +73,21 @@ class RasterQuality:
     invalid_color: tuple = (128, 128, 128)
 
     def __post_init__(self):
-        check_int("render.samples", self.samples, 1, MAX_PASSES)
+        check_in("render.samples", self.samples, self.LIMITS, integer=True)
         fs = self.field_shape
         if not (isinstance(fs, (tuple, list)) and len(fs) == 3):
             raise SpecError("render.field_shape", f"must be [nz, ny, nx], got {fs!r}")
         for i, n in enumerate(fs):
-            check_int(f"render.field_shape[{i}]", n, 1, 512)
+            check_in(f"render.field_shape[{i}]", n, self.LIMITS, integer=True)
         object.__setattr__(self, "field_shape", tuple(int(n) for n in fs))
-        check_choice("render.depth_mode", self.depth_mode, ("ndc", "linear"))
+        check_choice("render.depth_mode", self.depth_mode, DEPTH_MODES)
         for name in ("refine", "reconstruct", "antialias", "skip_unneeded", "chromatic"):
             check_bool(f"render.{name}", getattr(self, name))
         check_choice("render.field_route", self.field_route, FIELD_ROUTES)
-        check_int("render.lens_rings", self.lens_rings, 2, 256)
-        check_int("render.lens_segments", self.lens_segments, 8, 1024)
-        check_int("render.lens_grid_px", self.lens_grid_px, 1, 64)
-        check_range("render.env_oversample", self.env_oversample, 0.5, 4)
+        check_in("render.lens_rings", self.lens_rings, self.LIMITS, integer=True)
+        check_in("render.lens_segments", self.lens_segments, self.LIMITS, integer=True)
+        check_in("render.lens_grid_px", self.lens_grid_px, self.LIMITS, integer=True)
+        check_in("render.env_oversample", self.env_oversample, self.LIMITS)
         for name in ("rim_color", "invalid_color"):
             object.__setattr__(self, name, check_rgb(f"render.{name}", getattr(self, name)))
 
@@ -101,6 +109,11 @@ class ReferenceQuality:
     the accommodation that minimises their retinal spot's RMS in the thin eye; slower).
     """
 
+    #: Ranges of the options, by spec field (the schema documents them from here).
+    LIMITS: ClassVar[dict] = {"render.samples": (1, 65536), "render.fons_n": (1, 64),
+                              "render.fons_m": (1, 64), "render.seed": (0, 2**63 - 1),
+                              "render.workers": (1, 256)}
+
     samples: int = 64
     model: str = "thin"
     fons_n: int = 4
@@ -112,15 +125,15 @@ class ReferenceQuality:
     accommodation: str = "eq13"
 
     def __post_init__(self):
-        check_int("render.samples", self.samples, 1, 65536)
+        check_in("render.samples", self.samples, self.LIMITS, integer=True)
         check_choice("render.model", self.model, MODELS)
         check_choice("render.accommodation", self.accommodation, ACCOMMODATION_RULES)
-        check_int("render.fons_n", self.fons_n, 1, 64)
-        check_int("render.fons_m", self.fons_m, 1, 64)
-        check_int("render.seed", self.seed, 0, 2**63 - 1)
+        check_in("render.fons_n", self.fons_n, self.LIMITS, integer=True)
+        check_in("render.fons_m", self.fons_m, self.LIMITS, integer=True)
+        check_in("render.seed", self.seed, self.LIMITS, integer=True)
         check_bool("render.chromatic", self.chromatic)
         if self.workers is not None:
-            check_int("render.workers", self.workers, 1, 256)
+            check_in("render.workers", self.workers, self.LIMITS, integer=True)
         check_bool("render.progress", self.progress)
 
 
@@ -151,6 +164,12 @@ class ImageBasedQuality:
     their own wavelengths where the optics disperse (three plans).
     """
 
+    #: Ranges of the options, by spec field (the schema documents them from here).
+    LIMITS: ClassVar[dict] = {"render.samples": (1, MAX_PASSES), "render.grid": (2, 64),
+                              "render.angle_threshold_deg": (0.001, 10),
+                              "render.max_depth": (0, 8), "render.oversample": (0.5, 4),
+                              "render.max_slice": (64, 4096)}
+
     samples: int = 10
     grid: int = 10
     angle_threshold_deg: float = 0.05
@@ -162,12 +181,12 @@ class ImageBasedQuality:
     chromatic: bool = True
 
     def __post_init__(self):
-        check_int("render.samples", self.samples, 1, MAX_PASSES)
-        check_int("render.grid", self.grid, 2, 64)
-        check_range("render.angle_threshold_deg", self.angle_threshold_deg, 0.001, 10)
-        check_int("render.max_depth", self.max_depth, 0, 8)
+        check_in("render.samples", self.samples, self.LIMITS, integer=True)
+        check_in("render.grid", self.grid, self.LIMITS, integer=True)
+        check_in("render.angle_threshold_deg", self.angle_threshold_deg, self.LIMITS)
+        check_in("render.max_depth", self.max_depth, self.LIMITS, integer=True)
         check_choice("render.cop", self.cop, COP_FITS)
-        check_range("render.oversample", self.oversample, 0.5, 4)
-        check_int("render.max_slice", self.max_slice, 64, 4096)
+        check_in("render.oversample", self.oversample, self.LIMITS)
+        check_in("render.max_slice", self.max_slice, self.LIMITS, integer=True)
         check_choice("render.radiometry", self.radiometry, RADIOMETRY)
         check_bool("render.chromatic", self.chromatic)

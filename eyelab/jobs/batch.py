@@ -29,6 +29,7 @@ any process.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import functools
@@ -38,11 +39,15 @@ import itertools
 import json
 import os
 import time
+import tomllib
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from eyelab.core.cache import content_key
+from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.errors import SpecError
+from eyelab.core.fileio import linear_to_png16, write_json, write_png
+from eyelab.core.parallel import LendingPool, process_owned, release_owned
 
 FORMATS = ("png", "png16")
 JOB_KEYS = {"spec", "base", "output", "sweep", "cases"}
@@ -103,10 +108,6 @@ def _merge(into: dict, over: dict) -> None:
 
 def load_job_spec(path, *, out_dir=None) -> JobSpec:
     """Read and expand a job spec file (every field checked, errors name it)."""
-    import tomllib
-
-    from eyelab.spec import read_spec_data
-
     p = Path(path)
     if not p.is_file():
         raise SpecError("jobspec", f"file not found: {str(p)!r}")
@@ -117,15 +118,33 @@ def load_job_spec(path, *, out_dir=None) -> JobSpec:
     unknown = sorted(set(js) - JOB_KEYS)
     if unknown:
         raise SpecError(f"jobspec.{unknown[0]}", f"unknown key; allowed: {sorted(JOB_KEYS)}")
+    base = _base_spec(js, p.parent)
+    folder, formats = _output(js.get("output", {}), p.parent, out_dir)
+    combos = _sweep(js.get("sweep", {}))
+    cases = js.get("cases", [])
+    if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
+        raise SpecError("jobspec.cases", "must be an array of tables ([[cases]])")
+    combos = combos + [dict(c) for c in cases] or [{}]
+    jobs = []
+    for i, params in enumerate(combos):
+        data = copy.deepcopy(base)
+        for k, v in params.items():
+            _set(data, k, v, f"jobspec.job[{i}].{k}")
+        jobs.append(Job(i, data, params))
+    return JobSpec(tuple(jobs), folder, formats, str(p))
+
+
+def _base_spec(js: dict, here: Path) -> dict:
+    """The spec every job starts from: ``spec`` (else the built-in one) with ``[base]``
+    merged over it; relative paths (of ``spec``, of a mesh scene file) are from ``here``."""
+    from eyelab.spec import read_spec_data
+
     base_path = js.get("spec")
+    if base_path is not None and not isinstance(base_path, str):
+        raise SpecError("jobspec.spec", "must be a spec file path")
     if base_path is not None:
-        if not isinstance(base_path, str):
-            raise SpecError("jobspec.spec", "must be a spec file path")
-        bp = Path(base_path) if Path(base_path).is_absolute() else p.parent / base_path
-        base, _, _ = read_spec_data(bp)
-    else:
-        base, _, _ = read_spec_data(None)
-    base = copy.deepcopy(base)
+        base_path = Path(base_path) if Path(base_path).is_absolute() else here / base_path
+    base = copy.deepcopy(read_spec_data(base_path)[0])
     extra = js.get("base", {})
     if not isinstance(extra, dict):
         raise SpecError("jobspec.base", "must be a table of spec tables")
@@ -134,9 +153,14 @@ def load_job_spec(path, *, out_dir=None) -> JobSpec:
     where = scene if isinstance(scene, dict) else base.get("render", {})
     key = "path" if isinstance(scene, dict) else "scene"
     rel = where.get(key) if isinstance(where, dict) else None
-    if isinstance(rel, str) and not Path(rel).is_absolute() and (p.parent / rel).is_file():
-        where[key] = str((p.parent / rel).resolve())
-    out = js.get("output", {})
+    if isinstance(rel, str) and not Path(rel).is_absolute() and (here / rel).is_file():
+        where[key] = str((here / rel).resolve())
+    return base
+
+
+def _output(out, here: Path, out_dir) -> tuple:
+    """(folder, formats without repeats) of the ``[output]`` table; ``out_dir`` replaces
+    its ``dir``, which is relative to ``here``."""
     if not isinstance(out, dict):
         raise SpecError("jobspec.output", "must be a table")
     bad = sorted(set(out) - OUTPUT_KEYS)
@@ -149,21 +173,8 @@ def load_job_spec(path, *, out_dir=None) -> JobSpec:
     folder = out_dir or out.get("dir", "batch-out")
     if not isinstance(folder, (str, Path)):
         raise SpecError("jobspec.output.dir", "must be a folder path")
-    folder = Path(folder) if Path(folder).is_absolute() or out_dir else p.parent / folder
-    combos = _sweep(js.get("sweep", {}))
-    cases = js.get("cases", [])
-    if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
-        raise SpecError("jobspec.cases", "must be an array of tables ([[cases]])")
-    combos += [dict(c) for c in cases]
-    if not combos:
-        combos = [{}]
-    jobs = []
-    for i, params in enumerate(combos):
-        data = copy.deepcopy(base)
-        for k, v in params.items():
-            _set(data, k, v, f"jobspec.job[{i}].{k}")
-        jobs.append(Job(i, data, params))
-    return JobSpec(tuple(jobs), folder, tuple(dict.fromkeys(formats)), str(p))
+    folder = Path(folder) if Path(folder).is_absolute() or out_dir else here / folder
+    return folder, tuple(dict.fromkeys(formats))
 
 
 def _sweep(sw) -> list:
@@ -217,34 +228,34 @@ def _range(t: dict, where: str) -> list:
 
 
 # ------------------------------------------------------------------------ one job
-_RENDERERS = {}      # per process: renderers kept warm between jobs, by (name, quality)
+class JobResources(LendingPool):
+    """The renderers and scenes one batch run's jobs share (from any threads), closed when
+    the run ends. Renderers are kept by name and options, lent to one job at a time and
+    never closed while lent (:class:`~eyelab.core.parallel.LendingPool`); scenes are shared,
+    the ``max_scenes`` most recently used kept. ``make_renderer(name, quality)`` and
+    ``build_scene(source)`` make what is missing (tests pass fakes; by default
+    :func:`eyelab.imaging.registry.make_renderer`, :func:`eyelab.jobs.render.build_scene`)."""
 
+    def __init__(self, *, max_renderers: int = 4, max_scenes: int = 8,
+                 make_renderer=None, build_scene=None):
+        from eyelab.imaging.registry import make_renderer as new_renderer
+        from eyelab.jobs.render import build_scene as new_scene
 
-def _renderer(name, quality):
-    from eyelab.jobs.render import make_renderer
+        super().__init__(max_renderers, "batch renderers")
+        self.scenes = LRUCache(max_scenes, "batch scenes")
+        self._make_renderer = make_renderer or new_renderer
+        self._build_scene = build_scene or new_scene
 
-    key = (name, repr(quality))
-    r = _RENDERERS.get(key)
-    if r is None:
-        if len(_RENDERERS) >= 4:
-            _RENDERERS.pop(next(iter(_RENDERERS))).close()
-        r = _RENDERERS[key] = make_renderer(name, quality)
-    return r
+    def renderer(self, name: str, quality):
+        """Lend a renderer ``name`` with options ``quality`` for a ``with`` block."""
+        return self.lend((name, repr(quality)), lambda: self._make_renderer(name, quality))
 
-
-_SCENES = {}         # per process: scenes built once, by name or (path, mtime, size)
-
-
-def _scene(source):
-    from eyelab.jobs.render import build_scene
-
-    p = Path(source.name)
-    key = (source, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (source,)
-    if key not in _SCENES:
-        if len(_SCENES) >= 8:
-            _SCENES.pop(next(iter(_SCENES)))
-        _SCENES[key] = build_scene(source)
-    return _SCENES[key]
+    def scene(self, source):
+        """The scene of ``source`` (a :class:`~eyelab.scene.scene.SceneSource`), built on
+        first use (a mesh file's again when its modification time or size changes)."""
+        p = Path(source.name)
+        key = (source, p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else (source,)
+        return self.scenes.get_or_create(key, lambda: self._build_scene(source))[0]
 
 
 def _sha(path) -> str:
@@ -271,13 +282,13 @@ def job_done(job: Job, out_dir: Path, formats) -> bool:
     return True
 
 
-def run_job(job: Job, out_dir, formats) -> dict:
+def run_job(job: Job, out_dir, formats, *, resources: JobResources | None = None) -> dict:
     """Render one job and write its images and sidecar (atomically, sidecar last); an
     invalid job (a bad spec value) gets a sidecar with the parser's message and counts as
     done; a job that fails otherwise (an unreadable mesh) gets one with the error and is
-    retried by the next run. Returns the summary row."""
+    retried by the next run. Returns the summary row. ``resources``: the renderers and
+    scenes to use (the caller's, left open); None: the job's own, closed when it ends."""
     from eyelab import __version__
-    from eyelab.core.fileio import atomic_path, json_default
     from eyelab.imaging.memory import check_memory, memory_limit
     from eyelab.spec import one_eye, parse_spec
 
@@ -289,8 +300,9 @@ def run_job(job: Job, out_dir, formats) -> dict:
         spec = one_eye(parse_spec(job.data, f"job {job.index}"), "eyelab batch")
         rs = spec.render
         check_memory(rs, memory_limit())
-        res = _renderer(rs.renderer, rs.quality).render(_scene(rs.scene), spec.eye,
-                                                         spec.lens, rs.view)
+        lender = JobResources() if resources is None else contextlib.nullcontext(resources)
+        with lender as pool, pool.renderer(rs.renderer, rs.quality) as renderer:
+            res = renderer.render(pool.scene(rs.scene), spec.eye, spec.lens, rs.view)
     except SpecError as e:
         meta.update(status="invalid", error=str(e), time_s=time.perf_counter() - t0)
     except Exception as e:          # an unreadable mesh, a failure: listed, retried next run
@@ -300,45 +312,13 @@ def run_job(job: Job, out_dir, formats) -> dict:
         for fmt in formats:
             name = f"{job.stem}.png" if fmt == "png" else f"{job.stem}.linear16.png"
             path = out_dir / name
-            with atomic_path(path, suffix=".png") as tmp:
-                _write_png(tmp, res, fmt)
+            # sRGB 8-bit, or linear light 16-bit: deterministic bytes (core.fileio)
+            write_png(path, res.srgb if fmt == "png" else linear_to_png16(res.linear))
             meta["images"][fmt] = name
             meta["sha256"][fmt] = _sha(path)
         meta.update(status="ok", time_s=time.perf_counter() - t0, report=res.report)
-    with atomic_path(out_dir / f"{job.stem}.json") as tmp, open(tmp, "w") as f:
-        json.dump(meta, f, indent=1, default=json_default)
+    write_json(out_dir / f"{job.stem}.json", meta)
     return _row(meta)
-
-
-def _write_png(path, res, fmt) -> None:
-    """sRGB 8-bit (PIL), or linear light 16-bit (48-bit RGB PNG): deterministic bytes."""
-    import numpy as np
-    from PIL import Image
-
-    if fmt == "png":
-        Image.fromarray(res.srgb).save(path, format="PNG", optimize=False)
-    else:
-        lin = np.clip(np.round(res.linear * 65535.0), 0, 65535).astype(">u2")
-        with open(path, "wb") as f:
-            _png16(f, lin)
-
-
-def _png16(f, rgb16) -> None:
-    """A minimal 48-bit RGB PNG writer (zlib, filter 0): PIL cannot save 16-bit RGB."""
-    import struct
-    import zlib
-
-    h, w = rgb16.shape[:2]
-
-    def chunk(tag, data):
-        f.write(struct.pack(">I", len(data)) + tag + data
-                + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF))
-
-    f.write(b"\x89PNG\r\n\x1a\n")
-    chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 2, 0, 0, 0))
-    raw = b"".join(b"\0" + rgb16[y].tobytes() for y in range(h))
-    chunk(b"IDAT", zlib.compress(raw, 6))
-    chunk(b"IEND", b"")
 
 
 def _row(meta: dict) -> dict:
@@ -372,7 +352,8 @@ def run_batch(js: JobSpec, *, workers: int = 1, scheduler: str | None = None,
               progress: bool = True) -> dict:
     """Run every job not yet done; serially in this process (``workers`` 1), on a Dask
     ``LocalCluster`` of ``workers`` processes, or on the cluster at ``scheduler``. Writes
-    the summary (CSV) and contact sheet (HTML). Returns counts and the error list."""
+    the summary (CSV) and contact sheet (HTML). Returns counts and the error list. The
+    run's resources (:class:`JobResources`) are closed when it ends."""
     out = js.out_dir
     out.mkdir(parents=True, exist_ok=True)
     if not os.access(out, os.W_OK):
@@ -401,16 +382,20 @@ def run_batch(js: JobSpec, *, workers: int = 1, scheduler: str | None = None,
 
 
 def _run_serial(todo, out, formats, progress):
+    """The jobs one after another in this process, sharing the run's resources."""
     bar = _bar(len(todo), progress)
-    for j in todo:
-        run_job(j, out, formats)
-        if bar is not None:
-            bar.update(1)
+    with JobResources() as resources:
+        for j in todo:
+            run_job(j, out, formats, resources=resources)
+            if bar is not None:
+                bar.update(1)
     if bar is not None:
         bar.close()
 
 
 def _run_dask(todo, out, formats, workers, scheduler, progress):
+    """The jobs as Dask tasks on a new ``LocalCluster`` or the cluster at ``scheduler``; the
+    workers close their resources for the run (an id of its own) however it ends."""
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
@@ -420,9 +405,11 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0")
     client = Client(scheduler if cluster is None else cluster)
+    run_id = f"eyelab-batch-{uuid.uuid4().hex}"
+    futs = []
     try:
-        futs = [client.submit(run_job, j, str(out), formats, key=f"eyelab-{j.stem}",
-                              pure=False) for j in todo]
+        futs = [client.submit(_run_dask_job, j, str(out), formats, run_id,
+                              key=f"eyelab-{j.stem}", pure=False) for j in todo]
         bar = _bar(len(futs), progress)
         for f in as_completed(futs):
             f.result()
@@ -431,9 +418,18 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
         if bar is not None:
             bar.close()
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        try:
+            client.cancel(futs)            # after a failure: start no job after the release
+            client.run(release_owned, run_id, on_error="ignore")
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _run_dask_job(job: Job, out_dir: str, formats, run_id: str) -> dict:
+    """A Dask task: :func:`run_job` with its worker's resources for run ``run_id``."""
+    return run_job(job, out_dir, formats, resources=process_owned(run_id, JobResources))
 
 
 def _bar(total, progress):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.core.checks import check_range
+from eyelab.core.checks import check_in
 from eyelab.core.errors import SpecError
 from eyelab.optics.prescription import Prescription
 
@@ -61,6 +61,14 @@ def ocular_lca(wavelength_nm, reference_nm: float = EYE_REFERENCE_NM):
 #: Largest amplitude of accommodation eyelab takes, D: Hofstetter's maximum at age 0
 #: (25 - 0.4 x 0).
 MAX_ACCOMMODATION_D = 25.0
+#: The eye's parameter ranges, by spec field, in the spec's units (D, deg, mm, years,
+#: cd/m²): what the engine accepts, and what the spec's schema documents and checks.
+LIMITS = {"eye.power_min_d": (40.0, 80.0), "eye.astigmatism_d": (0.0, 10.0),
+          "eye.astigmatism_axis_deg": (-360.0, 360.0),
+          "eye.accommodation_max_d": (0.0, MAX_ACCOMMODATION_D),
+          "eye.retina_distance_mm": (15.0, 35.0), "eye.n_vitreous": (1.2, 1.6),
+          "eye.pupil_diameter_mm": (0.5, 10.0), "eye.rotation_centre_mm": (5.0, 20.0),
+          "eye.age": (0.0, 120.0), "eye.luminance_cd_m2": (0.0, 1e7)}
 #: Hofstetter's formulas (SCIENCE.md §3) as (a, b) in a - b x age.
 AMPLITUDE_MODELS = {"min": (15.0, 0.25), "mean": (18.5, 0.3), "max": (25.0, 0.4)}
 
@@ -81,7 +89,7 @@ def hofstetter_amplitude(age, which: str = "mean"):
         raise SpecError("eye.amplitude_model", f"must be one of {sorted(AMPLITUDE_MODELS)}, "
                                                f"got {which!r}")
     a, b = AMPLITUDE_MODELS[which]
-    return max(0.0, a - b * check_range("eye.age", age, 0.0, 120.0))
+    return max(0.0, a - b * check_in("eye.age", age, LIMITS))
 
 
 def watson_yellott_pupil(luminance, age=30.0, field_area_deg2=math.pi * 30.0**2, eyes=2):
@@ -91,10 +99,11 @@ def watson_yellott_pupil(luminance, age=30.0, field_area_deg2=math.pi * 30.0**2,
     field_area_deg2 : adapting field area in deg^2 (default: a 60 deg diameter disc);
     eyes : 1 or 2.
     """
-    lum = check_range("eye.luminance_cd_m2", luminance, 0.0, 1e7, lo_open=True)
+    lum = check_in("eye.luminance_cd_m2", luminance, LIMITS,
+                      lo_open=True)
     if eyes not in (1, 2):
         raise SpecError("eye.eyes", f"must be 1 or 2, got {eyes!r}")
-    y = min(max(check_range("eye.age", age, 0.0, 120.0), 20.0), 83.0)
+    y = min(max(check_in("eye.age", age, LIMITS), 20.0), 83.0)
     f = lum * field_area_deg2 * (0.1 if eyes == 1 else 1.0)
     p = (f / 846.0) ** 0.41
     d_sd = 7.75 - 5.75 * (p / (p + 2.0))
@@ -143,14 +152,14 @@ class Eye:
     chromatic: bool = True
 
     def __post_init__(self):
-        check_range("eye.power_min_d", self.power_min, 40.0, 80.0)
-        check_range("eye.astigmatism_d", self.astigmatism, 0.0, 10.0)
-        check_range("eye.astigmatism_axis_deg", self.astigmatism_axis_deg, -360.0, 360.0)
-        check_range("eye.accommodation_max_d", self.accommodation_max, 0.0, MAX_ACCOMMODATION_D)
-        check_range("eye.retina_distance_mm", self.retina_distance * 1e3, 15.0, 35.0)
-        check_range("eye.n_vitreous", self.n_vitreous, 1.2, 1.6)
-        check_range("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, 0.5, 10.0)
-        check_range("eye.rotation_centre_mm", self.rotation_centre * 1e3, 5.0, 20.0)
+        check_in("eye.power_min_d", self.power_min, LIMITS)
+        check_in("eye.astigmatism_d", self.astigmatism, LIMITS)
+        check_in("eye.astigmatism_axis_deg", self.astigmatism_axis_deg, LIMITS)
+        check_in("eye.accommodation_max_d", self.accommodation_max, LIMITS)
+        check_in("eye.retina_distance_mm", self.retina_distance * 1e3, LIMITS)
+        check_in("eye.n_vitreous", self.n_vitreous, LIMITS)
+        check_in("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, LIMITS)
+        check_in("eye.rotation_centre_mm", self.rotation_centre * 1e3, LIMITS)
         if not isinstance(self.chromatic, bool):
             raise SpecError("eye.chromatic", f"must be true or false, got {self.chromatic!r}")
 

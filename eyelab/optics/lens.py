@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from eyelab.core.checks import check_range
+from eyelab.core.checks import check_in
 from eyelab.core.errors import SpecError
 from eyelab.optics.fresnel import COATINGS, transmittance
 from eyelab.optics.materials import Material, get_material
@@ -34,6 +34,12 @@ MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
                         "polycarbonate": 1.5e-3, "mr8": 1.4e-3, "mr7": 1.2e-3,
                         "mr174": 1.5e-3}
 #: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
+#: The lens's ranges, by spec field, in the spec's units (mm, deg, D): what the engine
+#: accepts, and what the spec's schema documents and checks.
+LIMITS = {"lens.vertex_distance_mm": (5.0, 30.0), "lens.pantoscopic_tilt_deg": (-30.0, 30.0),
+          "lens.wrap_deg": (-30.0, 30.0), "lens.decentration_mm": (-20.0, 20.0),
+          "lens.center_thickness_mm": (0.2, 30.0), "lens.diameter_mm": (10.0, 90.0),
+          "lens.base_curve_d": (-20.0, 30.0)}
 MIN_EDGE_THICKNESS = 1.0e-3
 #: Lowest n_d of a lens made from a prescription (the lowest spectacle material is
 #: ~1.49; below 1.3 the surfaces of ordinary powers become hemispheres).
@@ -97,11 +103,11 @@ class LensPose:
     decentration: tuple = (0.0, 0.0)
 
     def __post_init__(self):
-        check_range("lens.vertex_distance_mm", self.vertex_distance * 1e3, 5.0, 30.0)
-        check_range("lens.pantoscopic_tilt_deg", self.pantoscopic_tilt_deg, -30.0, 30.0)
-        check_range("lens.wrap_deg", self.wrap_deg, -30.0, 30.0)
+        check_in("lens.vertex_distance_mm", self.vertex_distance * 1e3, LIMITS)
+        check_in("lens.pantoscopic_tilt_deg", self.pantoscopic_tilt_deg, LIMITS)
+        check_in("lens.wrap_deg", self.wrap_deg, LIMITS)
         for i, v in enumerate(self.decentration):
-            check_range(f"lens.decentration_mm[{i}]", v * 1e3, -20.0, 20.0)
+            check_in(f"lens.decentration_mm[{i}]", v * 1e3, LIMITS)
 
     @property
     def rotation(self) -> np.ndarray:
@@ -148,8 +154,8 @@ class SpectacleLens:
     design: object = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
-        check_range("lens.center_thickness_mm", self.center_thickness * 1e3, 0.2, 30.0)
-        check_range("lens.diameter_mm", self.diameter * 1e3, 10.0, 90.0)
+        check_in("lens.center_thickness_mm", self.center_thickness * 1e3, LIMITS)
+        check_in("lens.diameter_mm", self.diameter * 1e3, LIMITS)
         if self.coating not in COATINGS:
             raise SpecError("lens.coating", f"must be one of {', '.join(map(repr, COATINGS))},"
                                             f" got {self.coating!r}")
@@ -316,64 +322,111 @@ class SpectacleLens:
         0.9 of a hemisphere at the rim (the 'lenticular' limit); an explicit diameter that
         does not fit raises :class:`SpecError`.
         """
-        if rx.add > 0:
-            raise SpecError("lens.design", f"{rx.format()} has an add: a single-vision lens "
-                            "is made for rx.distance() or rx.near(), never silently for "
-                            "one of them (spec: lens.design)")
-        mat = get_material(material)
-        if not MIN_LENS_INDEX <= mat.n_d:
-            raise SpecError("lens.material", f"a lens made from a prescription needs n_d in "
-                            f"[{MIN_LENS_INDEX}, 2.5], got {mat.n_d:g} ({mat.name})")
-        if not isinstance(torus, str) or torus not in ("x", "y"):
-            raise SpecError("lens.torus", f"must be 'x' or 'y', got {torus!r}")
+        mat = _design_material(rx, material, torus)
         pose = pose or LensPose()
         n = mat.n(wavelength_nm)
-        se = rx.sphere + rx.cylinder / 2
         if base_curve is None:
-            base_curve = se + 6.0 if se > 0 else se / 2 + 6.0
-            base_curve = min(max(base_curve, 0.5), 12.0)
-        check_range("lens.base_curve_d", base_curve, -20.0, 30.0)
+            base_curve = _vogel_base_curve(rx)
+        check_in("lens.base_curve_d", base_curve, LIMITS)
         c1 = base_curve / (n - 1.0)
-        p1 = rx.sphere                 # along the cylinder axis
-        p2 = rx.sphere + rx.cylinder   # perpendicular to it
         if diameter is None:
-            c2_est = max(abs(p - base_curve) for p in (p1, p2)) / (n - 1.0) * 1.1
-            diameter = min(0.060, 2 * 0.9 / max(abs(c1), c2_est, 1e-9))
-            if diameter < 0.010:
-                raise SpecError("lens.rx", f"{rx} in {mat.name} (n_d {mat.n_d:g}) needs "
-                                "surfaces steeper than a hemisphere within 10 mm: use a "
-                                "higher-index material or a weaker prescription")
+            diameter = _fitting_diameter(rx, mat, n, base_curve, c1)
         rad = diameter / 2
         if abs(c1) * rad >= 0.98:
             raise SpecError("lens.base_curve_d", f"{base_curve:g} D is too steep for a "
                             f"{diameter * 1e3:g} mm lens of index {n:.3f}; allowed |F1| < "
                             f"{0.98 * (n - 1) / rad:.1f} D")
         key = mat.name if mat.name in MIN_CENTER_THICKNESS else "cr39"
-        t = center_thickness if center_thickness is not None else MIN_CENTER_THICKNESS[key]
         fixed_t = center_thickness is not None
-        axis_w = math.radians(rx.axis_wearer_deg)
-        for _ in range(50):
-            f2 = [p - base_curve / (1.0 - t * base_curve / n) for p in (p1, p2)]
-            c2 = [f / (1.0 - n) for f in f2]
-            if max(abs(c) for c in c2) * rad >= 0.98:
-                raise SpecError("lens.rx", f"{rx} needs a back surface too steep for a "
-                                f"{diameter * 1e3:g} mm lens; use a smaller diameter")
-            back = Toric(c2[0], c2[1], axis_w, torus) if c2[0] != c2[1] else Asphere(c2[0])
-            if fixed_t:
-                break
-            # edge thickness at the rim along the thinnest meridian
-            ang = np.linspace(0, np.pi, 181)
-            s1 = Asphere(c1).sag(rad * np.cos(ang), rad * np.sin(ang))
-            s2 = back.sag(rad * np.cos(ang), rad * np.sin(ang))
-            edge = t - s1 + s2
-            t_new = max(MIN_CENTER_THICKNESS[key], t + MIN_EDGE_THICKNESS - float(np.min(edge)))
-            if abs(t_new - t) < 1e-10:
-                break
-            t = t_new
+        t = center_thickness if fixed_t else MIN_CENTER_THICKNESS[key]
+        back, t = _design_back(rx, base_curve, n, c1, t, diameter, torus,
+                               None if fixed_t else MIN_CENTER_THICKNESS[key])
         if fixed_t:       # the wearer's lens: the material's minimum centre, a real edge
-            if rx.sphere + max(rx.cylinder, 0.0) < 0 and t < MIN_CENTER_THICKNESS[key]:
-                raise SpecError("lens.center_thickness_mm", f"{t * 1e3:.2f} mm is below "
-                                f"{mat.name}'s minimum for a minus lens: >= "
-                                f"{MIN_CENTER_THICKNESS[key] * 1e3:.1f} mm")
-            check_feasible(Asphere(c1), back, t, diameter, min_edge=MIN_EDGE_THICKNESS)
+            _check_wearer_lens(rx, mat, key, Asphere(c1), back, t, diameter)
         return cls(Asphere(c1), back, t, mat, diameter, pose, rx, coating)
+
+
+# ------------------------------------------------------- from_rx's design steps
+def _design_material(rx: Prescription, material, torus) -> Material:
+    """The material of a lens designed for ``rx``, after refusing what cannot be designed:
+    an add, an index below :data:`MIN_LENS_INDEX`, a torus other than 'x' or 'y'."""
+    if rx.add > 0:
+        raise SpecError("lens.design", f"{rx.format()} has an add: a single-vision lens "
+                        "is made for rx.distance() or rx.near(), never silently for "
+                        "one of them (spec: lens.design)")
+    mat = get_material(material)
+    if not MIN_LENS_INDEX <= mat.n_d:
+        raise SpecError("lens.material", f"a lens made from a prescription needs n_d in "
+                        f"[{MIN_LENS_INDEX}, 2.5], got {mat.n_d:g} ({mat.name})")
+    if not isinstance(torus, str) or torus not in ("x", "y"):
+        raise SpecError("lens.torus", f"must be 'x' or 'y', got {torus!r}")
+    return mat
+
+
+def _vogel_base_curve(rx: Prescription) -> float:
+    """Vogel's rule (D): SE + 6 for plus and SE/2 + 6 for minus lenses, kept in [0.5, 12]."""
+    se = rx.sphere + rx.cylinder / 2
+    base_curve = se + 6.0 if se > 0 else se / 2 + 6.0
+    return min(max(base_curve, 0.5), 12.0)
+
+
+def _fitting_diameter(rx: Prescription, mat: Material, n: float, base_curve: float,
+                      c1: float) -> float:
+    """The default diameter (m): 60 mm, reduced for strong lenses so that no surface is
+    steeper than 0.9 of a hemisphere at the rim; under 10 mm is refused."""
+    c2_est = max(abs(p - base_curve) for p in (rx.sphere, rx.sphere + rx.cylinder)) \
+        / (n - 1.0) * 1.1
+    diameter = min(0.060, 2 * 0.9 / max(abs(c1), c2_est, 1e-9))
+    if diameter < 0.010:
+        raise SpecError("lens.rx", f"{rx} in {mat.name} (n_d {mat.n_d:g}) needs "
+                        "surfaces steeper than a hemisphere within 10 mm: use a "
+                        "higher-index material or a weaker prescription")
+    return diameter
+
+
+def _back_surface(rx: Prescription, base_curve: float, n: float, t: float, diameter: float,
+                  torus: str) -> Surface:
+    """The back surface giving ``rx``'s back vertex power in both principal meridians
+    (along the cylinder axis, and perpendicular to it) behind a front of ``base_curve``
+    (D) at centre thickness ``t`` (m): F2 = F_v - F1 / (1 - t F1 / n)."""
+    f2 = [p - base_curve / (1.0 - t * base_curve / n)
+          for p in (rx.sphere, rx.sphere + rx.cylinder)]
+    c2 = [f / (1.0 - n) for f in f2]
+    if max(abs(c) for c in c2) * (diameter / 2) >= 0.98:
+        raise SpecError("lens.rx", f"{rx} needs a back surface too steep for a "
+                        f"{diameter * 1e3:g} mm lens; use a smaller diameter")
+    axis_w = math.radians(rx.axis_wearer_deg)
+    return Toric(c2[0], c2[1], axis_w, torus) if c2[0] != c2[1] else Asphere(c2[0])
+
+
+def _design_back(rx: Prescription, base_curve: float, n: float, c1: float, t: float,
+                 diameter: float, torus: str, min_center: float | None) -> tuple:
+    """(back surface, centre thickness m). With ``min_center`` None the thickness ``t`` is
+    kept; otherwise it is iterated (t enters F2) to the thinnest that is at least
+    ``min_center`` and leaves MIN_EDGE_THICKNESS at the rim along the thinnest meridian."""
+    rad = diameter / 2
+    for _ in range(50):
+        back = _back_surface(rx, base_curve, n, t, diameter, torus)
+        if min_center is None:
+            break
+        # edge thickness at the rim along the thinnest meridian
+        ang = np.linspace(0, np.pi, 181)
+        s1 = Asphere(c1).sag(rad * np.cos(ang), rad * np.sin(ang))
+        s2 = back.sag(rad * np.cos(ang), rad * np.sin(ang))
+        edge = t - s1 + s2
+        t_new = max(min_center, t + MIN_EDGE_THICKNESS - float(np.min(edge)))
+        if abs(t_new - t) < 1e-10:
+            break
+        t = t_new
+    return back, t
+
+
+def _check_wearer_lens(rx: Prescription, mat: Material, key: str, front: Surface,
+                       back: Surface, t: float, diameter: float) -> None:
+    """Refuse a given centre thickness ``t`` (m) below the material's minimum for a minus
+    lens, or one that leaves the rim thinner than MIN_EDGE_THICKNESS."""
+    if rx.sphere + max(rx.cylinder, 0.0) < 0 and t < MIN_CENTER_THICKNESS[key]:
+        raise SpecError("lens.center_thickness_mm", f"{t * 1e3:.2f} mm is below "
+                        f"{mat.name}'s minimum for a minus lens: >= "
+                        f"{MIN_CENTER_THICKNESS[key] * 1e3:.1f} mm")
+    check_feasible(front, back, t, diameter, min_edge=MIN_EDGE_THICKNESS)

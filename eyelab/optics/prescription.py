@@ -65,13 +65,13 @@ def _tokens(text: str, field: str) -> list:
     return out
 
 
-def _parse_terms(tokens, text, field):
-    """(eye, [(value, unit)] powers, axis, add) from tokens, per the grammar in
-    :meth:`Prescription.parse`."""
-    def err(why):
-        return SpecError(field, f"{why} in prescription {text!r}; {_ALLOWED}")
+#: A unit keyword after a number -> that power's unit.
+_UNITS = {**dict.fromkeys(_SPH_UNITS, "sph"), **dict.fromkeys(_CYL_UNITS, "cyl"), "D": "D"}
 
-    toks = [t for t in tokens if t[1] not in ("/", ",", ":", "°")]
+
+def _take_eye(toks, err):
+    """The eye named by the first and/or the last token (those tokens removed from
+    ``toks``), or None; two different eyes are an error."""
     eye = None
     if toks and toks[0][0] == "kw" and toks[0][1] in _EYES:
         eye = _EYES[toks.pop(0)[1]]
@@ -80,41 +80,91 @@ def _parse_terms(tokens, text, field):
         if eye is not None and eye != last:
             raise err(f"two eyes ({eye}, {last})")
         eye = last
-    powers, axis, add = [], None, None
-    i = 0
-    while i < len(toks):
-        kind, v = toks[i]
-        if kind == "kw" and v in _PLANO:
-            powers.append((0.0, "sph"))
+    return eye
+
+
+class _TermReader:
+    """Reads the powers, the axis and the add of a token list (eyes removed) left to right:
+    each term's reader takes the index of its first token and returns the index after it."""
+
+    def __init__(self, toks, err):
+        self.toks, self.err = toks, err
+        self.powers, self.axis, self.add = [], None, None
+
+    def read(self):
+        """([(value, unit)] powers, axis or None, add or None)."""
+        i = 0
+        while i < len(self.toks):
+            kind, v = self.toks[i]
+            reader = self._reader(kind, v)
+            if reader is None:
+                raise self.err(f"unexpected {v!r}")
+            i = reader(i)
+        return self.powers, self.axis, self.add
+
+    def _reader(self, kind, v):
+        """The method reading a term that starts with token (kind, v), or None."""
+        if kind == "num":
+            return self._power
+        if kind != "kw":
+            return None
+        if v in _PLANO:
+            return self._plano
+        if v in _AXIS_MARKS:
+            return self._axis
+        if v.startswith("ADD"):
+            return self._add
+        return None
+
+    def _plano(self, i):
+        """'pl'/'plano', optionally 'DS'/'D': a zero sphere."""
+        self.powers.append((0.0, "sph"))
+        i += 1
+        if i < len(self.toks) and self.toks[i] in (("kw", u) for u in _SPH_UNITS | {"D"}):
             i += 1
-            if i < len(toks) and toks[i] in (("kw", u) for u in _SPH_UNITS | {"D"}):
-                i += 1
-        elif kind == "num":
-            unit = None
-            if i + 1 < len(toks) and toks[i + 1][0] == "kw":
-                u = toks[i + 1][1]
-                unit = "sph" if u in _SPH_UNITS else "cyl" if u in _CYL_UNITS else \
-                    "D" if u == "D" else None
-            powers.append((float(v), unit))
-            i += 2 if unit else 1
-        elif kind == "kw" and v in _AXIS_MARKS:
-            if axis is not None:
-                raise err("two axes")
-            if i + 1 >= len(toks) or toks[i + 1][0] != "num" or toks[i + 1][1][0] in "+-":
-                raise err(f"'{v}' not followed by an axis in degrees")
-            axis = float(toks[i + 1][1])
-            i += 2
-        elif kind == "kw" and v.startswith("ADD"):
-            if add is not None:
-                raise err("two adds")
-            if i + 1 >= len(toks) or toks[i + 1][0] != "num":
-                raise err("'add' not followed by a power")
-            add = float(toks[i + 1][1])
-            i += 2
-            if i < len(toks) and toks[i] == ("kw", "D"):
-                i += 1
-        else:
-            raise err(f"unexpected {v!r}")
+        return i
+
+    def _power(self, i):
+        """A number, with its unit ('sph', 'cyl', 'D') when a unit keyword follows."""
+        unit = None
+        if i + 1 < len(self.toks) and self.toks[i + 1][0] == "kw":
+            unit = _UNITS.get(self.toks[i + 1][1])
+        self.powers.append((float(self.toks[i][1]), unit))
+        return i + 2 if unit else i + 1
+
+    def _axis(self, i):
+        """An axis mark and an unsigned number of degrees."""
+        v = self.toks[i][1]
+        if self.axis is not None:
+            raise self.err("two axes")
+        if i + 1 >= len(self.toks) or self.toks[i + 1][0] != "num" \
+                or self.toks[i + 1][1][0] in "+-":
+            raise self.err(f"'{v}' not followed by an axis in degrees")
+        self.axis = float(self.toks[i + 1][1])
+        return i + 2
+
+    def _add(self, i):
+        """'add' and a power, optionally 'D'."""
+        if self.add is not None:
+            raise self.err("two adds")
+        if i + 1 >= len(self.toks) or self.toks[i + 1][0] != "num":
+            raise self.err("'add' not followed by a power")
+        self.add = float(self.toks[i + 1][1])
+        i += 2
+        if i < len(self.toks) and self.toks[i] == ("kw", "D"):
+            i += 1
+        return i
+
+
+def _parse_terms(tokens, text, field):
+    """(eye, [(value, unit)] powers, axis, add, err) from tokens, per the grammar in
+    :meth:`Prescription.parse`; ``err(why)`` makes the error quoting ``text``."""
+    def err(why):
+        return SpecError(field, f"{why} in prescription {text!r}; {_ALLOWED}")
+
+    toks = [t for t in tokens if t[1] not in ("/", ",", ":", "°")]
+    eye = _take_eye(toks, err)
+    powers, axis, add = _TermReader(toks, err).read()
     return eye, powers, axis, add, err
 
 

@@ -31,9 +31,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import erf
 
-from eyelab.core.checks import check_range
+from eyelab.core.checks import check_in
 from eyelab.core.errors import SpecError
 from eyelab.optics.surfaces import Asphere, FreeForm
+
+#: The design's ranges, by spec field (D; mm).
+LIMITS = {"lens.add": (0.25, 4.0), "lens.corridor_mm": (10.0, 22.0), "lens.inset_mm": (0.0, 5.0),
+          "lens.softness_mm": (3.0, 30.0)}
 
 
 @dataclass(frozen=True)
@@ -50,10 +54,10 @@ class ProgressiveDesign:
     eye: str = "R"
 
     def __post_init__(self):
-        check_range("lens.add", self.add, 0.25, 4.0)
-        check_range("lens.corridor_mm", self.corridor * 1e3, 10.0, 22.0)
-        check_range("lens.inset_mm", self.inset * 1e3, 0.0, 5.0)
-        check_range("lens.softness_mm", self.softness * 1e3, 3.0, 30.0)
+        check_in("lens.add", self.add, LIMITS)
+        check_in("lens.corridor_mm", self.corridor * 1e3, LIMITS)
+        check_in("lens.inset_mm", self.inset * 1e3, LIMITS)
+        check_in("lens.softness_mm", self.softness * 1e3, LIMITS)
         if self.eye not in ("R", "L"):
             raise SpecError("lens.eye", f"must be 'R' or 'L', got {self.eye!r}")
 

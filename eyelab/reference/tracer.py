@@ -75,16 +75,12 @@ class ReferenceRenderer(Renderer):
             return fons_pattern(q.fons_n, q.fons_m)
         return disc_seeds(q.samples)
 
+    def _render_camera(self, scene, camera, view, q, progressive):
+        from eyelab.reference.camera import render_camera
+
+        return render_camera(scene, camera, view, q, self.name)
+
     def _render(self, scene, eye, lens, view, q, progressive):
-        from eyelab.optics.system import LensSystem
-
-        if isinstance(eye, LensSystem):        # a camera lens: eyelab.reference.camera
-            from eyelab.core.errors import SpecError
-            from eyelab.reference.camera import render_camera
-
-            if lens is not None:
-                raise SpecError("lens", "a camera lens system takes no spectacle lens")
-            return render_camera(scene, eye, view, q, self.name)
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
         ndc = self.pixel_ndc(view)

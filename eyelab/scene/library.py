@@ -54,14 +54,48 @@ ETDRS_ROWS = tuple(np.round(np.arange(1.0, -0.31, -0.1), 1))
 SLOAN = "CDHKNORSVZ"
 
 
+#: Each Sloan letter's strokes on the 5 x 5 design grid, drawn in this order: ("bar", x0,
+#: y0, x1, y1) a filled rectangle, ("poly", (x, y), ...) a filled polygon, ("ring", x0, y0,
+#: x1, y1[, start, end]) a stroke-wide circular arc (deg, PIL's clockwise-from-+x angles)
+#: in that box.
+SLOAN_STROKES = {
+    "H": (("bar", 0, 0, 1, 5), ("bar", 4, 0, 5, 5), ("bar", 0, 2, 5, 3)),
+    "Z": (("bar", 0, 0, 5, 1), ("bar", 0, 4, 5, 5),
+          ("poly", (3.75, 1), (5, 1), (1.25, 4), (0, 4))),
+    "N": (("bar", 0, 0, 1, 5), ("bar", 4, 0, 5, 5),
+          ("poly", (0, 0), (1.25, 0), (5, 5), (3.75, 5))),
+    "V": (("poly", (0, 0), (1.1, 0), (2.5, 3.9), (3.9, 0), (5, 0), (3.1, 5), (1.9, 5)),),
+    "K": (("bar", 0, 0, 1, 5), ("poly", (3.6, 0), (5, 0), (1, 3.2), (1, 2.0)),
+          ("poly", (2.0, 2.2), (3.0, 1.6), (5, 5), (3.6, 5))),
+    "O": (("ring", 0, 0, 5, 5),),
+    "C": (("ring", 0, 0, 5, 5, 40, 320),),
+    "D": (("bar", 0, 0, 1, 5), ("bar", 0, 0, 2.5, 1), ("bar", 0, 4, 2.5, 5),
+          ("ring", 0, 0, 5, 5, 270, 90), ("bar", 4, 2, 5, 3)),
+    "R": (("bar", 0, 0, 1, 5), ("bar", 0, 0, 3.5, 1), ("bar", 0, 2, 3.5, 3),
+          ("ring", 2, 0, 5, 3, 270, 90), ("poly", (2.4, 3), (3.6, 3), (5, 5), (3.8, 5))),
+    "S": (("ring", 0, 0, 5, 3, 90, 360), ("ring", 0, 2, 5, 5, 270, 180),
+          ("bar", 1.5, 2, 3.5, 3)),
+}
+
+
+def _sloan_strokes(letter) -> tuple:
+    """The strokes of ``letter`` (:data:`SLOAN_STROKES`); ValueError if it is none of the
+    ten."""
+    for name, strokes in SLOAN_STROKES.items():
+        if letter == name:
+            return strokes
+    raise ValueError(f"not a Sloan letter: {letter!r}")
+
+
 def sloan_letter(letter: str, px: int = 200) -> np.ndarray:
     """A Sloan-style letter (True = ink) on a px x px image whose edges are the letter's
     5 x 5 stroke box: strokes one fifth of the height wide, every letter touching all four
     sides of the box (as Sloan's do), drawn with PIL at ``px`` pixels (anti-aliasing off:
     an exact bilevel glyph). Letter shapes: bars, diagonals and rings of the 5 x 5 grid
-    (Sloan 1959's design grid); the curves are circular arcs."""
+    (Sloan 1959's design grid, :data:`SLOAN_STROKES`); the curves are circular arcs."""
     from PIL import Image, ImageDraw
 
+    strokes = _sloan_strokes(letter)
     u = px / 5.0
     img = Image.new("1", (px, px), 0)
     d = ImageDraw.Draw(img)
@@ -75,32 +109,9 @@ def sloan_letter(letter: str, px: int = 200) -> np.ndarray:
     def ring(x0, y0, x1, y1, start=0, end=360):
         d.arc([x0 * u, y0 * u, x1 * u - 1, y1 * u - 1], start, end, fill=1, width=int(u))
 
-    if letter == "H":
-        bar(0, 0, 1, 5), bar(4, 0, 5, 5), bar(0, 2, 5, 3)
-    elif letter == "Z":
-        bar(0, 0, 5, 1), bar(0, 4, 5, 5), poly((3.75, 1), (5, 1), (1.25, 4), (0, 4))
-    elif letter == "N":
-        bar(0, 0, 1, 5), bar(4, 0, 5, 5), poly((0, 0), (1.25, 0), (5, 5), (3.75, 5))
-    elif letter == "V":
-        poly((0, 0), (1.1, 0), (2.5, 3.9), (3.9, 0), (5, 0), (3.1, 5), (1.9, 5))
-    elif letter == "K":
-        bar(0, 0, 1, 5), poly((3.6, 0), (5, 0), (1, 3.2), (1, 2.0))
-        poly((2.0, 2.2), (3.0, 1.6), (5, 5), (3.6, 5))
-    elif letter == "O":
-        ring(0, 0, 5, 5)
-    elif letter == "C":
-        ring(0, 0, 5, 5, 40, 320)
-    elif letter == "D":
-        bar(0, 0, 1, 5), bar(0, 0, 2.5, 1), bar(0, 4, 2.5, 5)
-        ring(0, 0, 5, 5, 270, 90), bar(4, 2, 5, 3)
-    elif letter == "R":
-        bar(0, 0, 1, 5), bar(0, 0, 3.5, 1), bar(0, 2, 3.5, 3)
-        ring(2, 0, 5, 3, 270, 90), poly((2.4, 3), (3.6, 3), (5, 5), (3.8, 5))
-    elif letter == "S":
-        ring(0, 0, 5, 3, 90, 360), ring(0, 2, 5, 5, 270, 180)
-        bar(1.5, 2, 3.5, 3)
-    else:
-        raise ValueError(f"not a Sloan letter: {letter!r}")
+    draw = {"bar": bar, "poly": poly, "ring": ring}
+    for shape, *args in strokes:
+        draw[shape](*args)
     return np.asarray(img, bool)
 
 

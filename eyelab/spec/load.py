@@ -13,7 +13,7 @@ from pathlib import Path
 from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
-from eyelab.optics.binocular import SIDES
+from eyelab.optics.binocular import SIDES, Binocular
 from eyelab.optics.eye import (
     Eye,
 )
@@ -38,7 +38,7 @@ class Spec:
     vertex_sphere: str = "rotation_centre"
     #: Two eyes (:class:`eyelab.optics.binocular.Binocular`) when the spec has [binocular] or
     #: per-eye tables; ``eye`` and ``lens`` are then the right eye's.
-    binocular: object = None
+    binocular: Binocular | None = None
 
 
 def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:
@@ -57,7 +57,7 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
             lens = parse_lens(data["lens"], eye_rx)
     an = data.get("analysis", {})
     check_keys(an, ANALYSIS_KEYS, "analysis")
-    wl = number(an, "wavelength_nm", "analysis", 380, 780, 587.56)
+    wl = number(an, "wavelength_nm", "analysis", 587.56)
     # two eyes fixate each point (vergence) unless the spec says otherwise
     fix = an.get("fixation", "fixed" if bino is None else "rotating")
     check_choice("analysis.fixation", fix, FIXATIONS)
@@ -125,6 +125,51 @@ def read_spec_data(path: str | Path | None = None) -> tuple:
     return data, source, base
 
 
+def toml_value(v) -> str:
+    """One value as TOML: booleans, integers, floats written exactly (``repr``; ``inf``,
+    ``nan``), strings, arrays and inline tables."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return "nan" if math.isnan(v) else repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"
+    raise SpecError("spec", f"cannot write {v!r} as TOML")
+
+
+def _is_table_array(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
+
+
+def _toml_table(name: str, t: dict, lines: list) -> None:
+    """``[name]`` with its scalars, then its nested tables and arrays of tables."""
+    scalars = {k: v for k, v in t.items() if not isinstance(v, dict) and not _is_table_array(v)}
+    lines.append(f"[{name}]")
+    lines.extend(f"{k} = {toml_value(v)}" for k, v in scalars.items())
+    lines.append("")
+    for k, v in t.items():
+        if isinstance(v, dict):
+            _toml_table(f"{name}.{k}", v, lines)
+        elif k not in scalars:
+            _toml_items(f"{name}.{k}", v, lines)
+
+
+def _toml_items(name: str, items: list, lines: list) -> None:
+    """An array of tables ``[[name]]``."""
+    for item in items:
+        lines.append(f"[[{name}]]")
+        lines.extend(f"{k} = {toml_value(v)}" for k, v in item.items())
+        lines.append("")
+
+
 def dump_spec(data: dict) -> str:
     """A spec table as TOML text that :func:`tomllib.loads` reads back equal: tables of
     scalars, strings, lists of scalars, nested tables ([lens.front]) and arrays of tables
@@ -135,46 +180,12 @@ def dump_spec(data: dict) -> str:
     >>> tomllib.loads(dump_spec(d)) == d
     True
     """
-    def value(v):
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, int):
-            return str(v)
-        if isinstance(v, float):
-            return ("inf" if v > 0 else "-inf") if math.isinf(v) else \
-                ("nan" if math.isnan(v) else repr(v))
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, dict):
-            return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}"
-        raise SpecError("spec", f"cannot write {v!r} as TOML")
-
-    def table(name, t, lines):
-        scalars = {k: v for k, v in t.items() if not isinstance(v, dict)
-                   and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))}
-        lines.append(f"[{name}]")
-        lines.extend(f"{k} = {value(v)}" for k, v in scalars.items())
-        lines.append("")
-        for k, v in t.items():
-            if isinstance(v, dict):
-                table(f"{name}.{k}", v, lines)
-            elif k not in scalars:
-                for item in v:
-                    lines.append(f"[[{name}.{k}]]")
-                    lines.extend(f"{kk} = {value(vv)}" for kk, vv in item.items())
-                    lines.append("")
-
     lines = []
     for name, t in data.items():
         if isinstance(t, dict):
-            table(name, t, lines)
+            _toml_table(name, t, lines)
         elif isinstance(t, list):
-            for item in t:
-                lines.append(f"[[{name}]]")
-                lines.extend(f"{k} = {value(v)}" for k, v in item.items())
-                lines.append("")
+            _toml_items(name, t, lines)
         else:
             raise SpecError(f"spec.{name}", "top-level entries must be tables")
     return "\n".join(lines)

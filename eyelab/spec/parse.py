@@ -11,12 +11,11 @@ import math
 
 import numpy as np
 
-from eyelab.core.checks import check_bool, check_choice, check_range
+from eyelab.core.checks import check_bool, check_choice
 from eyelab.core.errors import SpecError
 from eyelab.optics.eye import (
     AMPLITUDE_MODELS,
     EYE_KINDS,
-    MAX_ACCOMMODATION_D,
     Eye,
     hofstetter_amplitude,
     watson_yellott_pupil,
@@ -27,7 +26,8 @@ from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import Asphere, Surface, Toric
-from eyelab.spec.tables import check_keys, number, rx_value
+from eyelab.spec.schema import check
+from eyelab.spec.tables import check_keys, check_rules, number, rx_value
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
@@ -62,72 +62,68 @@ BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_
 
 
 def parse_eye(t: dict) -> Eye:
+    """The ``[eye]`` table -> :class:`~eyelab.optics.eye.Eye`: from ``rx`` (the eye its
+    spectacle Rx corrects) or from the explicit powers."""
     check_keys(t, EYE_KEYS, "eye")
     # enumerations are checked even where the value would be unused; keys that only
     # take effect with another key are refused without it (never silently ignored)
     if "amplitude_model" in t:
         check_choice("eye.amplitude_model", t["amplitude_model"], tuple(AMPLITUDE_MODELS))
-        if "age" not in t:
-            raise SpecError("eye.amplitude_model", "only used with eye.age (Hofstetter's "
-                                                   "amplitude for that age)")
     if "kind" in t:
         check_choice("eye.kind", t["kind"], EYE_KINDS)
     if "vertex_distance_mm" in t:
-        number(t, "vertex_distance_mm", "eye", 5, 30)          # a bad value first
-    for key in ("kind", "vertex_distance_mm"):
-        if key in t and "rx" not in t:
-            raise SpecError(f"eye.{key}", "only used with eye.rx (the explicit powers "
-                                          "define the eye as written)")
+        number(t, "vertex_distance_mm", "eye")          # a bad value first
+    check_rules(t, "eye")
+    kw = _eye_options(t)
+    if "rx" in t:
+        return _eye_from_rx(t, kw)
+    for key, attr in (("power_min_d", "power_min"), ("astigmatism_d", "astigmatism"),
+                      ("astigmatism_axis_deg", "astigmatism_axis_deg")):
+        if key in t:
+            kw[attr] = number(t, key, "eye")
+    if "retina_distance_mm" in t:
+        kw["retina_distance"] = number(t, "retina_distance_mm", "eye") * 1e-3
+    return Eye(**kw)
+
+
+def _eye_options(t: dict) -> dict:
+    """The :class:`Eye` keywords of ``[eye]`` that do not depend on how the powers are
+    given: amplitude (or age), pupil (or luminance), vitreous, centre of rotation,
+    chromatic aberration."""
     kw = {}
-    if "age" in t and "accommodation_max_d" in t:
-        raise SpecError("eye.age", "give either age or accommodation_max_d, not both")
     if "age" in t:
         kw["accommodation_max"] = hofstetter_amplitude(
-            check_range("eye.age", t["age"], 0, 120), t.get("amplitude_model", "mean"))
+            check("eye.age", t["age"]), t.get("amplitude_model", "mean"))
     elif "accommodation_max_d" in t:
-        kw["accommodation_max"] = number(t, "accommodation_max_d", "eye", 0, MAX_ACCOMMODATION_D)
-    if "pupil_diameter_mm" in t and "luminance_cd_m2" in t:
-        raise SpecError("eye.pupil_diameter_mm",
-                        "give either pupil_diameter_mm or luminance_cd_m2, not both")
+        kw["accommodation_max"] = number(t, "accommodation_max_d", "eye")
     if "pupil_diameter_mm" in t:
-        kw["pupil_diameter"] = number(t, "pupil_diameter_mm", "eye", 0.5, 10) * 1e-3
+        kw["pupil_diameter"] = number(t, "pupil_diameter_mm", "eye") * 1e-3
     elif "luminance_cd_m2" in t:
         kw["pupil_diameter"] = watson_yellott_pupil(t["luminance_cd_m2"],
                                                     t.get("age", 30.0)) * 1e-3
     if "n_vitreous" in t:
-        kw["n_vitreous"] = number(t, "n_vitreous", "eye", 1.2, 1.6)
+        kw["n_vitreous"] = number(t, "n_vitreous", "eye")
     if "rotation_centre_mm" in t:
-        kw["rotation_centre"] = number(t, "rotation_centre_mm", "eye", 5, 20) * 1e-3
+        kw["rotation_centre"] = number(t, "rotation_centre_mm", "eye") * 1e-3
     if "chromatic" in t:
         kw["chromatic"] = check_bool("eye.chromatic", t["chromatic"])
-    explicit = {"power_min_d", "astigmatism_d", "astigmatism_axis_deg"} & set(t)
-    if "rx" in t:
-        if explicit:
-            raise SpecError(f"eye.{sorted(explicit)[0]}", "give either eye.rx or the explicit "
-                            "power_min_d / astigmatism_d / astigmatism_axis_deg, not both")
-        rx = rx_value(t["rx"], "eye.rx")
-        vd = number(t, "vertex_distance_mm", "eye", 5, 30, 12.0) * 1e-3
-        kind = t.get("kind", "refractive")
-        if "retina_distance_mm" in t:
-            kw["retina_distance"] = number(t, "retina_distance_mm", "eye", 15, 35) * 1e-3
-        try:
-            return Eye.from_rx(rx, vertex_distance=vd, kind=kind, **kw)
-        except SpecError as e:
-            # the eye made from the Rx is out of range: blame what the user wrote
-            key = e.field.split(".", 1)[-1]
-            blamed = ("eye.retina_distance_mm" if key == "power_min_d"
-                      and "retina_distance_mm" in t else f"eye.{key}" if key in t else "eye.rx")
-            raise SpecError(blamed, f"with eye.rx = {str(rx)!r} the eye's {key} would be out "
-                                    f"of range ({e.message})") from None
-    if "power_min_d" in t:
-        kw["power_min"] = number(t, "power_min_d", "eye", 40, 80)
-    if "astigmatism_d" in t:
-        kw["astigmatism"] = number(t, "astigmatism_d", "eye", 0, 10)
-    if "astigmatism_axis_deg" in t:
-        kw["astigmatism_axis_deg"] = number(t, "astigmatism_axis_deg", "eye", 0, 180)
+    return kw
+
+
+def _eye_from_rx(t: dict, kw: dict) -> Eye:
+    """The eye ``eye.rx`` corrects; an eye out of range blames the key that made it so."""
+    rx = rx_value(t["rx"], "eye.rx")
+    vd = number(t, "vertex_distance_mm", "eye", 12.0) * 1e-3
     if "retina_distance_mm" in t:
-        kw["retina_distance"] = number(t, "retina_distance_mm", "eye", 15, 35) * 1e-3
-    return Eye(**kw)
+        kw["retina_distance"] = number(t, "retina_distance_mm", "eye") * 1e-3
+    try:
+        return Eye.from_rx(rx, vertex_distance=vd, kind=t.get("kind", "refractive"), **kw)
+    except SpecError as e:
+        key = e.field.split(".", 1)[-1]
+        blamed = ("eye.retina_distance_mm" if key == "power_min_d"
+                  and "retina_distance_mm" in t else f"eye.{key}" if key in t else "eye.rx")
+        raise SpecError(blamed, f"with eye.rx = {str(rx)!r} the eye's {key} would be out "
+                                f"of range ({e.message})") from None
 
 
 def eye_accommodation(t: dict):
@@ -136,7 +132,7 @@ def eye_accommodation(t: dict):
     acc = t.get("accommodation_d", "auto")
     if isinstance(acc, str) and acc.strip().lower() == "auto":
         return None
-    return check_range("eye.accommodation_d", acc, 0, MAX_ACCOMMODATION_D)
+    return check("eye.accommodation_d", acc)
 
 
 def _surface(t, where) -> Surface:
@@ -147,25 +143,25 @@ def _surface(t, where) -> Surface:
         if ck in t and rk in t:
             raise SpecError(f"{where}.{ck}", f"give either {ck} (1/m) or {rk}, not both")
         if rk in t:
-            r = check_range(f"{where}.{rk}", t[rk], -1e9, 1e9)
+            r = check(f"{where}.{rk}", t[rk])
             if r == 0:
                 raise SpecError(f"{where}.{rk}", "must be non-zero (use curvature = 0 for a plane)")
             return 1e3 / r
-        return check_range(f"{where}.{ck}", t.get(ck, 0.0), -200, 200)
+        return check(f"{where}.{ck}", t.get(ck, 0.0))
 
     if kind in ("sphere", "plane", "asphere", "conic"):
         c = 0.0 if kind == "plane" else curv("curvature", "radius_mm")
-        k = check_range(f"{where}.conic", t.get("conic", 0.0), -100, 100)
+        k = check(f"{where}.conic", t.get("conic", 0.0))
         coeffs = t.get("coefficients", [])
         if not isinstance(coeffs, list):
             raise SpecError(f"{where}.coefficients", "must be a list of numbers [A4, A6, ...]")
-        coeffs = tuple(check_range(f"{where}.coefficients[{i}]", v, -1e12, 1e12)
+        coeffs = tuple(check(f"{where}.coefficients[{i}]", v)
                        for i, v in enumerate(coeffs))
         return Asphere(c, k, coeffs)
     if kind == "toric":
         cx = curv("curvature_x", "radius_x_mm")
         cy = curv("curvature_y", "radius_y_mm")
-        ax = math.radians(check_range(f"{where}.axis_deg", t.get("axis_deg", 0.0), -360, 360))
+        ax = math.radians(check(f"{where}.axis_deg", t.get("axis_deg", 0.0)))
         rev = t.get("revolve", "y")
         if rev not in ("x", "y"):
             raise SpecError(f"{where}.revolve", f"must be 'x' or 'y', got {rev!r}")
@@ -178,18 +174,10 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
     when it has none; ``side``: "R"/"L", the eye a progressive design is made for when the
     Rx does not say)."""
     check_keys(t, LENS_KEYS, "lens")
-    dec = t.get("decentration_mm", [0.0, 0.0])
-    if not (isinstance(dec, list) and len(dec) == 2):
-        raise SpecError("lens.decentration_mm", f"must be [x, y] in mm, got {dec!r}")
-    pose = LensPose(
-        vertex_distance=number(t, "vertex_distance_mm", "lens", 5, 30, 12.0) * 1e-3,
-        pantoscopic_tilt_deg=number(t, "pantoscopic_tilt_deg", "lens", -30, 30, 0.0),
-        wrap_deg=number(t, "wrap_deg", "lens", -30, 30, 0.0),
-        decentration=tuple(check_range(f"lens.decentration_mm[{i}]", v, -20, 20) * 1e-3
-                           for i, v in enumerate(dec)))
+    pose = _lens_pose(t)
     material = get_material(t.get("material", "cr39"), field="lens.material")
-    ct = number(t, "center_thickness_mm", "lens", 0.2, 30)
-    diam = number(t, "diameter_mm", "lens", 10, 90)
+    ct = number(t, "center_thickness_mm", "lens")
+    diam = number(t, "diameter_mm", "lens")
     if "coating" in t:
         check_choice("lens.coating", t["coating"], COATINGS)
     if "design" in t:
@@ -198,33 +186,16 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
         if key in t and t.get("design") != "progressive":
             raise SpecError(f"lens.{key}", "only with design = \"progressive\"")
     if "front" in t or "back" in t:
-        for key in ("rx", "base_curve_d", "torus", "design"):
-            if key in t:
-                raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
-        for key in ("front", "back"):
-            if key not in t:
-                raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
-        if ct is None:
-            raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
-        front, back = _surface(t["front"], "lens.front"), _surface(t["back"], "lens.back")
-        check_feasible(front, back, ct * 1e-3, (diam or 60.0) * 1e-3,
-                       min_edge=MIN_EDGE_THICKNESS)
-        return SpectacleLens(front, back, ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
-                             coating=t.get("coating", "none"))
+        return _explicit_lens(t, material, pose, ct, diam)
     if "torus" in t:
         check_choice("lens.torus", t["torus"], ("x", "y"))
-    if "rx" in t:
-        rx = rx_value(t["rx"], "lens.rx")
-    elif eye_rx is not None:
-        rx = eye_rx
-    else:
-        raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
+    rx = _lens_rx(t, eye_rx)
     if t.get("design") == "progressive":
         return _progressive(t, rx, material, pose, diam, side)
     rx = _design_rx(rx, t.get("design"), "lens.rx" if "rx" in t else "eye.rx")
     try:
         return SpectacleLens.from_rx(
-            rx, material=material, base_curve=number(t, "base_curve_d", "lens", -20, 30),
+            rx, material=material, base_curve=number(t, "base_curve_d", "lens"),
             center_thickness=None if ct is None else ct * 1e-3,
             diameter=None if diam is None else diam * 1e-3, pose=pose,
             torus=t.get("torus", "y"), coating=t.get("coating", "none"))
@@ -232,6 +203,44 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
         if e.field == "lens.rx" and "rx" not in t:     # the lens took the eye's Rx
             raise SpecError("eye.rx", f"(the lens is made for it) {e.message}") from None
         raise
+
+
+def _lens_pose(t: dict) -> LensPose:
+    """The lens's pose from ``[lens]``: vertex distance, tilt, wrap, decentration."""
+    dec = t.get("decentration_mm", [0.0, 0.0])
+    if not (isinstance(dec, list) and len(dec) == 2):
+        raise SpecError("lens.decentration_mm", f"must be [x, y] in mm, got {dec!r}")
+    return LensPose(
+        vertex_distance=number(t, "vertex_distance_mm", "lens", 12.0) * 1e-3,
+        pantoscopic_tilt_deg=number(t, "pantoscopic_tilt_deg", "lens", 0.0),
+        wrap_deg=number(t, "wrap_deg", "lens", 0.0),
+        decentration=tuple(check(f"lens.decentration_mm[{i}]", v) * 1e-3
+                           for i, v in enumerate(dec)))
+
+
+def _lens_rx(t: dict, eye_rx):
+    """The Rx a lens is made for: its own, else the eye's."""
+    if "rx" in t:
+        return rx_value(t["rx"], "lens.rx")
+    if eye_rx is not None:
+        return eye_rx
+    raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
+
+
+def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
+    """A lens given surface by surface ([lens.front], [lens.back], centre thickness)."""
+    for key in ("rx", "base_curve_d", "torus", "design"):
+        if key in t:
+            raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
+    for key in ("front", "back"):
+        if key not in t:
+            raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
+    if ct is None:
+        raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
+    front, back = _surface(t["front"], "lens.front"), _surface(t["back"], "lens.back")
+    check_feasible(front, back, ct * 1e-3, (diam or 60.0) * 1e-3, min_edge=MIN_EDGE_THICKNESS)
+    return SpectacleLens(front, back, ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
+                         coating=t.get("coating", "none"))
 
 
 def _progressive(t, rx, material, pose, diam, side=None) -> SpectacleLens:
@@ -247,9 +256,9 @@ def _progressive(t, rx, material, pose, diam, side=None) -> SpectacleLens:
             raise SpecError(f"lens.{key}", "not used by the progressive design (its front "
                                            "is the free-form, its thickness automatic)")
     design = ProgressiveDesign(
-        rx.add, corridor=number(t, "corridor_mm", "lens", 10, 22, 14.0) * 1e-3,
-        inset=number(t, "inset_mm", "lens", 0, 5, 2.5) * 1e-3,
-        softness=number(t, "softness_mm", "lens", 3, 30, 8.0) * 1e-3,
+        rx.add, corridor=number(t, "corridor_mm", "lens", 14.0) * 1e-3,
+        inset=number(t, "inset_mm", "lens", 2.5) * 1e-3,
+        softness=number(t, "softness_mm", "lens", 8.0) * 1e-3,
         eye=side or ("L" if rx.eye == "L" else "R"))
     lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design, pose=pose,
                                   diameter=(diam or 60.0) * 1e-3)
@@ -287,7 +296,7 @@ def parse_points(items) -> ObjectPoints:
             pos = p["position_m"]
             if not (isinstance(pos, list) and len(pos) == 3):
                 raise SpecError(f"{where}.position_m", f"must be [x, y, z] in m, got {pos!r}")
-            pos = np.array([check_range(f"{where}.position_m[{k}]", v, -1e6, 1e6)
+            pos = np.array([check(f"{where}.position_m[{k}]", v)
                             for k, v in enumerate(pos)])
             d = float(np.linalg.norm(pos))
             if d == 0:
@@ -299,7 +308,7 @@ def parse_points(items) -> ObjectPoints:
         if isinstance(dist, str) and dist.strip().lower() in ("inf", "infinity"):
             dist = math.inf
         else:
-            dist = check_range(f"{where}.distance_m", dist, 0.01, 1e7)
+            dist = check(f"{where}.distance_m", dist)
         if "field_polar_deg" in p:
             if "field_deg" in p:
                 raise SpecError(f"{where}.field_polar_deg", "give field_deg or "
@@ -308,8 +317,8 @@ def parse_points(items) -> ObjectPoints:
             if not (isinstance(f, list) and len(f) == 2):
                 raise SpecError(f"{where}.field_polar_deg", f"must be [theta, phi] in degrees "
                                                             f"(eccentricity, azimuth), got {f!r}")
-            th = math.radians(check_range(f"{where}.field_polar_deg[0]", f[0], 0, 80))
-            ph = math.radians(check_range(f"{where}.field_polar_deg[1]", f[1], -360, 360))
+            th = math.radians(check(f"{where}.field_polar_deg[0]", f[0]))
+            ph = math.radians(check(f"{where}.field_polar_deg[1]", f[1]))
             dirs.append(np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph),
                                   -math.cos(th)]))
             dists.append(dist)
@@ -317,7 +326,7 @@ def parse_points(items) -> ObjectPoints:
         f = p.get("field_deg", [0.0, 0.0])
         if not (isinstance(f, list) and len(f) == 2):
             raise SpecError(f"{where}.field_deg", f"must be [x, y] in degrees, got {f!r}")
-        fx, fy = (check_range(f"{where}.field_deg[{k}]", v, -80, 80) for k, v in enumerate(f))
+        fx, fy = (check(f"{where}.field_deg[{k}]", v) for k, v in enumerate(f))
         op = ObjectPoints.from_angles(dist, fx, fy)
         dirs.append(op.direction[0])
         dists.append(dist)

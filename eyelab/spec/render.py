@@ -13,8 +13,10 @@ from eyelab.core.errors import SpecError
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
 from eyelab.imaging.registry import CAMERA_RENDERERS, QUALITIES, RENDERERS, quality_keys
+from eyelab.optics.system import LensSystem
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS, SceneSource
+from eyelab.spec.schema import LIMITS, check
 from eyelab.spec.tables import check_keys
 
 
@@ -32,7 +34,7 @@ class RenderSpec:
     table: dict = field(default_factory=dict)
     #: A camera lens (:class:`eyelab.optics.system.LensSystem`, focused) that sees the
     #: scene instead of the eye: ``[render] camera`` (renderers in :data:`CAMERA_RENDERERS`).
-    camera: object = None
+    camera: LensSystem | None = None
 
     def with_changes(self, **changes) -> RenderSpec:
         """The same table with some keys replaced (None values are ignored), validated
@@ -124,10 +126,11 @@ def parse_camera(t: dict):
     if isinstance(focus, str) and focus.strip().lower() in ("inf", "infinity"):
         focus = math.inf
     else:
-        focus = check_range("render.camera_focus_m", focus, 0.2, 1e6)
+        focus = check("render.camera_focus_m", focus)
     full = full_f_number(system)
     if "camera_f_number" in t:
-        fnum = check_range("render.camera_f_number", t["camera_f_number"], full, 64)
+        fnum = check_range("render.camera_f_number", t["camera_f_number"], full,
+                           LIMITS["render.camera_f_number"][1])
         system = system.with_stop(system.cardinal()["efl_m"] / (2 * fnum))
     return system.focused(focus)
 
@@ -156,39 +159,45 @@ def parse_scene(value, background, base: Path | None) -> tuple:
     if not isinstance(name, str):
         raise SpecError(where, f"must be a built-in scene name or a mesh file path, "
                                f"got {name!r}")
-    if name not in SCENE_NAMES:
-        p = Path(name) if base is None or Path(name).is_absolute() else base / name
-        try:
-            ok = p.is_file()
-        except OSError:
-            ok = False
-        if not ok:
-            raise SpecError(where, f"{name[:80]!r} is neither a built-in scene "
-                                   f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
-        name = str(p)
+    name = _scene_path(name, where, base)
 
-    def triple(key, lo, hi):
+    def triple(key):
         v = table.get(key, [0.0, 0.0, 0.0])
         if not (isinstance(v, list) and len(v) == 3):
             raise SpecError(f"render.scene.{key}", f"must be [x, y, z], got {v!r}")
-        return tuple(check_range(f"render.scene.{key}[{i}]", x, lo, hi)
+        return tuple(check(f"render.scene.{key}[{i}]", x)
                      for i, x in enumerate(v))
 
     units = table.get("units", "m")
     check_choice("render.scene.units", units, tuple(UNITS))
     bg = None if background is None else check_rgb("render.background", background)
     chart = {}
-    for key, lo, hi in (("distance_m", 0.1, 100.0), ("contrast", 0.0, 1.0)):
+    for key in ("distance_m", "contrast"):
         if key in table:
             if name != "chart":
                 raise SpecError(f"render.scene.{key}", "only for the built-in chart "
                                                        "(path = \"chart\")")
-            chart[key] = check_range(f"render.scene.{key}", table[key], lo, hi)
+            chart[key] = check(f"render.scene.{key}", table[key])
     src = SceneSource(name, chart_distance_m=chart.get("distance_m"),
                       chart_contrast=chart.get("contrast"),
-                      position_m=triple("position_m", -1e4, 1e4),
-                      scale=check_range("render.scene.scale", table.get("scale", 1.0), 1e-9,
-                                        1e9, lo_open=True),
-                      rotation_deg=triple("rotation_deg", -360, 360), units=units,
+                      position_m=triple("position_m"),
+                      scale=check("render.scene.scale", table.get("scale", 1.0), lo_open=True),
+                      rotation_deg=triple("rotation_deg"), units=units,
                       background=bg)
     return src, (dict(value, path=name) if isinstance(value, dict) else name)
+
+
+def _scene_path(name: str, where: str, base: Path | None) -> str:
+    """A built-in scene's name as it is, or a mesh file's path resolved against the spec's
+    folder ``base`` (refused, naming ``where``, unless the file exists)."""
+    if name in SCENE_NAMES:
+        return name
+    p = Path(name) if base is None or Path(name).is_absolute() else base / name
+    try:
+        ok = p.is_file()
+    except OSError:
+        ok = False
+    if not ok:
+        raise SpecError(where, f"{name[:80]!r} is neither a built-in scene "
+                               f"({', '.join(SCENE_NAMES)}) nor an existing mesh file")
+    return str(p)

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import math
 
-from eyelab.core.checks import check_choice, check_range
+from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
 from eyelab.optics.binocular import SIDES
 from eyelab.optics.prescription import Prescription
 from eyelab.spec.parse import BINOCULAR_KEYS, parse_eye, parse_lens
-from eyelab.spec.tables import check_keys, number, rx_value
+from eyelab.spec.schema import LIMITS, check
+from eyelab.spec.tables import check_keys, check_rules, number, rx_value
 
 #: Keys a side's table ([eye.right], [lens.left], ...) may not hold: one value for both.
 SHARED_ONLY = {"eye": ("accommodation_d",), "lens": ()}
@@ -68,24 +69,14 @@ def parse_binocular(data: dict):
 
     bt = data.get("binocular", {})
     check_keys(bt, BINOCULAR_KEYS, "binocular")
-    if "pd_mm" in bt and "monocular_pd_mm" in bt:
-        raise SpecError("binocular.pd_mm", "give either pd_mm or monocular_pd_mm, not both")
-    if "monocular_pd_mm" in bt:
-        m = bt["monocular_pd_mm"]
-        if not (isinstance(m, list) and len(m) == 2):
-            raise SpecError("binocular.monocular_pd_mm", f"must be [right, left] in mm, "
-                                                         f"got {m!r}")
-        mpd = tuple(check_range(f"binocular.monocular_pd_mm[{i}]", v, 20, 40) * 1e-3
-                    for i, v in enumerate(m))
-    else:
-        pd = number(bt, "pd_mm", "binocular", 40, 80, 64.0) * 1e-3
-        mpd = (pd / 2, pd / 2)
-    fpd = number(bt, "frame_pd_mm", "binocular", 40, 80)
+    check_rules(bt, "binocular")
+    mpd = _monocular_pd(bt)
+    fpd = number(bt, "frame_pd_mm", "binocular")
     fix = bt.get("fixation_distance_m", "inf")
     if isinstance(fix, str) and fix.strip().lower() in ("inf", "infinity"):
         fix = math.inf
     else:
-        fix = check_range("binocular.fixation_distance_m", fix, 0.1, 1e7)
+        fix = check("binocular.fixation_distance_m", fix)
     output = check_choice("binocular.output", bt.get("output", "side-by-side"), OUTPUTS)
     eye_shared, eye_sides = _split_sides(data.get("eye", {}), "eye")
     lens_shared, lens_sides = _split_sides(data.get("lens"), "lens")
@@ -103,25 +94,7 @@ def parse_binocular(data: dict):
             lenses[side] = None
             continue
         own = lens_sides[side]
-        lt = {**lens_shared, **own}
-        if "rx" in lt:
-            where = _written("lens", side, own, "rx")
-            _check_side(rx_value(lt["rx"], where), side, where)
-        dec = lt.get("decentration_mm", [0.0, 0.0])
-        where = _written("lens", side, own, "decentration_mm")
-        if not (isinstance(dec, list) and len(dec) == 2):
-            raise SpecError(where, f"must be [x, y] in mm, got {dec!r}")
-        dec = [check_range(f"{where}[{i}]", v, -20, 20) for i, v in enumerate(dec)]
-        if fpd is not None:
-            sign = 1.0 if side == "right" else -1.0
-            dec[0] += sign * (fpd / 2 - mpd[0 if side == "right" else 1] * 1e3)
-            if abs(dec[0]) > 20:
-                raise SpecError("binocular.frame_pd_mm", f"puts the {side} lens's optical "
-                                f"centre {dec[0]:+.1f} mm from its pupil; at most 20 mm")
-        lt["decentration_mm"] = dec
-        if "wrap_deg" in lt and side == "left":
-            lt["wrap_deg"] = -check_range(_written("lens", side, own, "wrap_deg"),
-                                          lt["wrap_deg"], -30, 30)
+        lt = _side_lens_table(lens_shared, own, side, fpd, mpd)
         lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
                                  parse_lens(lt, rx, side=s))
     return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
@@ -139,3 +112,39 @@ def _check_side(rx: Prescription, side: str, where: str) -> None:
     if rx.eye in ("R", "L") and rx.eye != side[0].upper():
         eye = "right" if rx.eye == "R" else "left"
         raise SpecError(where, f"{rx.format()!r} is for the {eye} eye, given for the {side}")
+
+
+def _monocular_pd(bt: dict) -> tuple:
+    """(right, left) pupil centre to midline (m) of ``[binocular]``."""
+    if "monocular_pd_mm" not in bt:
+        pd = number(bt, "pd_mm", "binocular", 64.0) * 1e-3
+        return pd / 2, pd / 2
+    m = bt["monocular_pd_mm"]
+    if not (isinstance(m, list) and len(m) == 2):
+        raise SpecError("binocular.monocular_pd_mm", f"must be [right, left] in mm, got {m!r}")
+    return tuple(check(f"binocular.monocular_pd_mm[{i}]", v) * 1e-3 for i, v in enumerate(m))
+
+
+def _side_lens_table(lens_shared: dict, own: dict, side: str, fpd, mpd) -> dict:
+    """One side's [lens] table: the shared keys under its own, its Rx checked for the
+    side, its decentration from the frame PD, the left lens's wrap mirrored."""
+    lt = {**lens_shared, **own}
+    if "rx" in lt:
+        where = _written("lens", side, own, "rx")
+        _check_side(rx_value(lt["rx"], where), side, where)
+    dec = lt.get("decentration_mm", [0.0, 0.0])
+    where = _written("lens", side, own, "decentration_mm")
+    if not (isinstance(dec, list) and len(dec) == 2):
+        raise SpecError(where, f"must be [x, y] in mm, got {dec!r}")
+    dec = [check(f"{where}[{i}]", v) for i, v in enumerate(dec)]
+    if fpd is not None:
+        sign = 1.0 if side == "right" else -1.0
+        dec[0] += sign * (fpd / 2 - mpd[0 if side == "right" else 1] * 1e3)
+        if abs(dec[0]) > LIMITS["lens.decentration_mm"][1]:
+            raise SpecError("binocular.frame_pd_mm", f"puts the {side} lens's optical "
+                            f"centre {dec[0]:+.1f} mm from its pupil; at most "
+                            f"{LIMITS['lens.decentration_mm'][1]:g} mm")
+    lt["decentration_mm"] = dec
+    if "wrap_deg" in lt and side == "left":
+        lt["wrap_deg"] = -check(_written("lens", side, own, "wrap_deg"), lt["wrap_deg"])
+    return lt

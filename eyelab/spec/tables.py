@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import difflib
 
-from eyelab.core.checks import check_range
 from eyelab.core.errors import SpecError
 from eyelab.optics.prescription import Prescription
+from eyelab.spec.schema import EXCLUSIVE_WITH, NOT_WITH, ONLY_WITH, check
 
 #: Keys that moved: where they are now (an old spec gets an error that says so).
 MOVED = {"analysis.accommodation_d": "eye.accommodation_d",
@@ -29,13 +29,31 @@ def check_keys(table, allowed, where):
                                                  f"{', '.join(sorted(allowed))}")
 
 
-def number(table, key, where, lo, hi, default=None):
+def number(table, key, where, default=None):
+    """``table[key]`` checked against the schema's range of ``where.key``, or ``default``
+    when the key is not written."""
     if key not in table:
         return default
-    return check_range(f"{where}.{key}", table[key], lo, hi)
+    return check(f"{where}.{key}", table[key])
 
 
 def rx_value(value, field):
     if isinstance(value, Prescription):
         return value
     return Prescription.parse(value, field=field)
+
+
+def check_rules(table: dict, where: str) -> None:
+    """The schema's "only with" and "not with" rules of a table (:data:`ONLY_WITH`,
+    :data:`NOT_WITH` of :mod:`eyelab.spec.schema`), in their declared order."""
+    for key, needs, why in ONLY_WITH.get(where, ()):
+        if key in table and needs not in table:
+            raise SpecError(f"{where}.{key}", f"only used with {where}.{needs} ({why})")
+    for a, b in NOT_WITH.get(where, ()):
+        if a in table and b in table:
+            raise SpecError(f"{where}.{a}", f"give either {a} or {b}, not both")
+    mutex = [k for k in EXCLUSIVE_WITH.get(where, {}).get("others", ()) if k in table]
+    anchor = EXCLUSIVE_WITH.get(where, {}).get("key")
+    if anchor in table and mutex:
+        raise SpecError(f"{where}.{sorted(mutex)[0]}", f"give either {where}.{anchor} or the "
+                        f"explicit {' / '.join(EXCLUSIVE_WITH[where]['others'])}, not both")

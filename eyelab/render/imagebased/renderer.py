@@ -66,25 +66,28 @@ class ImageBasedRenderer(Renderer):
             self._window = None
 
     # ------------------------------------------------------------------ rendering
-    def _render(self, scene, observer, lens, view, q, progressive):
-        from eyelab.core.errors import SpecError
-        from eyelab.optics.system import LensSystem
-
+    def _render(self, scene, eye, lens, view, q, progressive):
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
-        if isinstance(observer, LensSystem):
-            if lens is not None:
-                raise SpecError("lens", "a camera lens system takes no spectacle lens")
-            maker = CameraRays(observer, view.width, view.height, view.fov_y_deg, view.near)
-            dispersive = any(s.after.dispersive for s in observer.surfaces)
-            wls = RGB_WAVELENGTHS_NM if q.chromatic and dispersive else (EYE_REFERENCE_NM,)
-            if len(wls) == 1:
-                report["skipped"].append("chromatic: one wavelength")
-            radiometry = "irradiance" if q.radiometry == "auto" else q.radiometry
-        else:
-            maker = EyeRays(observer, lens, view, view.focus_d, scene)
-            wls = channel_wavelengths(observer, lens, q.chromatic, report)
-            radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
+        maker = EyeRays(eye, lens, view, view.focus_d, scene)
+        wls = channel_wavelengths(eye, lens, q.chromatic, report)
+        radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
+        return self._project(scene, eye, lens, maker, wls, radiometry, view, q, report, t0)
+
+    def _render_camera(self, scene, camera, view, q, progressive):
+        t0 = time.perf_counter()
+        report = new_report(self.name, view, q)
+        maker = CameraRays(camera, view.width, view.height, view.fov_y_deg, view.near)
+        dispersive = any(s.after.dispersive for s in camera.surfaces)
+        wls = RGB_WAVELENGTHS_NM if q.chromatic and dispersive else (EYE_REFERENCE_NM,)
+        if len(wls) == 1:
+            report["skipped"].append("chromatic: one wavelength")
+        radiometry = "irradiance" if q.radiometry == "auto" else q.radiometry
+        return self._project(scene, camera, None, maker, wls, radiometry, view, q, report, t0)
+
+    def _project(self, scene, observer, lens, maker, wls, radiometry, view, q, report, t0):
+        """Plan, draw and morph the slices of every lens sample and wavelength (§3),
+        weighted by Eq. 3 and normalised by ``radiometry``."""
         from eyelab.core.sampling import pass_samples
 
         samples = pass_samples(q.samples)[0]

@@ -1,0 +1,476 @@
+"""The spec's schema: every table and key with its type, unit, range, default, choices and
+meaning, in one list (:data:`KEYS`).
+
+A range is declared once. Where the engine checks a value itself — the eye
+(:data:`eyelab.optics.eye.LIMITS`), the lens (:data:`eyelab.optics.lens.LIMITS`),
+a progressive design (:data:`eyelab.optics.progressive.LIMITS`), the view and each
+renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View` and of the
+quality classes) — the schema takes the range from there; the ranges only the spec knows are
+:data:`SPEC_LIMITS`. The parsers (:mod:`eyelab.spec.parse`, ...) check against
+:data:`LIMITS`, the README's tables are generated from :data:`KEYS`
+(:mod:`eyelab.spec.docs`), and so is the bad-spec corpus (``tests/badspecs.py``);
+``tests/test_specdoc.py`` checks that every key is accepted at both ends of its range and
+refused just beyond, naming itself.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+from eyelab.core.checks import RGB_RANGE, check_range
+from eyelab.core.color import CVD_KINDS
+from eyelab.imaging.contract import View
+from eyelab.imaging.options import (
+    ACCOMMODATION_RULES,
+    COP_FITS,
+    FIELD_ROUTES,
+    MODELS,
+    RADIOMETRY,
+)
+from eyelab.imaging.registry import QUALITIES
+from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
+from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS
+from eyelab.optics.eye import LIMITS as EYE_LIMITS
+from eyelab.optics.fresnel import COATINGS
+from eyelab.optics.lens import LIMITS as LENS_LIMITS
+from eyelab.optics.materials import ALIASES, CATALOGUE
+from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
+from eyelab.optics.system import full_f_number, get_system
+from eyelab.scene.library import SCENE_NAMES
+from eyelab.scene.scene import UNITS
+
+#: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
+DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
+#: Ranges only the spec knows (what a user may write where the engine takes another form,
+#: or checks nothing), by field, in the spec's units.
+SPEC_LIMITS = {
+    "eye.vertex_distance_mm": (5.0, 30.0), "eye.astigmatism_axis_deg": (0.0, 180.0),
+    "lens.front.curvature": (-200.0, 200.0), "lens.front.radius_mm": (-1e9, 1e9),
+    "lens.front.conic": (-100.0, 100.0), "lens.back.curvature_x": (-200.0, 200.0),
+    "lens.back.curvature_y": (-200.0, 200.0), "lens.back.radius_x_mm": (-1e9, 1e9),
+    "lens.back.radius_y_mm": (-1e9, 1e9), "lens.back.axis_deg": (-360.0, 360.0),
+    "analysis.wavelength_nm": (380.0, 780.0),
+    "binocular.pd_mm": (40.0, 80.0), "binocular.monocular_pd_mm": (20.0, 40.0),
+    "binocular.frame_pd_mm": (40.0, 80.0), "binocular.fixation_distance_m": (0.1, 1e7),
+    "points[0].distance_m": (0.01, 1e7), "points[0].field_deg": (-80.0, 80.0),
+    "points[0].field_polar_deg": (0.0, 80.0),
+    "points[0].field_polar_deg[1]": (-360.0, 360.0), "points[0].position_m": (-1e6, 1e6),
+    "render.background": RGB_RANGE, "render.rim_color": RGB_RANGE,
+    "render.invalid_color": RGB_RANGE,
+    "render.scene.distance_m": (0.1, 100.0), "render.scene.contrast": (0.0, 1.0),
+    "render.scene.scale": (0.0, 1e9), "render.scene.rotation_deg": (-360.0, 360.0),
+    "render.scene.position_m": (-1e4, 1e4), "render.camera_focus_m": (0.2, 1e6),
+    "render.camera_f_number": (DOUBLET_FULL_F_NUMBER, 64.0),
+    "lens.front.coefficients": (-1e12, 1e12),
+}
+#: Keys that mean something only with another key of their table: (key, needed key, why).
+ONLY_WITH = {"eye": (("amplitude_model", "age", "Hofstetter's amplitude for that age"),
+                     ("kind", "rx", "the explicit powers define the eye as written"),
+                     ("vertex_distance_mm", "rx",
+                      "the explicit powers define the eye as written"))}
+#: Pairs of keys of a table that exclude each other.
+NOT_WITH = {"eye": (("age", "accommodation_max_d"), ("pupil_diameter_mm", "luminance_cd_m2")),
+            "binocular": (("pd_mm", "monocular_pd_mm"),)}
+#: A key that excludes a group of others (the Rx or the explicit powers).
+EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d",
+                                                  "astigmatism_axis_deg")}}
+#: Every field's range but the renderers' own options (:func:`range_of` has those).
+LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **View.LIMITS, **SPEC_LIMITS}
+
+
+def declared(field_name: str) -> str:
+    """The schema's name of a field as a parser writes it: an element index, a side's
+    table and a point's index dropped (``lens.right.decentration_mm[0]`` ->
+    ``lens.decentration_mm``, ``points[3].field_deg[1]`` -> ``points[0].field_deg``), a
+    surface key under the surface that declares it."""
+    name = re.sub(r"^points\[\d+\]", "points[0]", field_name)
+    name = re.sub(r"^(eye|lens)\.(right|left)\.", r"\1.", name)
+    if name not in LIMITS:                      # an element's own range, else the field's
+        name = re.sub(r"\[\d+\]$", "", name)
+    if name.startswith(("lens.front.", "lens.back.")) and name not in LIMITS:
+        other = name.replace("lens.front.", "lens.back.") if name.startswith("lens.front.") \
+            else name.replace("lens.back.", "lens.front.")
+        name = other if other in LIMITS else name
+    return name
+
+
+def check(field_name: str, value, **kw) -> float:
+    """``value`` checked against the declared range of ``field_name`` (:func:`declared`),
+    the error naming ``field_name`` as written."""
+    lo, hi = LIMITS[declared(field_name)]
+    return check_range(field_name, value, lo, hi, **kw)
+
+
+def range_of(field_name: str, renderer: str = "all") -> tuple:
+    """(lo, hi) of a field (``"eye.pupil_diameter_mm"``; a ``[render]`` option of one
+    renderer with ``renderer``)."""
+    if field_name in LIMITS:
+        return LIMITS[field_name]
+    if renderer != "all":
+        return QUALITIES[renderer].LIMITS[field_name]
+    raise KeyError(field_name)
+
+
+RX_EYE = {"eye": {"rx": "-2.00 DS"}}
+IB = {"render": {"renderer": "imagebased"}}
+RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
+SURFACES = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                     "back": {"type": "sphere", "radius_mm": 80.0},
+                     "center_thickness_mm": 2.0}}
+TORIC = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
+                  "back": {"type": "toric", "radius_x_mm": 80.0, "radius_y_mm": 70.0},
+                  "center_thickness_mm": 2.0}}
+
+
+@dataclass(frozen=True)
+class Key:
+    """One spec key. ``kind``: number, integer, boolean, choice, pair, triple, text;
+    ``lo``/``hi``: the range of a number or integer (each element of a pair or triple);
+    ``choices``: a choice's values; ``base``: the rest of a spec the key needs to be read;
+    ``edges``: False where a value at the range's ends is refused for another reason (a
+    too-steep lens), so only values beyond the range are tested; ``renderer`` for
+    ``[render]`` keys: "all" (every renderer) or one renderer's name."""
+
+    table: str
+    key: str
+    kind: str
+    unit: str
+    default: str
+    meaning: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    choices: tuple = ()
+    base: dict = field(default_factory=dict)
+    edges: bool = True
+    renderer: str = "all"
+    range_text: str = ""
+    integers: bool = False
+
+    def __post_init__(self):
+        if self.lo is None and not self.choices and self.kind not in ("text", "boolean"):
+            lo, hi = range_of(f"{self.table}.{self.key}", self.renderer)
+            object.__setattr__(self, "lo", lo)
+            object.__setattr__(self, "hi", hi)
+
+    def range(self) -> str:
+        if self.range_text:
+            return self.range_text
+        if self.choices:
+            return ", ".join(f'`"{c}"`' for c in self.choices)
+        if self.lo is None:
+            return ""
+        lo = "" if self.lo_open else _num(self.lo)
+        return f"{'> ' + _num(self.lo) + ', ≤ ' if self.lo_open else lo + '–'}{_num(self.hi)}"
+
+
+def _num(v) -> str:
+    if v == 2**63 - 1:
+        return "2⁶³ − 1"
+    if abs(v) >= 1e5 and math.log10(abs(v)).is_integer():
+        return f"{'−' if v < 0 else ''}1e{int(math.log10(abs(v)))}"
+    return f"{v:g}".replace("-", "−")
+
+
+def _choice(values):
+    return tuple(values)
+
+
+KEYS = [
+    # ------------------------------------------------------------------- [eye]
+    Key("eye", "rx", "text", "", "none (an emmetrope)",
+        "the eye's refraction as a clinician's spectacle Rx, at `vertex_distance_mm`",
+        range_text="the Rx grammar below; sphere ±30, cylinder ±12, add 0–4 D"),
+    Key("eye", "kind", "choice", "", '`"refractive"`', "with `rx`: which part of the eye "
+        "carries the error (axial: the length, for the spherical equivalent)",
+        choices=EYE_KINDS, base=RX_EYE),
+    Key("eye", "vertex_distance_mm", "number", "mm", "12", "with `rx`: where the Rx is "
+        "worn", base=RX_EYE),
+    Key("eye", "power_min_d", "number", "D", "58.635", "without `rx`: the weaker "
+        "meridian's relaxed power"),
+    Key("eye", "astigmatism_d", "number", "D", "0", "without `rx`: the stronger meridian's "
+        "excess"),
+    Key("eye", "astigmatism_axis_deg", "number", "deg", "0", "without `rx`: the stronger "
+        "meridian's direction, counter-clockwise from the wearer's right seen from behind"),
+    Key("eye", "age", "number", "years", "none", "accommodation amplitude by Hofstetter's "
+        "formula (instead of `accommodation_max_d`)"),
+    Key("eye", "amplitude_model", "choice", "", '`"mean"`', "with `age`: Hofstetter's "
+        "minimum, mean or maximum", choices=_choice(AMPLITUDE_MODELS), base={"eye": {
+            "age": 40}}),
+    Key("eye", "accommodation_max_d", "number", "D", "11.93", "amplitude of accommodation"),
+    Key("eye", "pupil_diameter_mm", "number", "mm", "4", "entrance pupil"),
+    Key("eye", "luminance_cd_m2", "number", "cd/m²", "none", "the pupil from the "
+        "luminance (Watson & Yellott 2012), instead of `pupil_diameter_mm`",
+        lo_open=True),
+    Key("eye", "retina_distance_mm", "number", "mm", "22.785", "thin eye lens to retina"),
+    Key("eye", "n_vitreous", "number", "", "1.336", "refractive index behind the eye lens"),
+    Key("eye", "rotation_centre_mm", "number", "mm", "13.5", "pupil to the centre of "
+        "rotation"),
+    Key("eye", "accommodation_d", "number", "D", '`"auto"`', "the eye's accommodation for "
+        'every job (analyze, render, inspect, batch): `"auto"` = best effort per point '
+        "(Kakimoto Eq. 13), or a fixed value (the eye gives at most its amplitude); was "
+        "`analysis.accommodation_d` and `render.focus_d`"),
+    Key("eye", "chromatic", "boolean", "", "true", "the eye's own chromatic aberration "
+        "(Thibos et al. 1992), refraction at the d line"),
+    # ------------------------------------------------------------------ [lens]
+    Key("lens", "rx", "text", "", "`eye.rx`", "the prescription the lens is made for",
+        range_text="the Rx grammar below"),
+    Key("lens", "material", "text", "", '`"cr39"`', "a catalogue name or a table "
+        "{n_d, v_d} (a lens from an Rx needs n_d ≥ 1.3; v_d ≥ 5 or inf)",
+        range_text=", ".join(f'`"{k}"`' for k in CATALOGUE if k != "air") + " (aliases "
+        + ", ".join(f'`"{k}"`' for k in ALIASES if "-" not in k) + "), {n_d, v_d}",
+        base=RX_LENS),
+    Key("lens", "base_curve_d", "number", "D", "Vogel's rule", "front surface power (at "
+        "the material's index); limited by the diameter's steepness",
+        base=RX_LENS, edges=False),
+    Key("lens", "center_thickness_mm", "number", "mm", "material minimum (minus), 1 mm "
+        "edge (plus)", "centre thickness; a lens is refused (with the thickness or diameter "
+        "that would work) unless its surfaces stay apart inside the diameter with an edge "
+        "of at least 1 mm, and a minus lens keeps its material's minimum centre", base=RX_LENS,
+        edges=False),
+    Key("lens", "diameter_mm", "number", "mm", "60 (less for strong lenses)", "round "
+        "lens diameter", base=RX_LENS),
+    Key("lens", "vertex_distance_mm", "number", "mm", "12", "back vertex to the cornea",
+        base=RX_LENS),
+    Key("lens", "pantoscopic_tilt_deg", "number", "deg", "0", "lower rim toward the "
+        "cheeks", base=RX_LENS),
+    Key("lens", "wrap_deg", "number", "deg", "0", "face-form wrap: the +x rim (a "
+        "right lens's temporal rim) toward the face", base=RX_LENS),
+    Key("lens", "decentration_mm", "pair", "mm", "[0, 0]", "optical centre offset [x, y]",
+        base=RX_LENS),
+    Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: which torus the toric back "
+        'surface is: `"y"` sweeps the circle of the meridian across the cylinder axis (the '
+        "steeper one of a minus-cylinder back: a tyre, the usual form), `\"x\"` that of "
+        "the meridian along the axis (a barrel)", choices=("x", "y"), base=RX_LENS),
+    Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
+        'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
+        base=RX_LENS),
+    Key("lens", "design", "choice", "", "required when the Rx has an add", "what the lens "
+        "is when the Rx has an add: a progressive addition lens, a single-vision lens for "
+        "its distance part, or one for sphere + add (reading glasses); never chosen "
+        "silently", choices=("progressive", "single-vision", "near"),
+        base={"lens": {"rx": "+0.50 DS add +2.25"}}),
+    Key("lens", "corridor_mm", "number", "mm", "14", "progressive: fitting cross to the "
+        "foot of the corridor (near reference point 2 mm below)",
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "inset_mm", "number", "mm", "2.5", "progressive: nasal shift of the near "
+        "zone (nasal: the eye from the Rx's R/L, right by default)",
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "softness_mm", "number", "mm", "8", "progressive: lateral half-width over "
+        "which the add fades beside the corridor (small: a hard design)",
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
+        "[lens.front] and [lens.back] (both, with `center_thickness_mm`); a surface steeper "
+        "than a hemisphere inside the diameter is refused naming `diameter_mm`",
+        range_text="a surface table"),
+    Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
+    # ------------------------------------------------ [lens.front] / [lens.back]
+    Key("lens.front", "type", "choice", "", '`"sphere"`', "surface shape",
+        choices=("sphere", "plane", "asphere", "conic", "toric"), base=SURFACES),
+    Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
+        "`radius_mm`)", base={"lens": {"front": {"type": "sphere"},
+                                                  "back": {"type": "plane"},
+                                                  "center_thickness_mm": 2.0}}, edges=False),
+    Key("lens.front", "radius_mm", "number", "mm", "none", "vertex radius, not 0 (or "
+        "`curvature`)", base=SURFACES, edges=False),
+    Key("lens.front", "conic", "number", "", "0", "conic constant",
+        base=SURFACES, edges=False),
+    Key("lens.front", "coefficients", "text", "1/m³, 1/m⁵, …", "[]", "aspheric "
+        "coefficients [A4, A6, …] of the sag polynomial",
+        range_text="numbers within ±1e12", base=SURFACES),
+    Key("lens.back", "curvature_x", "number", "1/m", "0", "toric: curvature along x "
+        "before rotation (or `radius_x_mm`)", base={"lens": {
+            "front": {"type": "sphere"}, "back": {"type": "toric"},
+            "center_thickness_mm": 2.0}}, edges=False),
+    Key("lens.back", "curvature_y", "number", "1/m", "0", "toric: curvature along y (or "
+        "`radius_y_mm`)", base={"lens": {
+            "front": {"type": "sphere"}, "back": {"type": "toric"},
+            "center_thickness_mm": 2.0}}, edges=False),
+    Key("lens.back", "radius_x_mm", "number", "mm", "none", "toric: radius along x", base=TORIC,
+        edges=False),
+    Key("lens.back", "radius_y_mm", "number", "mm", "none", "toric: radius along y", base=TORIC,
+        edges=False),
+    Key("lens.back", "axis_deg", "number", "deg", "0", "toric: rotation of its x axis", base=TORIC),
+    Key("lens.back", "revolve", "choice", "", '`"y"`', 'toric: `"y"` sweeps the y′ section '
+        "(curvature_y) about an axis parallel to y′ through the x′ centre of curvature — a "
+        "tyre when curvature_y is the steeper, a barrel when the flatter; `\"x\"` the same "
+        "with x′ and y′ exchanged", choices=("x", "y"), base=TORIC),
+    # -------------------------------------------------------------- [analysis]
+    Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength `analyze` "
+        "traces (renders trace R, G, B at 656.27, 546.07, 486.13 nm)"),
+    Key("analysis", "fixation", "choice", "", '`"fixed"`', "for `analyze`: pupil fixed at "
+        "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
+        "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",
+        choices=FIXATIONS),
+    Key("analysis", "vertex_sphere", "choice", "", '`"rotation_centre"`', "the sphere "
+        "through the lens's back vertex that `analyze` reports the wave on: centred on the "
+        "eye's centre of rotation (radius vertex distance + 13.5 mm: the designer's) or on "
+        "the pupil (radius the vertex distance)", choices=VERTEX_SPHERES),
+    # ------------------------------------------------------------- [binocular]
+    Key("binocular", "pd_mm", "number", "mm", "64", "interpupillary distance (pupil "
+        "centres, primary gaze), split evenly about the midline"),
+    Key("binocular", "monocular_pd_mm", "pair", "mm", "none", "[right, left] pupil centre "
+        "to midline instead of `pd_mm`"),
+    Key("binocular", "frame_pd_mm", "number", "mm", "none (each lens centred on its pupil)",
+        "distance between the lenses' optical centres, centred on the midline: a frame PD "
+        "under the PD decentres both lenses nasally (induced prism)",
+        base={"lens": {"rx": "-2.00 DS"}}),
+    Key("binocular", "fixation_distance_m", "number", "m", '`"inf"`', "the fixated point's "
+        "distance from the midpoint of the eyes' centres of rotation, along "
+        '`render.gaze_deg` (or `"inf"`: parallel lines of sight); both eyes turn to it'),
+    Key("binocular", "output", "choice", "", '`"side-by-side"`', "what `eyelab render` "
+        "writes: left eye's view left (parallel viewing), crossed, Dubois red/cyan anaglyph, "
+        "or one eye", choices=("side-by-side", "crossed", "anaglyph", "right", "left")),
+    # -------------------------------------------------------------- [[points]]
+    Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
+        'pupil, or `"inf"`', base={"points": [{}]}),
+    Key("points[0]", "field_deg", "pair", "deg", "[0, 0]", "field angles [x, y]: x > 0 "
+        "to the wearer's right, y > 0 up", base={"points": [{}]}),
+    Key("points[0]", "field_polar_deg", "pair", "deg", "none", "the field as [θ, φ] instead: "
+        "eccentricity from straight ahead (0–80) and azimuth counter-clockwise from the "
+        "wearer's right (±360)", range_text="θ 0–80, φ ±360",
+        base={"points": [{}]}),
+    Key("points[0]", "position_m", "triple", "m", "none", "the point [x, y, z] instead of "
+        "distance and field (not [0, 0, 0])", base={"points": [{}]},
+        edges=False),
+    # ---------------------------------------------------------------- [render]
+    Key("render", "scene", "text", "", '`"room"`', "what is looked at: a built-in scene, a "
+        "mesh file, or a table placing a mesh file (below)",
+        range_text=", ".join(f'`"{n}"`' for n in SCENE_NAMES) + ", a path, a table"),
+    Key("render", "renderer", "choice", "", '`"raster"`', "Kakimoto's blur-field raster "
+        "renderer, the distribution ray tracer, or Heidrich's image-based lens model",
+        choices=("raster", "reference", "imagebased")),
+    Key("render", "background", "triple", "sRGB 0–255", "the scene's (white for a mesh "
+        "file)", "colour where no mesh is", integers=True),
+    Key("render", "width", "integer", "px", "640", "image width (width / height in "
+        "0.05–20)", base={"render": {"height": 256}}),
+    Key("render", "height", "integer", "px", "480", "image height",
+        base={"render": {"width": 256}}),
+    Key("render", "fov_y_deg", "number", "deg", "60", "vertical field of view"),
+    Key("render", "near_m", "number", "m", "0.05", "near clipping depth from the pupil"),
+    Key("render", "far_m", "number", "m", "100", "far clipping depth (> near_m)", edges=False),
+
+    Key("render", "cvd", "choice", "", "none", "colour-vision deficiency (Machado 2009)",
+        choices=CVD_KINDS),
+    Key("render", "cvd_severity", "number", "", "1", "its severity"),
+    Key("render", "gaze_deg", "pair", "deg", "[0, 0]", "the eye turned [right, up] about "
+        "its centre of rotation behind the head-fixed lens"),
+    Key("render", "chromatic", "boolean", "", "true", "each colour channel with its own "
+        "light paths and blur (C, e, F lines) where the lens disperses or the eye has its "
+        "own chromatic aberration; false: one wavelength"),
+    Key("render", "samples", "integer", "", "10", "passes S",
+        renderer="raster", base={"render": {"renderer": "raster"}}),
+    Key("render", "field_shape", "triple", "voxels", "[128, 32, 32]", "blur-field grid "
+        "[nz, ny, nx] (integers)", renderer="raster", integers=True,
+        base={"render": {"renderer": "raster", "field_shape": [8, 8, 8]}}),
+    Key("render", "depth_mode", "choice", "", '`"ndc"`', "slices uniform in NDC z "
+        "(dioptres) or in metres", choices=("ndc", "linear"), renderer="raster"),
+    Key("render", "refine", "boolean", "", "true", "adaptive tessellation where the field "
+        "is not linear along edges", renderer="raster"),
+    Key("render", "reconstruct", "boolean", "", "false", "per-pixel blur-shaped Gaussian "
+        "reconstruction against ghosting, variance-compensated (the blur's size kept)",
+        renderer="raster"),
+    Key("render", "antialias", "boolean", "", "true", "a sub-pixel jitter per pass",
+        renderer="raster"),
+    Key("render", "skip_unneeded", "boolean", "", "true", "skip passes the frame does not "
+        "need", renderer="raster"),
+    Key("render", "field_route", "choice", "", '`"texture"`', "field sampled in the "
+        "vertex shader or per vertex on the CPU", choices=FIELD_ROUTES, renderer="raster"),
+    Key("render", "lens_rings", "integer", "", "24", "lens outline mesh: rings",
+        renderer="raster"),
+    Key("render", "lens_segments", "integer", "", "96", "lens outline mesh: segments",
+        renderer="raster"),
+    Key("render", "lens_grid_px", "integer", "px", "8", "spacing of the lens mesh that "
+        "carries texture coordinates", renderer="raster"),
+    Key("render", "env_oversample", "number", "", "1.5", "environment-image density "
+        "relative to the eye view's", renderer="raster"),
+    Key("render", "rim_color", "triple", "sRGB 0–255", "[30, 30, 30]", "the lens rim",
+        renderer="raster", integers=True),
+    Key("render", "invalid_color", "triple", "sRGB 0–255", "[128, 128, 128]", "pixels "
+        "whose rays fail in the lens", renderer="raster", integers=True),
+    Key("render", "samples", "integer", "", "64", "rays per pixel and colour channel",
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "model", "choice", "", '`"thin"`', "Kakimoto's thin toric eye or Fons "
+        "et al.'s reduced-eye sampling", choices=MODELS, renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    Key("render", "fons_n", "integer", "", "4", "radii of the Fons pupil pattern",
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "fons_m", "integer", "", "8", "diameters of the Fons pupil pattern",
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "seed", "integer", "", "0", "per-pixel rotations and jitter "
+        "(deterministic)", renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    Key("render", "workers", "integer", "", "every core", "threads",
+        renderer="reference", base={"render": {"renderer": "reference"}}),
+    Key("render", "accommodation", "choice", "", '`"eq13"`', "per-pixel accommodation: "
+        "Eq. 13 (as the blur field) or the real-ray retinal spot's RMS minimum",
+        choices=ACCOMMODATION_RULES, renderer="reference",
+        base={"render": {"renderer": "reference"}}),
+    Key("render", "samples", "integer", "", "10", "lens (pupil) sample points, each a set "
+        "of perspective renders", renderer="imagebased", base=IB),
+    Key("render", "grid", "integer", "", "10", "film grid quads per side of each "
+        "quad-tree cell", renderer="imagebased", base=IB),
+    Key("render", "angle_threshold_deg", "number", "deg", "0.05", "split a cell while a "
+        "traced ray and its projection's ray part by more",
+        renderer="imagebased", base=IB),
+    Key("render", "max_depth", "integer", "", "3", "deepest quad-tree level",
+        renderer="imagebased", base=IB),
+    Key("render", "cop", "choice", "", '`"angle"`', "centre of projection: maximum sum "
+        "cos² (Heidrich §3.3) or least-squares distance", choices=COP_FITS,
+        renderer="imagebased", base=IB),
+    Key("render", "oversample", "number", "", "2", "slice pixels per film pixel",
+        renderer="imagebased", base=IB),
+    Key("render", "max_slice", "integer", "px", "2048", "largest slice side",
+        renderer="imagebased", base=IB),
+    Key("render", "radiometry", "choice", "", '`"auto"`', "film irradiance (Eq. 3; a "
+        "camera's vignetting shows), radiance (Eq. 3 over sum W: what an eye sees), or "
+        "auto (irradiance for a camera, radiance for an eye)", choices=RADIOMETRY,
+        renderer="imagebased", base=IB),
+    *(k for r in ("reference", "imagebased") for k in (
+        Key("render", "camera", "choice", "", "none (the eye)", "a camera lens sees the "
+            "scene instead of the eye (no [eye], [lens] or [binocular] with it): Thorlabs "
+            "AC254-050-A achromatic doublet or LB1471-A biconvex lens, f 50 mm",
+            choices=("biconvex", "doublet"), renderer=r, base={"render": {"renderer": r}}),
+        Key("render", "camera_focus_m", "number", "m", '`"inf"`', "object distance in "
+            "focus, from the first vertex", renderer=r,
+            base={"render": {"renderer": r, "camera": "doublet"}}),
+        Key("render", "camera_f_number", "number", "", "full aperture", "the stop closed "
+            "to f / this diameter (full aperture: doublet 2.19, biconvex 2.18)", renderer=r,
+            range_text="full aperture–64",
+            base={"render": {"renderer": r, "camera": "doublet"}}))),
+    # ---------------------------------------------------------- [render.scene]
+    Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
+        "reads; relative to the spec) or a built-in scene's name",
+        range_text="an existing file or a built-in name"),
+    Key("render.scene", "distance_m", "number", "m", "6", 'the built-in chart\'s distance '
+        '(path = `"chart"` only)', base={"render": {"scene": {"path": "chart"}}}),
+    Key("render.scene", "contrast", "number", "", "1", "the built-in chart's Weber "
+        "contrast, in linear light (1: black letters)",
+        base={"render": {"scene": {"path": "chart"}}}),
+    Key("render.scene", "units", "choice", "", '`"m"`', "the file's length unit",
+        choices=tuple(UNITS), base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "scale", "number", "", "1", "a further scale factor",
+        lo_open=True, base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "rotation_deg", "triple", "deg", "[0, 0, 0]", "rotations about x, "
+        "then y, then z (world axes)",
+        base={"render": {"scene": {"path": "room"}}}),
+    Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
+        "goes (the pupil is at the origin, looking along −z)",
+        base={"render": {"scene": {"path": "room"}}}),
+]
+
+#: Headings of the generated tables, in order.
+TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
+          "lens.front": "`[lens.front]`, `[lens.back]` (surfaces; the toric keys below "
+          "apply to either)", "lens.back": None,
+          "analysis": "`[analysis]`",
+          "binocular": "`[binocular]` (two eyes; with it, or alone, `[eye.right]`, "
+          "`[eye.left]`, `[lens.right]` and `[lens.left]` hold any key of their table for "
+          "one side over the shared `[eye]` / `[lens]` value — `eye.accommodation_d` only "
+          "in `[eye]`: accommodation is consensual)",
+          "points[0]": "`[[points]]` (one table per point)",
+          "render": "`[render]`", "render.scene": "`[render] scene = {…}` (a mesh file "
+          "placed in the world: a vertex v goes to R_z R_y R_x (units × scale × v) + "
+          "position_m)"}
