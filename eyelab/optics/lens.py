@@ -26,7 +26,7 @@ from eyelab.core.errors import SpecError
 from eyelab.optics.fresnel import COATINGS, transmittance
 from eyelab.optics.materials import Material, get_material
 from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Asphere, Surface, Toric
+from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
 from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
 
 #: Minimum centre thickness of minus lenses by material (m) (SCIENCE.md §7, lab practice).
@@ -358,7 +358,7 @@ def _design_material(rx: Prescription, material, torus) -> Material:
     if not MIN_LENS_INDEX <= mat.n_d:
         raise SpecError("lens.material", f"a lens made from a prescription needs n_d in "
                         f"[{MIN_LENS_INDEX}, 2.5], got {mat.n_d:g} ({mat.name})")
-    if not isinstance(torus, str) or torus not in ("x", "y"):
+    if not isinstance(torus, str) or torus not in REVOLVE_AXES:
         raise SpecError("lens.torus", f"must be 'x' or 'y', got {torus!r}")
     return mat
 

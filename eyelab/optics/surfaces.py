@@ -21,6 +21,9 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 
+#: The axes a toric's section can be swept about (its "revolve"; a lens's "torus").
+REVOLVE_AXES = ("x", "y")
+
 
 @dataclass(frozen=True)
 class SagDerivatives:
@@ -190,7 +193,7 @@ class Toric(Surface):
     revolve: str = "y"
 
     def __post_init__(self):
-        if self.revolve not in ("x", "y"):
+        if self.revolve not in REVOLVE_AXES:
             raise SpecError("toric.revolve", f"must be 'x' or 'y', got {self.revolve!r}")
 
     @property

@@ -25,8 +25,8 @@ from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens, chec
 from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Asphere, Surface, Toric
-from eyelab.spec.schema import check
+from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
+from eyelab.spec.schema import LENS_DESIGNS, SURFACE_TYPES, check
 from eyelab.spec.tables import check_keys, check_rules, number, rx_value
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
@@ -37,9 +37,6 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
              "softness_mm"}
-#: Lens designs an Rx with an add can be made into: its distance part, its near
-#: prescription (sphere + add: reading glasses), or a progressive addition lens.
-LENS_DESIGNS = ("single-vision", "near", "progressive")
 #: Keys only a progressive design takes.
 PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
@@ -149,7 +146,7 @@ def _surface(t, where) -> Surface:
             return 1e3 / r
         return check(f"{where}.{ck}", t.get(ck, 0.0))
 
-    if kind in ("sphere", "plane", "asphere", "conic"):
+    if kind in SURFACE_TYPES[:4]:
         c = 0.0 if kind == "plane" else curv("curvature", "radius_mm")
         k = check(f"{where}.conic", t.get("conic", 0.0))
         coeffs = t.get("coefficients", [])
@@ -163,10 +160,10 @@ def _surface(t, where) -> Surface:
         cy = curv("curvature_y", "radius_y_mm")
         ax = math.radians(check(f"{where}.axis_deg", t.get("axis_deg", 0.0)))
         rev = t.get("revolve", "y")
-        if rev not in ("x", "y"):
+        if rev not in REVOLVE_AXES:
             raise SpecError(f"{where}.revolve", f"must be 'x' or 'y', got {rev!r}")
         return Toric(cx, cy, ax, rev)
-    raise SpecError(f"{where}.type", f"must be one of sphere, plane, asphere, toric; got {kind!r}")
+    raise SpecError(f"{where}.type", f"must be one of {', '.join(SURFACE_TYPES)}; got {kind!r}")
 
 
 def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
@@ -188,7 +185,7 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
     if "front" in t or "back" in t:
         return _explicit_lens(t, material, pose, ct, diam)
     if "torus" in t:
-        check_choice("lens.torus", t["torus"], ("x", "y"))
+        check_choice("lens.torus", t["torus"], REVOLVE_AXES)
     rx = _lens_rx(t, eye_rx)
     if t.get("design") == "progressive":
         return _progressive(t, rx, material, pose, diam, side)

@@ -25,11 +25,13 @@ from eyelab.imaging.contract import View
 from eyelab.imaging.options import (
     ACCOMMODATION_RULES,
     COP_FITS,
+    DEPTH_MODES,
     FIELD_ROUTES,
     MODELS,
     RADIOMETRY,
 )
-from eyelab.imaging.registry import QUALITIES
+from eyelab.imaging.registry import QUALITIES, RENDERERS
+from eyelab.imaging.stereo import OUTPUTS
 from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
 from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS
 from eyelab.optics.eye import LIMITS as EYE_LIMITS
@@ -37,12 +39,18 @@ from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.lens import LIMITS as LENS_LIMITS
 from eyelab.optics.materials import ALIASES, CATALOGUE
 from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
-from eyelab.optics.system import full_f_number, get_system
+from eyelab.optics.surfaces import REVOLVE_AXES
+from eyelab.optics.system import EXAMPLES, full_f_number, get_system
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
 
 #: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
 DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
+#: Lens designs an Rx with an add can be made into: its distance part, its near
+#: prescription (sphere + add: reading glasses), or a progressive addition lens.
+LENS_DESIGNS = ("single-vision", "near", "progressive")
+#: Surface types of [lens.front] / [lens.back].
+SURFACE_TYPES = ("sphere", "plane", "asphere", "conic", "toric")
 #: Ranges only the spec knows (what a user may write where the engine takes another form,
 #: or checks nothing), by field, in the spec's units.
 SPEC_LIMITS = {
@@ -243,14 +251,14 @@ KEYS = [
     Key("lens", "torus", "choice", "", '`"y"`', "with `rx`: which torus the toric back "
         'surface is: `"y"` sweeps the circle of the meridian across the cylinder axis (the '
         "steeper one of a minus-cylinder back: a tyre, the usual form), `\"x\"` that of "
-        "the meridian along the axis (a barrel)", choices=("x", "y"), base=RX_LENS),
+        "the meridian along the axis (a barrel)", choices=REVOLVE_AXES, base=RX_LENS),
     Key("lens", "coating", "choice", "", '`"none"`', "Fresnel reflection of bare surfaces, "
         'or `"ar"`: 0.5 % residual reflectance per surface', choices=COATINGS,
         base=RX_LENS),
     Key("lens", "design", "choice", "", "required when the Rx has an add", "what the lens "
         "is when the Rx has an add: a progressive addition lens, a single-vision lens for "
         "its distance part, or one for sphere + add (reading glasses); never chosen "
-        "silently", choices=("progressive", "single-vision", "near"),
+        "silently", choices=LENS_DESIGNS,
         base={"lens": {"rx": "+0.50 DS add +2.25"}}),
     Key("lens", "corridor_mm", "number", "mm", "14", "progressive: fitting cross to the "
         "foot of the corridor (near reference point 2 mm below)",
@@ -268,7 +276,7 @@ KEYS = [
     Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
     # ------------------------------------------------ [lens.front] / [lens.back]
     Key("lens.front", "type", "choice", "", '`"sphere"`', "surface shape",
-        choices=("sphere", "plane", "asphere", "conic", "toric"), base=SURFACES),
+        choices=SURFACE_TYPES, base=SURFACES),
     Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
         "`radius_mm`)", base={"lens": {"front": {"type": "sphere"},
                                                   "back": {"type": "plane"},
@@ -296,7 +304,7 @@ KEYS = [
     Key("lens.back", "revolve", "choice", "", '`"y"`', 'toric: `"y"` sweeps the y′ section '
         "(curvature_y) about an axis parallel to y′ through the x′ centre of curvature — a "
         "tyre when curvature_y is the steeper, a barrel when the flatter; `\"x\"` the same "
-        "with x′ and y′ exchanged", choices=("x", "y"), base=TORIC),
+        "with x′ and y′ exchanged", choices=REVOLVE_AXES, base=TORIC),
     # -------------------------------------------------------------- [analysis]
     Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength `analyze` "
         "traces (renders trace R, G, B at 656.27, 546.07, 486.13 nm)"),
@@ -322,7 +330,7 @@ KEYS = [
         '`render.gaze_deg` (or `"inf"`: parallel lines of sight); both eyes turn to it'),
     Key("binocular", "output", "choice", "", '`"side-by-side"`', "what `eyelab render` "
         "writes: left eye's view left (parallel viewing), crossed, Dubois red/cyan anaglyph, "
-        "or one eye", choices=("side-by-side", "crossed", "anaglyph", "right", "left")),
+        "or one eye", choices=OUTPUTS),
     # -------------------------------------------------------------- [[points]]
     Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
         'pupil, or `"inf"`', base={"points": [{}]}),
@@ -341,7 +349,7 @@ KEYS = [
         range_text=", ".join(f'`"{n}"`' for n in SCENE_NAMES) + ", a path, a table"),
     Key("render", "renderer", "choice", "", '`"raster"`', "Kakimoto's blur-field raster "
         "renderer, the distribution ray tracer, or Heidrich's image-based lens model",
-        choices=("raster", "reference", "imagebased")),
+        choices=RENDERERS),
     Key("render", "background", "triple", "sRGB 0–255", "the scene's (white for a mesh "
         "file)", "colour where no mesh is", integers=True),
     Key("render", "width", "integer", "px", "640", "image width (width / height in "
@@ -366,7 +374,7 @@ KEYS = [
         "[nz, ny, nx] (integers)", renderer="raster", integers=True,
         base={"render": {"renderer": "raster", "field_shape": [8, 8, 8]}}),
     Key("render", "depth_mode", "choice", "", '`"ndc"`', "slices uniform in NDC z "
-        "(dioptres) or in metres", choices=("ndc", "linear"), renderer="raster"),
+        "(dioptres) or in metres", choices=DEPTH_MODES, renderer="raster"),
     Key("render", "refine", "boolean", "", "true", "adaptive tessellation where the field "
         "is not linear along edges", renderer="raster"),
     Key("render", "reconstruct", "boolean", "", "false", "per-pixel blur-shaped Gaussian "
@@ -432,7 +440,7 @@ KEYS = [
         Key("render", "camera", "choice", "", "none (the eye)", "a camera lens sees the "
             "scene instead of the eye (no [eye], [lens] or [binocular] with it): Thorlabs "
             "AC254-050-A achromatic doublet or LB1471-A biconvex lens, f 50 mm",
-            choices=("biconvex", "doublet"), renderer=r, base={"render": {"renderer": r}}),
+            choices=tuple(EXAMPLES), renderer=r, base={"render": {"renderer": r}}),
         Key("render", "camera_focus_m", "number", "m", '`"inf"`', "object distance in "
             "focus, from the first vertex", renderer=r,
             base={"render": {"renderer": r, "camera": "doublet"}}),
