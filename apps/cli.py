@@ -96,8 +96,11 @@ def _render_overrides(parser) -> None:
 def main(argv=None) -> int:
     ap = _build_parser()
     args = ap.parse_args(argv)
+    from eyelab.imaging.memory import memory_limit_scope
+
     try:
-        rc = _main(args)
+        with memory_limit_scope():    # --max-memory lasts for this command only
+            rc = _main(args)
         sys.stdout.flush()        # a closed pipe shows here, not at interpreter exit
         return rc
     except BrokenPipeError:

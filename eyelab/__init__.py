@@ -17,6 +17,7 @@ Functions: :func:`render`, :func:`analyze`, :func:`maps`, :func:`load_spec`,
 
 from __future__ import annotations
 
+import functools
 import importlib
 import sys
 import types
@@ -51,6 +52,8 @@ __all__ = ["__version__", *_API]
 def __getattr__(name: str):
     if name in _API:
         value = getattr(importlib.import_module(_API[name]), name)
+        if name == "render":
+            value = _RenderEntry(value)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'eyelab' has no attribute {name!r}")
@@ -60,11 +63,32 @@ def __dir__():
     return sorted(set(globals()) | set(_API))
 
 
+class _RenderEntry:
+    """``eyelab.render``: the function :func:`eyelab.jobs.api.render` when called, the GL
+    package :mod:`eyelab.render` for attributes — so ``eyelab.render(spec)``, ``import
+    eyelab.render.raster as m``, ``from eyelab.render import raster`` and
+    ``mock.patch("eyelab.render.raster.X")`` all work under the one name."""
+
+    def __init__(self, function):
+        functools.update_wrapper(self, function)
+
+    def __call__(self, *args, **kwargs):
+        return self.__wrapped__(*args, **kwargs)
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(importlib.import_module("eyelab.render"), name)
+
+    def __repr__(self) -> str:
+        return "<function eyelab.render (and the package eyelab.render)>"
+
+
 class _Package(types.ModuleType):
     """``eyelab`` itself: importing the subpackage ``eyelab.render`` (the GL renderers)
     binds it as an attribute of the package, which would hide the function
-    :func:`render`; the function stays (the subpackage is reached by ``import
-    eyelab.render.raster`` or ``from eyelab.render import ...``)."""
+    :func:`render`; the function stays and reaches the package's attributes
+    (:class:`_RenderEntry`)."""
 
     def __setattr__(self, name, value):
         if name in _API and isinstance(value, types.ModuleType):

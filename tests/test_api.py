@@ -61,6 +61,19 @@ def test_render_stays_callable_after_the_gl_package_is_imported():
     from eyelab.render import raster
 
     assert raster.RasterRenderer.name == "raster"
+    import eyelab.render.raster as by_as
+
+    assert by_as is raster
+    from unittest import mock
+
+    with mock.patch("eyelab.render.raster.RasterRenderer.name", "patched"):
+        assert raster.RasterRenderer.name == "patched"
+    import inspect
+
+    from eyelab.jobs.api import render
+
+    assert inspect.signature(eyelab.render) == inspect.signature(render)
+    assert eyelab.render.__doc__ == render.__doc__
 
 
 def test_every_spec_form_gives_the_same_image():

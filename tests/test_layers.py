@@ -31,8 +31,8 @@ LAYERS = (
     ("eyelab.apps", "eyelab.data_generators"),
 )
 #: The package's own top modules: ``eyelab/__init__.py`` (the public API, whose heavy names
-#: are imported lazily inside functions) sits above everything; ``__main__`` too.
-TOP = ("eyelab", "eyelab.__main__")
+#: are imported lazily inside functions) sits above everything.
+TOP = ("eyelab",)
 GL = ("vtk", "vtkmodules", "pyvista")
 
 

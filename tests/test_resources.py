@@ -4,6 +4,7 @@ spec over the limit is refused naming its largest part, and the limit can be set
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -53,6 +54,17 @@ def test_over_the_limit_is_refused_before_any_work(tmp_path, capsys):
     assert main(["render", str(spec), "-o", str(out)]) == 2
     assert capsys.readouterr().err.startswith("eyelab: error: render.field_shape:")
     assert not out.exists()
+
+
+def test_the_flag_lasts_for_its_command_only(tmp_path, monkeypatch):
+    monkeypatch.delenv("EYELAB_MAX_MEMORY_GB", raising=False)
+    assert main(["render", "-o", str(tmp_path / "o.png"), "--width", "2048",
+                 "--height", "2048", "--max-memory", "1"]) == 2
+    assert "EYELAB_MAX_MEMORY_GB" not in os.environ
+    monkeypatch.setenv("EYELAB_MAX_MEMORY_GB", "7")
+    main(["render", "-o", str(tmp_path / "o.png"), "--width", "2048", "--height", "2048",
+          "--max-memory", "1"])
+    assert os.environ["EYELAB_MAX_MEMORY_GB"] == "7"
 
 
 def test_the_limit_from_flag_environment_or_machine(monkeypatch):

@@ -217,7 +217,6 @@ def _shifted(points, pupil):
     return ObjectPoints.from_positions(points - pupil)
 
 
-
 def _scene_mask(camera, shape, depth_mode, bounds):
     lo, hi = (np.asarray(b, float) for b in bounds)
     if lo.shape != (3,) or hi.shape != (3,) or np.any(hi < lo):

@@ -40,14 +40,6 @@ REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", 
                "cache", "details")
 
 
-
-
-
-
-
-
-
-
 @dataclass(frozen=True)
 class View:
     """What the eye looks at and how it focuses; the same for every renderer.

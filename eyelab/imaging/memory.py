@@ -23,6 +23,7 @@ before any work, naming the key that dominates the estimate.
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 from eyelab.core.checks import check_range
@@ -109,6 +110,20 @@ def set_memory_limit(max_memory_gb: float | None) -> None:
     if max_memory_gb is not None:
         memory_limit(max_memory_gb)
         os.environ[ENV_MAX_MEMORY] = repr(float(max_memory_gb))
+
+
+@contextlib.contextmanager
+def memory_limit_scope():
+    """Restore ``$EYELAB_MAX_MEMORY_GB`` on exit: a limit set by :func:`set_memory_limit`
+    inside the block (a command's ``--max-memory``) does not outlive it."""
+    before = os.environ.get(ENV_MAX_MEMORY)
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(ENV_MAX_MEMORY, None)
+        else:
+            os.environ[ENV_MAX_MEMORY] = before
 
 
 def check_render_memory(renderer: str, view, quality, limit: float | None = None) -> dict:

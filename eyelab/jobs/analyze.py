@@ -40,10 +40,6 @@ def _principal(wave, x_axis, i, lens=None):
     return out
 
 
-
-
-
-
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     """Run the chain for every point of ``spec``; returns a JSON-serialisable dict.
 

@@ -33,8 +33,9 @@ def with_render(spec: Spec, overrides: dict) -> Spec:
 
     if not overrides:
         return spec
-    if "gaze_deg" in overrides and overrides["gaze_deg"] is not None:
-        overrides = dict(overrides, gaze_deg=list(overrides["gaze_deg"]))
+    gaze = overrides.get("gaze_deg")
+    if isinstance(gaze, tuple):
+        overrides = dict(overrides, gaze_deg=list(gaze))   # as a TOML array; else checked as is
     return dataclasses.replace(spec, render=spec.render.with_changes(**overrides))
 
 

@@ -418,8 +418,6 @@ class InspectorModel:
         self.renderer.close()
 
 
-
-
 def write_state(model: InspectorModel, image_path, *, image=None) -> tuple:
     """Write the displayed view (PNG) and, beside it, the spec that reproduces it
     (``<stem>.toml``), each atomically. Returns the two paths."""

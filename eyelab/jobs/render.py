@@ -39,14 +39,6 @@ def build_scene(source) -> Scene:
     return scene
 
 
-
-
-
-
-
-
-
-
 def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
     """Render what the spec's eye sees (through its lens unless ``no_lens``) with the spec's
     renderer, view and quality (:class:`eyelab.spec.RenderSpec`); ``renderer`` reuses an
@@ -63,9 +55,9 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
 
 
 def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
-    """Both eyes of a binocular spec (:func:`eyelab.optics.binocular.render_binocular`) with the
-    spec's renderer, view and quality; ``renderer`` reuses an open renderer of that kind.
-    Returns a :class:`~eyelab.optics.binocular.BinocularResult`."""
+    """Both eyes of a binocular spec (:func:`eyelab.imaging.stereo.render_binocular`) with
+    the spec's renderer, view and quality; ``renderer`` reuses an open renderer of that
+    kind. Returns a :class:`~eyelab.imaging.stereo.BinocularResult`."""
     from eyelab.imaging.stereo import render_binocular
 
     rs = spec.render

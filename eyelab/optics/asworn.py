@@ -145,7 +145,3 @@ def _surface_maps(lens, res, ok, wavelength_nm) -> dict:
         out[f"{name}_mean_power_d"] = np.where(ok, 0.5 * (p1 + p2), np.nan)
         out[f"{name}_cylinder_d"] = np.where(ok, -np.abs(p1 - p2), np.nan)
     return out
-
-
-
-

@@ -8,7 +8,7 @@ wearer looking along -z. The right eye's pupil is at (+pd_right, 0, 0), the left
 (-pd_left, 0, 0) (monocular pupillary distances from the midline). Each eye is simulated
 by the single-eye machinery in its own frame (its pupil at the origin): the scene and the
 object points are moved by minus its pupil position, and its lens is posed relative to
-its pupil (:func:`eyelab.spec.parse_binocular` puts each lens's optical centre where the
+its pupil (:func:`eyelab.spec.sides.parse_binocular` puts each lens's optical centre where the
 frame PD says).
 
 Vergence: both eyes fixate one point, ``fixation_distance`` from the cyclopean centre of
@@ -255,11 +255,3 @@ def line_of_sight_prism(eye: Eye, lens, points: ObjectPoints, wavelength_nm=587.
     d_out = -f                                             # ... and after it, to the eye
     cos = np.clip(np.sum(d_in * d_out, axis=1), -1.0, 1.0)
     return 100.0 * np.tan(np.arccos(cos)), d_out - cos[:, None] * d_in, ok
-
-
-
-
-
-
-
-

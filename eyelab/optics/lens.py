@@ -33,13 +33,13 @@ from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
 MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
                         "polycarbonate": 1.5e-3, "mr8": 1.4e-3, "mr7": 1.2e-3,
                         "mr174": 1.5e-3}
-#: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
 #: The lens's ranges, by spec field, in the spec's units (mm, deg, D): what the engine
 #: accepts, and what the spec's schema documents and checks.
 LIMITS = {"lens.vertex_distance_mm": (5.0, 30.0), "lens.pantoscopic_tilt_deg": (-30.0, 30.0),
           "lens.wrap_deg": (-30.0, 30.0), "lens.decentration_mm": (-20.0, 20.0),
           "lens.center_thickness_mm": (0.2, 30.0), "lens.diameter_mm": (10.0, 90.0),
           "lens.base_curve_d": (-20.0, 30.0)}
+#: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
 MIN_EDGE_THICKNESS = 1.0e-3
 #: Lowest n_d of a lens made from a prescription (the lowest spectacle material is
 #: ~1.49; below 1.3 the surfaces of ordinary powers become hemispheres).

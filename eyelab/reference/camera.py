@@ -5,7 +5,7 @@ exactly through every surface and the stop (a vignetted ray carries nothing), th
 the scene; the film irradiance E(x') = A/n sum L W T (Heidrich Eq. 3 with many random
 samples; W = cos th' cos th'' / |x'' - x'|^2, T the surfaces' Fresnel transmission),
 normalised by the exact unvignetted, lossless value at the film centre
-(:meth:`eyelab.render.imagebased.plan.CameraRays.white_level`). The truth the image-based renderer's
+(:meth:`eyelab.optics.film.CameraRays.white_level`). The truth the image-based renderer's
 camera images are measured against; its approximations (perspective slices, morph, few
 lens samples) are absent here.
 """

@@ -204,7 +204,6 @@ class ReferenceRenderer(Renderer):
         return col, nrays, acc_diff
 
 
-
 def fons_pattern(n: int, m: int) -> np.ndarray:
     """(n m + 1, 2) pupil points of Fons et al. 2023, §3 and Fig. 4, in the unit disc.
 

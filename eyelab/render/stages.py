@@ -28,7 +28,6 @@ from eyelab.scene.raycast import EmbreeIntersector
 MIPMAP_BELOW_SAMPLES = 8
 
 
-
 def select_channel(st, c, route) -> None:
     """Make channel ``c``'s field and actors current in the stage's window."""
     win, items = st["win"], st["items"][c]
@@ -102,7 +101,6 @@ def progressive_checkpoints(samples):
         cps.append(k)
         k *= 2
     return cps + [samples]
-
 
 
 def lens_details(geo: dict, texcoord_sets: int, vcam) -> dict:

@@ -26,7 +26,7 @@ from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
-from eyelab.spec.schema import LENS_DESIGNS, SURFACE_TYPES, check
+from eyelab.spec.schema import LENS_DESIGNS, SURFACE_TYPES, SYMMETRIC_SURFACES, check
 from eyelab.spec.tables import check_keys, check_rules, number, rx_value
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
@@ -44,18 +44,6 @@ SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curv
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
 BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_m", "output"}
-
-
-
-
-
-
-
-
-
-
-
-
 
 
 def parse_eye(t: dict) -> Eye:
@@ -146,7 +134,7 @@ def _surface(t, where) -> Surface:
             return 1e3 / r
         return check(f"{where}.{ck}", t.get(ck, 0.0))
 
-    if kind in SURFACE_TYPES[:4]:
+    if kind in SYMMETRIC_SURFACES:
         c = 0.0 if kind == "plane" else curv("curvature", "radius_mm")
         k = check(f"{where}.conic", t.get("conic", 0.0))
         coeffs = t.get("coefficients", [])
@@ -328,35 +316,3 @@ def parse_points(items) -> ObjectPoints:
         dirs.append(op.direction[0])
         dists.append(dist)
     return ObjectPoints(np.array(dirs), np.array(dists, float))
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-

@@ -181,7 +181,7 @@ def parse_scene(value, background, base: Path | None) -> tuple:
     src = SceneSource(name, chart_distance_m=chart.get("distance_m"),
                       chart_contrast=chart.get("contrast"),
                       position_m=triple("position_m"),
-                      scale=check("render.scene.scale", table.get("scale", 1.0), lo_open=True),
+                      scale=check("render.scene.scale", table.get("scale", 1.0)),
                       rotation_deg=triple("rotation_deg"), units=units,
                       background=bg)
     return src, (dict(value, path=name) if isinstance(value, dict) else name)

@@ -50,7 +50,10 @@ DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
 #: prescription (sphere + add: reading glasses), or a progressive addition lens.
 LENS_DESIGNS = ("single-vision", "near", "progressive")
 #: Surface types of [lens.front] / [lens.back].
-SURFACE_TYPES = ("sphere", "plane", "asphere", "conic", "toric")
+#: Rotationally symmetric surface types (all parsed as an :class:`Asphere`: a plane has
+#: curvature 0, a sphere conic 0 and no coefficients — each key still allowed).
+SYMMETRIC_SURFACES = ("sphere", "plane", "asphere", "conic")
+SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric")
 #: Ranges only the spec knows (what a user may write where the engine takes another form,
 #: or checks nothing), by field, in the spec's units.
 SPEC_LIMITS = {
@@ -68,7 +71,7 @@ SPEC_LIMITS = {
     "render.background": RGB_RANGE, "render.rim_color": RGB_RANGE,
     "render.invalid_color": RGB_RANGE,
     "render.scene.distance_m": (0.1, 100.0), "render.scene.contrast": (0.0, 1.0),
-    "render.scene.scale": (0.0, 1e9), "render.scene.rotation_deg": (-360.0, 360.0),
+    "render.scene.scale": (1e-9, 1e9), "render.scene.rotation_deg": (-360.0, 360.0),
     "render.scene.position_m": (-1e4, 1e4), "render.camera_focus_m": (0.2, 1e6),
     "render.camera_f_number": (DOUBLET_FULL_F_NUMBER, 64.0),
     "lens.front.coefficients": (-1e12, 1e12),
@@ -460,7 +463,7 @@ KEYS = [
     Key("render.scene", "units", "choice", "", '`"m"`', "the file's length unit",
         choices=tuple(UNITS), base={"render": {"scene": {"path": "room"}}}),
     Key("render.scene", "scale", "number", "", "1", "a further scale factor",
-        lo_open=True, base={"render": {"scene": {"path": "room"}}}),
+        base={"render": {"scene": {"path": "room"}}}),
     Key("render.scene", "rotation_deg", "triple", "deg", "[0, 0, 0]", "rotations about x, "
         "then y, then z (world axes)",
         base={"render": {"scene": {"path": "room"}}}),

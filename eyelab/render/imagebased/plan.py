@@ -252,15 +252,3 @@ def _projection(si, depth, cell, g_film, rs, e, dist, normal, err, g, oversample
                       rs.transmittance.reshape(g + 1, g + 1),
                       ok.reshape(g + 1, g + 1), float(err.max()),
                       float(np.sqrt(np.mean(err ** 2))), (sw, sh))
-
-
-
-
-
-
-
-
-
-
-
-

@@ -175,4 +175,3 @@ def _factory(mesh):
     from eyelab.render.actors import mesh_actor
 
     return lambda: mesh_actor(mesh, None, mipmap=True)
-
