@@ -2,7 +2,7 @@
 
 Each entry is a spec dict in the format of :mod:`eyelab.spec` (see the README), so it can
 be written to TOML with :func:`write_specs` or parsed directly with
-``eyelab.spec.parse_spec``. Ages and adds follow SCIENCE.md §3 (typical adds by age).
+``eyelab.spec.parse_spec``. Ages and adds follow docs/SCIENCE.md §3 (typical adds by age).
 """
 
 from __future__ import annotations

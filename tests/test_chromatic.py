@@ -21,7 +21,7 @@ from eyelab.scene.scene import Scene
 
 def test_ocular_lca_has_the_published_size():
     """About 1 D between the F and C lines and about 2 D across 400-700 nm (Thibos et al.
-    1992; SCIENCE.md §9b); zero at the reference wavelength; the eye more myopic (more
+    1992; docs/SCIENCE.md §9b); zero at the reference wavelength; the eye more myopic (more
     powerful) at short wavelengths."""
     assert float(ocular_lca(EYE_REFERENCE_NM)) == 0.0
     f_c = float(ocular_lca(486.13) - ocular_lca(656.27))

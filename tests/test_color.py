@@ -6,7 +6,7 @@ from eyelab.core.errors import SpecError
 
 
 def test_severity_one_matches_the_reference_sheet():
-    # SCIENCE.md §9 (Machado 2009, severity 1.0)
+    # docs/SCIENCE.md §9 (Machado 2009, severity 1.0)
     np.testing.assert_array_equal(machado_matrix("protan", 1.0)[0],
                                   [0.152286, 1.052583, -0.204868])
     np.testing.assert_array_equal(machado_matrix("tritan", 1.0)[2], [0.004733, 0.691367, 0.3039])
@@ -21,7 +21,7 @@ def test_interpolation_between_tables(kind):
                                atol=1e-12)
     np.testing.assert_allclose(machado_matrix(kind, 0.3), tab[3], atol=1e-12)
     np.testing.assert_allclose(machado_matrix(kind, 0.0), np.eye(3), atol=1e-12)
-    # rows sum to 1: greys stay grey (SCIENCE.md §9, calc)
+    # rows sum to 1: greys stay grey (docs/SCIENCE.md §9, calc)
     np.testing.assert_allclose(machado_matrix(kind, 0.37).sum(1), 1.0, atol=2e-6)
 
 

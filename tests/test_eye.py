@@ -23,7 +23,7 @@ def test_default_eye_is_emmetropic_and_table2_inconsistency_is_small():
 
 @pytest.mark.parametrize("age, mn, mean, mx", [
     (10, 12.5, 15.5, 21), (30, 7.5, 9.5, 13), (45, 3.75, 5.0, 7.0), (60, 0.0, 0.5, 1.0)])
-def test_hofstetter_table(age, mn, mean, mx):  # SCIENCE.md §3 table
+def test_hofstetter_table(age, mn, mean, mx):  # docs/SCIENCE.md §3 table
     assert hofstetter_amplitude(age, "min") == pytest.approx(mn)
     assert hofstetter_amplitude(age, "mean") == pytest.approx(mean)
     assert hofstetter_amplitude(age, "max") == pytest.approx(mx)
@@ -33,7 +33,7 @@ def test_hofstetter_table(age, mn, mean, mx):  # SCIENCE.md §3 table
     (0.01, 30, 7.05), (1, 30, 5.12), (100, 30, 2.89), (1e4, 30, 2.16),
     (0.01, 70, 5.18), (1, 70, 4.00), (100, 70, 2.63), (1e4, 70, 2.19)])
 def test_watson_yellott_published_values(lum, age, want):
-    # SCIENCE.md §4 (calc), 60 deg binocular field
+    # docs/SCIENCE.md §4 (calc), 60 deg binocular field
     assert watson_yellott_pupil(lum, age) == pytest.approx(want, abs=0.006)
 
 

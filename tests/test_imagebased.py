@@ -42,7 +42,7 @@ SAMPLES = pass_samples(10)[0]
 @pytest.mark.parametrize("name", list(EXAMPLES))
 def test_example_systems_have_their_published_focal_lengths(name):
     """Real-ray first-order data against the catalogue: LB1471-A f 50 mm, BFL 48.2 mm;
-    AC254-050-A f 50 mm, image conjugate 43.22 mm (Thorlabs)."""
+    AC254-050-A f 50 mm, BFL 43.4 mm (Thorlabs; traced 43.44 mm)."""
     factory, efl, bfl = EXAMPLES[name]
     c = factory().cardinal()
     assert c["efl_m"] == pytest.approx(efl, rel=0.005)
@@ -67,11 +67,11 @@ def test_cos2_derivatives_match_finite_differences():
 
 @pytest.mark.parametrize("name", list(EXAMPLES))
 def test_the_angle_cop_maximises_eq1_and_bounds_the_angles_as_lsq_does(name):
-    """On every cell of a depth-2 quad-tree of both lenses (40° field, image plane at
-    0.1 m): the Newton COP's sum cos^2 is at least the least-squares COP's (it is the
-    maximiser: a random nearby COP never beats it), and its largest angle error is within
-    10 % of the least-squares COP's. The paper reports the least-squares COP up to 10x
-    worse; with exact rays we measure no such gap (README)."""
+    """On every cell of a depth-2 quad-tree of both lenses that a sample's rays reach (40°
+    field, image plane at 0.1 m): the Newton COP's sum cos^2 is at least the least-squares
+    COP's (it is the maximiser: a random nearby COP never beats it), and its largest angle
+    error is within 10 % of the least-squares COP's. The paper reports the least-squares
+    COP up to 10x worse; with exact rays we measure no such gap (README)."""
     mk = CameraRays(get_system(name), 128, 128, 40.0)
     rng = np.random.default_rng(0)
     ratios = []
@@ -79,7 +79,10 @@ def test_the_angle_cop_maximises_eq1_and_bounds_the_angles_as_lsq_does(name):
         for j in range(4):
             for i in range(4):
                 cell = (32.0 * i, 32.0 * j, 32.0 * (i + 1), 32.0 * (j + 1))
-                _, rs = vignetting_grid(mk, cell, 10, s, 587.56)
+                got = vignetting_grid(mk, cell, 10, s, 587.56)
+                if got is None or got[1].ok.sum() < 20:
+                    continue                # an outer lens point that misses the cell
+                rs = got[1]
                 q, d = rs.origins[rs.ok], rs.dirs[rs.ok]
                 e0 = q.mean(axis=0)
                 p = image_plane_points(q, d, e0, unit(d.mean(axis=0)), 0.1)
@@ -196,8 +199,9 @@ def test_the_regular_grid_morph_equals_scan_conversion():
 def test_radiometry_of_a_white_scene_against_fresnel_and_the_reference():
     """A uniform white wall through the biconvex lens: at the film centre the irradiance is
     the two surfaces' normal-incidence transmission ((1 - R)^2, R = ((n - 1)/(n + 1))^2)
-    within 0.5 %, and the natural falloff matches the reference's (many random samples)
-    within 5 % across the image."""
+    within 0.5 %, and the natural falloff with the vignetting matches the reference's
+    (many random samples) within 1 % across the image (measured 0.4 %; both sample every
+    film point's whole bundle: tests/test_camera_irradiance.py)."""
     sys_ = get_system("biconvex").focused(1.5)
     scene = Scene([grid_quad("w", (0, 0, -3.0), (1, 0, 0), (0, 1, 0), 20, 20, nu=2, nv=2,
                              colors=np.array([255, 255, 255], np.uint8))],
@@ -213,7 +217,7 @@ def test_radiometry_of_a_white_scene_against_fresnel_and_the_reference():
     assert a[24, 32] == pytest.approx(t, rel=0.005)
     assert b[24, 32] == pytest.approx(t, rel=0.005)
     row_a, row_b = a[24, 4:-4], b[24, 4:-4]
-    assert np.abs(row_a / row_b - 1).max() < 0.05
+    assert np.abs(row_a / row_b - 1).max() < 0.01
     assert row_b[0] < 0.8 * row_b[len(row_b) // 2]        # natural vignetting shows
 
 
@@ -261,14 +265,14 @@ def test_plans_are_kept_between_frames():
 
 
 def test_camera_lens_images_match_the_reference():
-    """The doublet focused at 1.5 m in the room (f/2.2, 40° field): SSIM >= 0.93 against
-    the reference at 256 rays per pixel (measured 0.949 at S = 16; the remaining error is
-    the method's: 16 lens samples of a discontinuous vignetting)."""
+    """The doublet focused at 1.5 m in the room (f/2.2, 40° field): SSIM >= 0.95 against
+    the reference at 256 rays per pixel (measured 0.964 at S = 16; the remaining error is
+    the method's: 16 fixed lens samples of the strongly defocused floor near the camera)."""
     sys_ = get_system("doublet").focused(1.5)
     view = View(width=96, height=72, fov_y_deg=40.0, near=0.1, far=20.0)
     a, b = _image_based_and_reference(room_scene(), sys_, None, view, samples=16,
                                       angle_threshold_deg=0.5)
-    assert ssim(a.linear, b.linear) >= 0.93
+    assert ssim(a.linear, b.linear) >= 0.95
     assert a.report["details"]["radiometry"] == "irradiance"
     assert math.isfinite(a.report["details"]["plan"]["max_angle_deg"])
 
@@ -323,7 +327,9 @@ def test_cli_renders_the_default_spec_with_the_image_based_renderer(tmp_path):
 
 def test_the_cop_study_in_double_and_single_precision(monkeypatch):
     """`eyelab bench imagebased`'s least-squares vs angle COP study on the doublet: a row
-    per level with every cell; in double precision the two COPs' largest angle errors
+    per level with every cell that a sample's rays reach (the lens samples spread over
+    the disc that holds every film point's bundle: the outermost of the 3 is vignetted in
+    two edge cells of level 2); in double precision the two COPs' largest angle errors
     agree within 10 % (as the depth-2 test above), and the angle COP refined by Newton
     from its parent's COP holds that accuracy in single precision too."""
     from eyelab.bench import imagebased as bench
@@ -331,7 +337,7 @@ def test_the_cop_study_in_double_and_single_precision(monkeypatch):
     monkeypatch.setattr(bench, "COP_DEPTHS", (0, 1, 2))
     view = View(width=64, height=64, fov_y_deg=40.0, near=0.1, far=20.0)
     rows = bench._cop_by_depth("doublet", get_system("doublet").focused(1.5), None, view)
-    assert [(r["depth"], r["cells"]) for r in rows] == [(0, 3), (1, 12), (2, 48)]
+    assert [(r["depth"], r["cells"]) for r in rows] == [(0, 3), (1, 12), (2, 46)]
     for r in rows:
         assert 0.9 < r["lsq64"]["min"] and r["lsq64"]["max"] < 1.1
         assert r["angle32"]["max"] < 1.02

@@ -32,7 +32,7 @@ def test_designed_lens_back_vertex_power_equals_rx_by_tracing(text, material):
 
 
 def test_thick_lens_back_vertex_formula_on_axis():
-    # F_v = F1 / (1 - t F1 / n) + F2 (SCIENCE.md §7), for explicit surfaces
+    # F_v = F1 / (1 - t F1 / n) + F2 (docs/SCIENCE.md §7), for explicit surfaces
     n = CATALOGUE["crown"].n_d
     c1, c2, t = 9.0, 18.0, 0.004
     lens = SpectacleLens(Sphere(c1), Sphere(c2), t, CATALOGUE["crown"])
@@ -44,7 +44,7 @@ def test_thick_lens_back_vertex_formula_on_axis():
 def test_effective_power_at_cornea_minus_six_at_12mm():
     lens = SpectacleLens.from_rx(Prescription(-6.0), pose=LensPose(vertex_distance=0.012))
     res = analyze_points(Eye(), lens, ObjectPoints.from_angles(np.inf, 0.0, 0.0))
-    # SCIENCE.md §2: -6.00 D at 12 mm -> -5.597 D at the cornea
+    # docs/SCIENCE.md §2: -6.00 D at 12 mm -> -5.597 D at the cornea
     assert res.wave_eye.k11[0] == pytest.approx(-6.0 / (1 + 0.012 * 6.0), abs=1e-9)
 
 

@@ -19,7 +19,7 @@ def test_cauchy_reproduces_nd_and_abbe(name):
 
 
 @pytest.mark.parametrize("name, a, b, nc, nf", [
-    # SCIENCE.md §6 table (calc), 5 significant digits
+    # docs/SCIENCE.md §6 table (calc), 5 significant digits
     ("cr39", 1.48498, 0.004496, 1.4954, 1.5040),
     ("polycarbonate", 1.55637, 0.010229, 1.5801, 1.5997),
     ("trivex", 1.51366, 0.006331, 1.5284, 1.5405),
@@ -47,7 +47,7 @@ def test_material_lookup_and_errors():
     ("cr39", "d", (1.498, 58.0)),            # Duane's Ophthalmology ch. 51C Table 1
     ("crown", "d", (1.523, 58.6)),           # idem
     ("polycarbonate", "d", (1.586, 30.0)),   # idem
-    ("trivex", "d", (1.532, 44.0)),          # PPG (SCIENCE.md S37/S38: V_d 43-45)
+    ("trivex", "d", (1.532, 44.0)),          # PPG (docs/SCIENCE.md §6: V_d 43-45)
     ("mr8", "e", (1.60, 41.0)),              # Mitsui Chemicals MR-8: n_e, V_e
     ("mr7", "e", (1.67, 31.0)),              # MR-7
     ("mr174", "e", (1.74, 32.0)),            # MR-174

@@ -191,7 +191,7 @@ def test_power_matrix_wearer_frame_j45_flips():
 
 
 def test_vertex_effective_power_published_numbers():
-    # SCIENCE.md §2 (calc): -6.00 D at 12 mm -> -5.60 D; +10.00 D -> +11.36 D
+    # docs/SCIENCE.md §2 (calc): -6.00 D at 12 mm -> -5.60 D; +10.00 D -> +11.36 D
     assert vertex_effective_power(-6.0, 0.012) == pytest.approx(-5.597, abs=5e-4)
     assert vertex_effective_power(10.0, 0.012) == pytest.approx(11.364, abs=5e-4)
 

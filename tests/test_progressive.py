@@ -65,7 +65,7 @@ def _surface_power(lens, x, y):
 def test_minkwitz_astigmatism_gradient_is_twice_the_power_gradient():
     """On the front surface at mid-corridor of a design without inset: the cylinder
     beside the umbilic line rises twice as fast across it as the mean power does along
-    it (SCIENCE.md §8), from the surface's principal curvatures by finite differences."""
+    it (docs/SCIENCE.md §8), from the surface's principal curvatures by finite differences."""
     rx = Prescription(-2.0, add=2.0)
     lens, design, _ = progressive_lens(rx, 2.0, design=ProgressiveDesign(2.0, inset=0.0))
     y0 = -design.corridor / 2
@@ -82,7 +82,7 @@ def test_minkwitz_astigmatism_gradient_is_twice_the_power_gradient():
 
 def test_an_inset_corridor_stays_near_umbilic(pal):
     """With a 2.5 mm inset the line of least cylinder moves by a u'/a' from the nominal
-    path (1.2 mm here) and keeps 0.1 D ("real lenses deviate within about 2 mm", SCIENCE.md
+    path (1.2 mm here) and keeps 0.1 D ("real lenses deviate within about 2 mm", docs/SCIENCE.md
     §8)."""
     _, lens, design, _ = pal
     y0 = -design.corridor / 2

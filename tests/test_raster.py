@@ -154,7 +154,7 @@ def test_a_circular_blur_renders_circular_at_8_passes():
 
 def test_chromatic_fringe_matches_prentice_over_abbe():
     """-6 D polycarbonate, visual axis 10 mm from the optical centre: 6 prism dioptres, and
-    the C- and F-line images part by prism / V = 0.2 prism dioptres (SCIENCE.md §6)."""
+    the C- and F-line images part by prism / V = 0.2 prism dioptres (docs/SCIENCE.md §6)."""
     rx = Prescription(-6.0)
     lens = SpectacleLens.from_rx(rx, material="polycarbonate",
                                  pose=LensPose(decentration=(-0.010, 0.0)))

@@ -90,8 +90,9 @@ def run_blurfield_bench(repeats: int = 3, accuracy_points: int = 2000, seed: int
                              "time_s": dt, "mean_abs_err_arcmin": float(err.mean()),
                              "p95_abs_err_arcmin": float(np.percentile(err, 95)),
                              "mean_blur_arcmin": float(ex.mean())})
-    # the second method (seeds/001 §4.3) on the same view, against the first; its
-    # near/far-point model is valid for spherical errors, so the eye here is spherical
+    # the second method (Kakimoto et al.'s earlier paper, §4.3; eyelab/blur/bundle.py) on
+    # the same view, against the first; its near/far-point model is valid for spherical
+    # errors, so the eye here is spherical
     from eyelab.blur.bundle import compute_blur_field_bundles
 
     eye_s = Eye.from_rx(Prescription(-4.0), accommodation_max=1.5)

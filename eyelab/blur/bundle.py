@@ -1,4 +1,5 @@
-"""Blur fields by ray bundles (Kakimoto et al.'s earlier method, seeds/001 §4.3).
+"""Blur fields by ray bundles (the method of Kakimoto, Tatsukawa & Nishita's earlier paper,
+"Rendering Refractive Corrected Image Using Per-Vertex Ray Tracing", in Japanese, §4.3).
 
 For each reference ray from the pupil centre through the lens (the paper scans lens
 points; eyelab aims them at a regular NDC grid, ``oversample`` per voxel column), two
@@ -134,7 +135,7 @@ def _bundle(eye, lens, pupil, d_rev, seeds, accommodation, wavelength_nm):
     x_e = unit(cross(np.broadcast_to(UP, n_in.shape), n_in))
     y_e = cross(n_in, x_e)
     rp = eye.pupil_diameter / 2
-    pxx, pxy, pyy = (float(v) for v in eye.power_matrix(accommodation))
+    pxx, pxy, pyy = (float(v) for v in eye.power_matrix(accommodation, wavelength_nm))
     e = eye.emmetropic_power
     g = np.array([[pxx - e, pxy], [pxy, pyy - e]])
     rho = np.vstack([[0.0, 0.0], seeds]) * rp                      # (s+1, 2) eye frame

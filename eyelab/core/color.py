@@ -1,9 +1,9 @@
 """Colour-vision-deficiency simulation and sRGB transfer functions (numpy, no VTK).
 
 Machado, Oliveira & Fernandes (2009) simulation matrices, as tabulated in steps of 0.1 of
-severity in Machado's 2010 thesis (the 1.0 rows are SCIENCE.md §9's). Severity s between
+severity in Machado's 2010 thesis (the 1.0 rows are docs/SCIENCE.md §9's). Severity s between
 the tabulated values is interpolated linearly between the bracketing tables:
-M(s) = M_k + 10 (s - k/10) (M_{k+1} - M_k), k = floor(10 s) (SCIENCE.md §9 lists the
+M(s) = M_k + 10 (s - k/10) (M_{k+1} - M_k), k = floor(10 s) (docs/SCIENCE.md §9 lists the
 library bugs this avoids). Matrices apply to linear RGB; images are decoded from sRGB,
 transformed, clipped and re-encoded. Achromatopsia uses the Rec. 709 luminance Y.
 """

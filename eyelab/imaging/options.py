@@ -17,7 +17,8 @@ from eyelab.core.errors import SpecError
 #: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
 MAX_PASSES = 256
 #: Blur-field routes of the raster renderer: "texture" (3D texture sampled in the vertex
-#: shader, VTK_NOTES Q2 route A) or "attribute" (per-vertex look-up on the CPU, route D).
+#: shader, docs/VTK_NOTES.md Q2, route A) or "attribute" (per-vertex look-up on the CPU,
+#: route D).
 FIELD_ROUTES = ("texture", "attribute")
 #: Depth slicing of the raster renderer's blur fields: uniform in NDC z (dioptres) or metres.
 DEPTH_MODES = ("ndc", "linear")

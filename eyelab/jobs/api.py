@@ -62,7 +62,8 @@ def analyze(spec=None, *, no_lens: bool = False) -> dict:
 
 
 def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31):
-    """As-worn maps of the spec's lens over an n x n grid of gazes within ±half_angle_deg
+    """As-worn maps of the spec's lens over an n x n grid of eye rotations (Fick angles
+    about the centre of rotation) within ±half_angle_deg
     (:class:`~eyelab.optics.asworn.AsWornMaps`)."""
     from eyelab.optics.asworn import as_worn_maps
 

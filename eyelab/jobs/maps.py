@@ -12,7 +12,8 @@ from eyelab.optics.asworn import AsWornMaps
 
 def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
     """Contour maps as lens designers read them: mean power error and cylinder (0.25 D
-    steps), with the gaze grid in degrees, as a PNG at ``path``."""
+    steps), over eye rotations in degrees (the eye turning about its centre of rotation
+    behind the lens; Fick angles), as a PNG at ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -30,9 +31,9 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
             lv, cmap = np.arange(-top, top + step / 2, step), "RdBu_r"
         else:
             lv, cmap = np.arange(-top, step / 2, step), "magma"
-        cs = ax.contourf(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, cmap=cmap,
+        cs = ax.contourf(maps.eye_rotation_x_deg, maps.eye_rotation_y_deg, z, levels=lv, cmap=cmap,
                          extend="both")
-        ax.contour(maps.gaze_x_deg, maps.gaze_y_deg, z, levels=lv, colors="k",
+        ax.contour(maps.eye_rotation_x_deg, maps.eye_rotation_y_deg, z, levels=lv, colors="k",
                    linewidths=0.4)
         fig.colorbar(cs, ax=ax, shrink=0.85)
         for (name, (mx, my)), marker in zip(maps.marks.items(), ("+", "o", "o"),
@@ -41,8 +42,8 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
             ax.annotate(name, (mx, my), textcoords="offset points", xytext=(6, 4),
                         fontsize=7)
         ax.set_title(label)
-        ax.set_xlabel("gaze right (deg)")
-        ax.set_ylabel("gaze up (deg)")
+        ax.set_xlabel("eye rotation right (deg, Fick azimuth)")
+        ax.set_ylabel("eye rotation up (deg, Fick elevation)")
         ax.set_aspect("equal")
     if title:
         fig.suptitle(title)
@@ -52,15 +53,17 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
 
 def maps_summary(maps: AsWornMaps) -> list:
     """Lines a designer reads first: the extremes and the central value."""
-    c = len(maps.gaze_y_deg) // 2
-    lines = [f"gaze +-{maps.gaze_x_deg[-1]:g} deg, {len(maps.gaze_x_deg)}^2 points; object "
-             f"distances: {maps.model['above']} above, {maps.model['below']}"]
+    c = len(maps.eye_rotation_y_deg) // 2
+    lines = [f"eye rotation +-{maps.eye_rotation_x_deg[-1]:g} deg (Fick angles about the "
+             f"centre of rotation), {len(maps.eye_rotation_x_deg)}^2 points; object "
+             f"distances: {maps.model['up']} looking straight ahead and up; looking down, "
+             f"{maps.model['down']}"]
     for key, label in (("mean_error_d", "mean power error"), ("cylinder_d", "cylinder")):
         z = getattr(maps, key)
         lines.append(f"{label}: centre {z[c, c]:+.3f} D, range {np.nanmin(z):+.3f} .. "
                      f"{np.nanmax(z):+.3f} D")
     lines.append(f"prism: up to {np.nanmax(maps.prism_d):.2f} Δ; "
-                 f"{int((~maps.ok).sum())} gazes without a path through the lens")
+                 f"{int((~maps.ok).sum())} eye rotations without a path through the lens")
     if not math.isfinite(float(np.nanmax(maps.prism_d))):
-        lines.append("no gaze passes the lens")
+        lines.append("no line of sight passes the lens")
     return lines

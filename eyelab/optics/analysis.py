@@ -16,7 +16,7 @@ import numpy as np
 from eyelab.core.checks import check_choice
 from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.core.vecmath import UP, cross, dot
-from eyelab.optics.eye import Eye
+from eyelab.optics.eye import EYE_REFERENCE_NM, Eye
 from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
 from eyelab.optics.surfaces import sym2_eig
 from eyelab.optics.trace import FATAL, Status
@@ -85,8 +85,9 @@ class PointAnalysis:
             * RAD_TO_ARCMIN
 
 
-def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: float = 587.56,
-                   fixation: str = "fixed", accommodation=None,
+def analyze_points(eye: Eye, lens, objects: ObjectPoints, *,
+                   wavelength_nm: float = EYE_REFERENCE_NM, fixation: str = "fixed",
+                   accommodation=None,
                    vertex_sphere: str = "rotation_centre") -> PointAnalysis:
     """Trace the chain for every object point.
 
@@ -100,7 +101,12 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
         eye turns about its centre of rotation, so the chief ray passes through it and the
         pupil lies rotation_centre before it (the lens designer's as-worn model).
     accommodation : None for the best effort per point (Eq. 13), or a fixed value in D
-        (clipped to [0, accommodation_max]).
+        (clipped to [0, accommodation_max]). The eye has one accommodation whatever the
+        colour: at a wavelength other than the eye's reference (:data:`EYE_REFERENCE_NM`)
+        through a dispersive lens, Eq. 13 is solved for the reference wavelength's wave
+        along the same object points (as the renderers' per-channel fields take it), and
+        the eye's own chromatic aberration (:meth:`Eye.power_shift`) then defocuses the
+        wavelength asked for.
     vertex_sphere : where the vertex-sphere wave is taken: "rotation_centre" (the lens
         designer's sphere: centred on the eye's centre of rotation, radius vertex distance
         + rotation_centre, through the lens's back vertex) or "pupil" (centred on the pupil
@@ -110,13 +116,19 @@ def analyze_points(eye: Eye, lens, objects: ObjectPoints, *, wavelength_nm: floa
     cor = np.array([0.0, 0.0, eye.rotation_centre])
     target = cor if fixation == "rotating" else np.zeros(3)
     chief = find_chief_rays(lens, target, objects, wavelength_nm)
+    if (accommodation is None and lens is not None and lens.material.dispersive
+            and wavelength_nm != EYE_REFERENCE_NM):
+        ref = analyze_points(eye, lens, objects, fixation=fixation,
+                             vertex_sphere=vertex_sphere)
+        accommodation = np.where((ref.status & np.uint8(FATAL)) == 0, ref.accommodation,
+                                 np.nan)
     return trace_chain(eye, lens, chief, objects, wavelength_nm=wavelength_nm,
                        fixation=fixation, accommodation=accommodation,
                        vertex_sphere=vertex_sphere)
 
 
 def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
-                wavelength_nm: float = 587.56, fixation: str = "fixed",
+                wavelength_nm: float = EYE_REFERENCE_NM, fixation: str = "fixed",
                 accommodation=None, vertex_sphere: str = "rotation_centre") -> PointAnalysis:
     """The wavefront part of :func:`analyze_points`, for chief rays already found
     (Table 1 from 'wavefront creation' to 'conoid sectioning')."""
@@ -157,13 +169,15 @@ def trace_chain(eye: Eye, lens, chief: ChiefRays, objects: ObjectPoints, *,
         wave.transfer(dot(pupil - h_back.points, wave.N))
     status |= wave.status
     kbar = 0.5 * (wave.k11 + wave.k22)
-    if accommodation is None:
-        acc = eye.accommodation_for(kbar)                      # Eq. 13
-    else:
-        acc = np.clip(np.broadcast_to(np.asarray(accommodation, float), (n,)), 0.0,
-                      eye.accommodation_max).copy()
+    acc = eye.accommodation_for(kbar)                          # Eq. 13
+    if accommodation is not None:                              # given (NaN: Eq. 13 there)
+        given = np.broadcast_to(np.asarray(accommodation, float), (n,))
+        acc = np.where(np.isnan(given), acc,
+                       np.clip(given, 0.0, eye.accommodation_max))
     n2 = eye.n_vitreous
-    inside = wave.toric_lens(UP, eye.power_matrix(acc), 1.0 / n2, n2)   # Eq. 7
+    inside = wave.toric_lens(UP, eye.power_matrix(acc, wavelength_nm), 1.0 / n2,
+                             n2)                               # Eq. 7, the eye's LCA in
+    acc = np.array(acc, float)
     rp = eye.pupil_diameter / 2
     zr = eye.retina_distance
     m11 = rp * (1.0 - zr * inside.k11)                        # Eq. 8 in matrix form

@@ -1,21 +1,27 @@
 """As-worn maps of a spectacle lens: what a lens designer reads first.
 
-For the lens in its worn pose, the eye turns about its centre of rotation to look along a
-grid of gaze directions (``analysis.fixation = "rotating"``); along each line of sight
-the wave on the vertex sphere is compared with the prescription for the object seen in
-that direction (:func:`eyelab.optics.analysis.power_error`): the mean power error and the
-cylinder (unwanted astigmatism) with its axis, plus the prism. The surfaces' own mean
-curvature and cylinder, in dioptres at the lens's index, are mapped at the points where
-the lines of sight cross them, for comparison.
+The maps are drawn over eye rotations, as lens designers draw them: the eye turns about
+its centre of rotation behind the worn lens (Fick angles: azimuth to the wearer's right,
+then elevation up, as ``render.gaze_deg``), so the grid point (a, e) is the line of sight
+f = (cos e sin a, sin e, -cos e cos a) leaving the centre of rotation. That line is traced
+out through the lens (exact Snell refraction) to find the object the eye then looks at:
+through a -6 D lens the eye turned 30 deg up looks at a distant object 35.2 deg up, the
+lens's prism there (9.17 prism dioptres, 5.2 deg) bending the line of sight away from its
+optical centre. Along each line of sight (``analysis.fixation = "rotating"``) the wave on
+the vertex sphere is compared with the prescription for that object
+(:func:`eyelab.optics.analysis.power_error`): the mean power error and the cylinder
+(unwanted astigmatism) with its axis, plus the prism. The surfaces' own mean curvature and
+cylinder, in dioptres at the lens's index, are mapped at the points where the lines of
+sight cross them, for comparison.
 
-Object distances follow a documented model: straight ahead and above, infinity; below,
-the object vergence grows linearly with the downward gaze angle to ``near_vergence_d``
-at ``near_gaze_deg`` down and stays there (reading below the horizon).
+Object distances follow a documented model: for the eye looking straight ahead and up,
+infinity; looking down, the object vergence grows linearly with the eye's downward rotation
+to ``near_vergence_d`` at ``near_rotation_deg`` down and stays there (reading below the
+horizon); the object lies on the traced line of sight at 1/vergence from the turned pupil.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,20 +33,29 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import tabo_axis
 from eyelab.optics.trace import FATAL
 
-#: The object-distance model's defaults: 2.5 D (0.4 m) reached 25 deg below straight ahead.
+#: The object-distance model's defaults: 2.5 D (0.4 m) reached with the eye turned 25 deg
+#: down.
 NEAR_VERGENCE_D = 2.5
-NEAR_GAZE_DEG = 25.0
+NEAR_ROTATION_DEG = 25.0
+#: What the maps' grid is, in words (the JSON's ``grid``).
+GRID = ("eye rotation about the centre of rotation, Fick angles in deg: azimuth to the "
+        "wearer's right (x), then elevation up (y); the line of sight leaves the centre of "
+        "rotation along (cos y sin x, sin y, -cos y cos x)")
 
 
 @dataclass
 class AsWornMaps:
-    """Maps over gaze angles (ny, nx): gaze_x_deg (nx,) to the wearer's right, gaze_y_deg
-    (ny,) up; mean_error_d, cylinder_d (<= 0), axis_tabo_deg, sphere_error_d, prism_d,
-    object_vergence_d; front/back surface mean power and cylinder (D) where the line of
-    sight crosses them; ok (bool) where a light path exists."""
+    """Maps over eye rotations (ny, nx): eye_rotation_x_deg (nx,) to the wearer's right
+    (Fick azimuth), eye_rotation_y_deg (ny,) up (Fick elevation), the line of sight turning
+    about the eye's centre of rotation; mean_error_d, cylinder_d (<= 0), axis_tabo_deg,
+    sphere_error_d, prism_d, object_vergence_d; object_x_deg, object_y_deg: Fick angles of
+    the direction from the centre of rotation to the object seen along each line of sight
+    (where the lens's prism sends it); front/back surface mean power and cylinder (D) where the
+    line of sight crosses them; ok (bool) where a light path exists; objects: the object
+    points, rows in grid order (x fastest)."""
 
-    gaze_x_deg: np.ndarray
-    gaze_y_deg: np.ndarray
+    eye_rotation_x_deg: np.ndarray
+    eye_rotation_y_deg: np.ndarray
     mean_error_d: np.ndarray
     cylinder_d: np.ndarray
     axis_tabo_deg: np.ndarray
@@ -50,39 +65,115 @@ class AsWornMaps:
     surface: dict = field(default_factory=dict)
     ok: np.ndarray | None = None
     model: dict = field(default_factory=dict)
-    #: Reference points as gaze angles (right, up; deg): a progressive lens's fitting
-    #: cross, distance and near reference points.
+    #: Reference points as eye rotations (right, up; Fick angles, deg): a progressive
+    #: lens's fitting cross, distance and near reference points.
     marks: dict = field(default_factory=dict)
+    object_x_deg: np.ndarray | None = None
+    object_y_deg: np.ndarray | None = None
+    objects: ObjectPoints | None = None
 
     def to_json(self) -> dict:
         def grid(a):
             return [[None if not np.isfinite(v) else float(v) for v in row] for row in a]
 
-        out = {"gaze_x_deg": self.gaze_x_deg.tolist(), "gaze_y_deg": self.gaze_y_deg.tolist(),
+        out = {"grid": GRID, "eye_rotation_x_deg": self.eye_rotation_x_deg.tolist(),
+               "eye_rotation_y_deg": self.eye_rotation_y_deg.tolist(),
                "object_distance_model": self.model}
         for k in ("mean_error_d", "cylinder_d", "axis_tabo_deg", "sphere_error_d", "prism_d",
-                  "object_vergence_d"):
-            out[k] = grid(getattr(self, k))
+                  "object_vergence_d", "object_x_deg", "object_y_deg"):
+            if getattr(self, k) is not None:
+                out[k] = grid(getattr(self, k))
         out["surface"] = {k: grid(v) for k, v in self.surface.items()}
-        out["marks_gaze_deg"] = {k: list(v) for k, v in self.marks.items()}
+        out["marks_eye_rotation_deg"] = {k: list(v) for k, v in self.marks.items()}
         return out
 
 
-def object_vergence(gaze_y_deg, near_vergence_d=NEAR_VERGENCE_D,
-                    near_gaze_deg=NEAR_GAZE_DEG):
-    """The model's object vergence (D, >= 0 here: 1/distance) for a gaze ``gaze_y_deg``
-    up (negative: down)."""
-    down = np.clip(-np.asarray(gaze_y_deg, float) / near_gaze_deg, 0.0, 1.0)
+def object_vergence(rotation_y_deg, near_vergence_d=NEAR_VERGENCE_D,
+                    near_rotation_deg=NEAR_ROTATION_DEG):
+    """The model's object vergence (D, >= 0 here: 1/distance) for the eye turned
+    ``rotation_y_deg`` up (negative: down)."""
+    down = np.clip(-np.asarray(rotation_y_deg, float) / near_rotation_deg, 0.0, 1.0)
     return down * near_vergence_d
+
+
+def fick_lines(rotation_x_deg, rotation_y_deg) -> np.ndarray:
+    """(n, 3) unit lines of sight for eye rotations by Fick angles (azimuth right, then
+    elevation up; deg): (cos e sin a, sin e, -cos e cos a), as
+    :func:`eyelab.optics.camera.gaze_camera`."""
+    a = np.radians(np.asarray(rotation_x_deg, float)).ravel()
+    e = np.radians(np.asarray(rotation_y_deg, float)).ravel()
+    return np.stack([np.cos(e) * np.sin(a), np.sin(e), -np.cos(e) * np.cos(a)], -1)
+
+
+def fick_angles(v) -> tuple:
+    """Fick angles (azimuth right, elevation up; deg) of directions ``v`` (n, 3)."""
+    v = np.atleast_2d(np.asarray(v, float))
+    v = v / np.linalg.norm(v, axis=1, keepdims=True)
+    return (np.degrees(np.arctan2(v[:, 0], -v[:, 2])),
+            np.degrees(np.arcsin(np.clip(v[:, 1], -1.0, 1.0))))
+
+
+def objects_on_lines_of_sight(eye, lens, lines, vergence_d,
+                              wavelength_nm: float = 587.56) -> tuple:
+    """The objects the eye looks at along ``lines`` (n, 3) of sight from its centre of
+    rotation: each line traced out through ``lens`` (eye -> scene), the object on the ray
+    leaving the lens at 1/``vergence_d`` (n,) from the turned pupil (at infinity along it
+    where the vergence is 0). Returns (ObjectPoints, ok (n,): the line passes the lens)."""
+    lines = np.atleast_2d(np.asarray(lines, float))
+    vg = np.broadcast_to(np.asarray(vergence_d, float), (len(lines),))
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+    res = lens.trace(np.broadcast_to(cor, lines.shape), lines, wavelength_nm, reverse=True)
+    ok = (res["status"] & np.uint8(FATAL)) == 0
+    q = np.where(ok[:, None], res["out_points"], cor)
+    u = np.where(ok[:, None], res["out_dirs"], lines)
+    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    dist = np.where(vg > 0, 1.0 / np.where(vg > 0, vg, 1.0), np.inf)
+    # |q + t u - pupil| = dist, the pupil rotation_centre before the centre on the line
+    rel = q - (cor + eye.rotation_centre * lines)
+    b = np.sum(rel * u, axis=1)
+    fin = np.isfinite(dist)
+    t = -b + np.sqrt(np.maximum(b * b - np.sum(rel * rel, axis=1)
+                                + np.where(fin, dist, 0.0) ** 2, 0.0))
+    pos = q + t[:, None] * u
+    norm = np.linalg.norm(pos, axis=1, keepdims=True)
+    direction = np.where(fin[:, None], pos / np.where(norm > 0, norm, 1.0), u)
+    return ObjectPoints(direction, np.where(fin, norm[:, 0], np.inf)), ok
+
+
+def line_of_sight_through(eye, lens, point, wavelength_nm: float = 587.56,
+                          iterations: int = 20) -> np.ndarray:
+    """(3,) unit line of sight from the eye's centre of rotation whose ray, traced out
+    through ``lens``, leaves the front surface at lens point ``point`` = (x, y) (m, lens
+    frame): the eye rotation that looks through that point (fixed-point iteration on the
+    aim, from the straight line to the point, until the ray leaves within 1e-9 m of it)."""
+    front, _ = lens.placed_surfaces()
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+    x, y = point
+    p_local = np.array([x, y, float(front.surface.sag(np.array([x]), np.array([y]))[0])])
+    p = np.asarray(front.rotation) @ p_local + np.asarray(front.translation)
+    aim = p.copy()
+    f = (aim - cor) / np.linalg.norm(aim - cor)
+    for _ in range(iterations):
+        res = lens.trace(cor[None], f[None], wavelength_nm, reverse=True)
+        if (res["status"][0] & np.uint8(FATAL)) != 0:
+            return (p - cor) / np.linalg.norm(p - cor)
+        miss = p - res["out_points"][0]
+        if np.linalg.norm(miss) < 1e-9:
+            break
+        aim = aim + miss
+        f = (aim - cor) / np.linalg.norm(aim - cor)
+    return f
 
 
 def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
                  near_vergence_d: float = NEAR_VERGENCE_D,
-                 near_gaze_deg: float = NEAR_GAZE_DEG, wavelength_nm: float = 587.56
-                 ) -> AsWornMaps:
-    """The as-worn maps of ``lens`` (made for ``lens.rx``) on an n x n grid of gazes within
-    +-``half_angle_deg``. Gaze (gx, gy) is the direction unit(tan gx, tan gy, -1) from the
-    centre of rotation."""
+                 near_rotation_deg: float = NEAR_ROTATION_DEG,
+                 wavelength_nm: float = 587.56) -> AsWornMaps:
+    """The as-worn maps of ``lens`` (made for ``lens.rx``) on an n x n grid of eye
+    rotations within +-``half_angle_deg`` (Fick angles: azimuth right, then elevation up).
+    At grid point (a, e) the eye, turned about its centre of rotation, looks along
+    (cos e sin a, sin e, -cos e cos a); the object it sees there is found by tracing that
+    line of sight out through the lens (:func:`objects_on_lines_of_sight`)."""
     if lens is None or lens.rx is None:
         raise SpecError("lens.rx", "as-worn maps compare the lens with its prescription: "
                                    "make the lens from an Rx")
@@ -90,34 +181,32 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     if not (isinstance(n, int) and 3 <= n <= 201):
         raise SpecError("maps.n", f"must be an integer in [3, 201], got {n!r}")
     check_range("maps.near_vergence_d", near_vergence_d, 0.0, 10.0)
-    check_range("maps.near_gaze_deg", near_gaze_deg, 1.0, 60.0)
+    check_range("maps.near_rotation_deg", near_rotation_deg, 1.0, 60.0)
     g = np.linspace(-half, half, n)
     gx, gy = np.meshgrid(g, g)
-    vg = object_vergence(gy, near_vergence_d, near_gaze_deg).ravel()
-    d = np.stack([np.tan(np.radians(gx.ravel())), np.tan(np.radians(gy.ravel())),
-                  -np.ones(gx.size)], -1)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    with np.errstate(divide="ignore"):
-        dist = np.where(vg > 0, 1.0 / vg, np.inf)          # from the turned pupil
-    objects = ObjectPoints.along_gazes(d, dist, eye.rotation_centre)
+    vg = object_vergence(gy, near_vergence_d, near_rotation_deg).ravel()
+    objects, passes = objects_on_lines_of_sight(eye, lens, fick_lines(gx, gy), vg,
+                                                wavelength_nm)
     res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
                          fixation="rotating")
     err = power_error(res, lens.rx, objects,
                       add_fraction=vg / near_vergence_d if near_vergence_d > 0 else None)
-    ok = (res.status & np.uint8(FATAL)) == 0
+    ok = passes & ((res.status & np.uint8(FATAL)) == 0)
+    for v in err.values():
+        v[~ok] = np.nan
     prism = np.where(ok, chief_prism(res)[0], np.nan)
     axis_tabo = tabo_axis(err["axis_wearer_deg"])
     surf = _surface_maps(lens, res, ok, wavelength_nm)
+    cor = np.array([0.0, 0.0, eye.rotation_centre])
+    ox, oy = fick_angles(np.where(objects.finite[:, None], objects.positions() - cor,
+                                  objects.direction))
     marks = {}
     if getattr(lens.design, "near_point", None) is not None:
-        from eyelab.optics.progressive import gaze_through
-
         for name, point in (("fitting cross", (0.0, 0.0)),
                             ("distance reference", lens.design.distance_point),
                             ("near reference", lens.design.near_point)):
-            v = gaze_through(lens, point, eye.rotation_centre)
-            marks[name] = (math.degrees(math.atan2(v[0], -v[2])),
-                           math.degrees(math.atan2(v[1], -v[2])))
+            ax, ay = fick_angles(line_of_sight_through(eye, lens, point, wavelength_nm))
+            marks[name] = (float(ax[0]), float(ay[0]))
 
     def shape(a):
         return np.asarray(a, float).reshape(n, n)
@@ -125,10 +214,15 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     return AsWornMaps(g.copy(), g.copy(), shape(err["mean_d"]), shape(err["cylinder_d"]),
                       shape(axis_tabo), shape(err["sphere_d"]), shape(prism), shape(vg),
                       {k: shape(v) for k, v in surf.items()}, ok.reshape(n, n),
-                      {"above": "infinity", "below": f"vergence rising linearly to "
-                       f"{near_vergence_d:g} D at {near_gaze_deg:g} deg down, constant "
-                       "below", "near_vergence_d": near_vergence_d,
-                       "near_gaze_deg": near_gaze_deg}, marks)
+                      {"grid": "eye rotation (Fick angles, deg)",
+                       "up": "infinity", "down": f"vergence rising linearly to "
+                       f"{near_vergence_d:g} D with the eye turned {near_rotation_deg:g} deg "
+                       "down, constant below; the object on the line of sight traced out "
+                       "through the lens, at 1/vergence from the turned pupil",
+                       "near_vergence_d": near_vergence_d,
+                       "near_rotation_deg": near_rotation_deg},
+                      marks, np.where(ok, ox, np.nan).reshape(n, n),
+                      np.where(ok, oy, np.nan).reshape(n, n), objects)
 
 
 def _surface_maps(lens, res, ok, wavelength_nm) -> dict:

@@ -32,9 +32,10 @@ GH_ACCOMMODATION = 11.93         # D, Table 2
 
 #: Thibos, Ye, Zhang & Bradley 1992, "The chromatic eye: a new reduced-eye model of ocular
 #: chromatic aberration in humans", Appl. Opt. 31:3594: the chromatic difference of
-#: refraction R(lambda) = p - q / (lambda_um - c), q = 0.63346 D um, c = 0.21410 um (the
-#: constant p only sets where R = 0 and cancels in differences). The same constants are in
-#: ISETCam's humanWaveDefocus.
+#: refraction R(lambda) = p - q / (lambda_um - c), q = 0.63346 D um, c = 0.21410 um. eyelab
+#: uses only differences R(lambda) - R(reference), in which the constant p cancels (the
+#: published p = 1.68524 puts R = 0 at c + q/p = 589.99 nm, not at the d line, where
+#: R = -0.011 D). The same constants are in ISETCam's humanWaveDefocus (docs/SCIENCE.md §9b).
 THIBOS_Q = 0.63346
 THIBOS_C = 0.21410
 #: The wavelength (nm) at which an eye's refraction (its Rx, far point, Eq. 13's
@@ -69,7 +70,7 @@ LIMITS = {"eye.power_min_d": (40.0, 80.0), "eye.astigmatism_d": (0.0, 10.0),
           "eye.retina_distance_mm": (15.0, 35.0), "eye.n_vitreous": (1.2, 1.6),
           "eye.pupil_diameter_mm": (0.5, 10.0), "eye.rotation_centre_mm": (5.0, 20.0),
           "eye.age": (0.0, 120.0), "eye.luminance_cd_m2": (0.0, 1e7)}
-#: Hofstetter's formulas (SCIENCE.md §3) as (a, b) in a - b x age.
+#: Hofstetter's formulas (docs/SCIENCE.md §3) as (a, b) in a - b x age.
 AMPLITUDE_MODELS = {"min": (15.0, 0.25), "mean": (18.5, 0.3), "max": (25.0, 0.4)}
 
 
@@ -78,7 +79,7 @@ EYE_KINDS = ("refractive", "axial")
 
 
 def hofstetter_amplitude(age, which: str = "mean"):
-    """Amplitude of accommodation (D) by Hofstetter's formulas (SCIENCE.md §3), >= 0.
+    """Amplitude of accommodation (D) by Hofstetter's formulas (docs/SCIENCE.md §3), >= 0.
 
     ``which``: "min" 15 - 0.25 age, "mean" 18.5 - 0.3 age, "max" 25 - 0.4 age.
 
@@ -93,7 +94,7 @@ def hofstetter_amplitude(age, which: str = "mean"):
 
 
 def watson_yellott_pupil(luminance, age=30.0, field_area_deg2=math.pi * 30.0**2, eyes=2):
-    """Pupil diameter (mm), Watson & Yellott 2012, Eq. 21 (SCIENCE.md §4).
+    """Pupil diameter (mm), Watson & Yellott 2012, Eq. 21 (docs/SCIENCE.md §4).
 
     luminance : cd/m^2, > 0; age : years (formula fitted for 20-83; clamped to that);
     field_area_deg2 : adapting field area in deg^2 (default: a 60 deg diameter disc);
@@ -133,7 +134,8 @@ class Eye:
     pupil_diameter : float
         m, in [0.5 mm, 10 mm].
     rotation_centre : float
-        Distance (m) of the centre of rotation behind the cornea (SCIENCE.md §2: 13-14 mm).
+        Distance (m) of the centre of rotation behind the cornea (docs/SCIENCE.md §2:
+        13-14 mm).
     chromatic : bool
         The eye's own longitudinal chromatic aberration (:func:`ocular_lca`): at a
         wavelength other than :data:`EYE_REFERENCE_NM` every meridian's power is higher by
@@ -170,10 +172,11 @@ class Eye:
         """The eye whose far point is corrected by ``rx`` (a :class:`Prescription` or its
         clinical string, e.g. ``"-3.00 / -1.00 x 180"``) worn at ``vertex_distance`` (m).
 
-        Per principal meridian the ocular refraction is K = F / (1 - d F) (SCIENCE.md §2) and
-        the eye's relaxed power in that meridian is n_2/z_r - K. ``kind="refractive"`` keeps
-        z_r (Table 3: P_min differs); ``kind="axial"`` keeps P_min = 58.635 D and changes z_r
-        for the spherical-equivalent error (Table 3); the cylinder is refractive either way.
+        Per principal meridian the ocular refraction is K = F / (1 - d F) (docs/SCIENCE.md
+        §2) and the eye's relaxed power in that meridian is n_2/z_r - K.
+        ``kind="refractive"`` keeps z_r (Table 3: P_min differs); ``kind="axial"`` keeps
+        P_min = 58.635 D and changes z_r for the spherical-equivalent error (Table 3); the
+        cylinder is refractive either way.
         The add is a lens feature and does not change the eye.
         """
         if not isinstance(kind, str) or kind not in EYE_KINDS:

@@ -23,13 +23,14 @@ import numpy as np
 
 from eyelab.core.checks import check_in
 from eyelab.core.errors import SpecError
-from eyelab.optics.fresnel import COATINGS, transmittance
+from eyelab.optics.fresnel import COATINGS, PolarisedTransmission
 from eyelab.optics.materials import Material, get_material
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
 from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
 
-#: Minimum centre thickness of minus lenses by material (m) (SCIENCE.md §7, lab practice).
+#: Minimum centre thickness of minus lenses by material (m) (docs/SCIENCE.md §7, lab
+#: practice).
 MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
                         "polycarbonate": 1.5e-3, "mr8": 1.4e-3, "mr7": 1.2e-3,
                         "mr174": 1.5e-3}
@@ -39,7 +40,7 @@ LIMITS = {"lens.vertex_distance_mm": (5.0, 30.0), "lens.pantoscopic_tilt_deg": (
           "lens.wrap_deg": (-30.0, 30.0), "lens.decentration_mm": (-20.0, 20.0),
           "lens.center_thickness_mm": (0.2, 30.0), "lens.diameter_mm": (10.0, 90.0),
           "lens.base_curve_d": (-20.0, 30.0)}
-#: Minimum edge thickness of plus lenses (m) (SCIENCE.md §7: 0.5-1.0 mm).
+#: Minimum edge thickness of plus lenses (m) (docs/SCIENCE.md §7: 0.5-1.0 mm).
 MIN_EDGE_THICKNESS = 1.0e-3
 #: Lowest n_d of a lens made from a prescription (the lowest spectacle material is
 #: ~1.49; below 1.3 the surfaces of ordinary powers become hemispheres).
@@ -206,7 +207,8 @@ class SpectacleLens:
         dict with keys ``hit1``, ``hit2`` (:class:`Hit` at the first/second surface met),
         ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs`` (n, 3)
         ``status`` (n,) uint8 and ``transmittance`` (n,): the fraction of unpolarised light
-        the two surfaces pass (Fresnel, :mod:`eyelab.optics.fresnel`; 0 for failed rays).
+        the two surfaces pass (Fresnel, s and p tracked, :mod:`eyelab.optics.fresnel`; 0
+        for failed rays).
         """
         return self.trace_wavelengths(origins, directions, (wavelength_nm,),
                                       reverse=reverse)[0]
@@ -231,11 +233,12 @@ class SpectacleLens:
             # a ray that must go forward inside the glass but goes backward has missed
             back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
             status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
-            # Fresnel: air -> glass, glass -> air (eyelab.optics.fresnel)
+            # Fresnel: air -> glass, glass -> air, s and p tracked (eyelab.optics.fresnel)
             with np.errstate(invalid="ignore", divide="ignore"):
-                t = (transmittance(ci1, ct1, 1.0, nl, self.coating)
-                     * transmittance(ci2, ct2, nl, 1.0, self.coating))
-            t = np.where((status & np.uint8(FATAL)) == 0, np.nan_to_num(t), 0.0)
+                fresnel = PolarisedTransmission(len(directions))
+                fresnel.surface(directions, h1.normals, ci1, ct1, 1.0, nl, self.coating)
+                fresnel.surface(d1, h2.normals, ci2, ct2, nl, 1.0, self.coating)
+            t = np.where((status & np.uint8(FATAL)) == 0, fresnel.transmittance, 0.0)
             out.append({"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
                         "out_dirs": d2, "status": status, "transmittance": t})
         return out
@@ -315,7 +318,7 @@ class SpectacleLens:
         Front: a sphere of surface power ``base_curve`` (D, at the lens material's own index;
         default Vogel's rule, SE + 6 for plus and SE/2 + 6 for minus lenses, kept in
         [0.5, 12] D). Back: a toric (minus-cylinder, inner toric) surface whose power per
-        principal meridian is F2 = F_v - F1 / (1 - t F1 / n) (SCIENCE.md §7). Centre
+        principal meridian is F2 = F_v - F1 / (1 - t F1 / n) (docs/SCIENCE.md §7). Centre
         thickness: the thinnest that is at least the material minimum and leaves
         MIN_EDGE_THICKNESS at the rim (iterated, since t enters F2). ``diameter``
         (m) defaults to 60 mm, reduced for strong lenses so that no surface is steeper than

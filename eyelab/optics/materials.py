@@ -2,7 +2,7 @@
 
 n(lambda) = A + B / lambda^2 (lambda in micrometres), with
 B = ((n_d - 1) / V_d) / (lambda_F^-2 - lambda_C^-2) and A = n_d - B / lambda_d^2
-(SCIENCE.md §6), so that n(lambda_d) = n_d and (n_d - 1)/(n_F - n_C) = V_d exactly.
+(docs/SCIENCE.md §6), so that n(lambda_d) = n_d and (n_d - 1)/(n_F - n_C) = V_d exactly.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ class Material:
     def from_e_line(cls, name: str, n_e: float, v_e: float, source: str = "") -> Material:
         """A material given as manufacturers in Europe and Japan do: n_e (546.07 nm) and
         V_e = (n_e - 1)/(n_F' - n_C') (F' 479.99, C' 643.85 nm). The same Cauchy model
-        n = A + B/lambda^2 through those data gives n_d and V_d (SCIENCE.md §6):
+        n = A + B/lambda^2 through those data gives n_d and V_d (docs/SCIENCE.md §6):
         B = ((n_e - 1)/V_e)/(lambda_F'^-2 - lambda_C'^-2), A = n_e - B/lambda_e^2."""
         lf, lc, le = LAMBDA_F_PRIME_NM / 1e3, LAMBDA_C_PRIME_NM / 1e3, LAMBDA_E_NM / 1e3
         b = ((n_e - 1.0) / v_e) / (lf ** -2 - lc ** -2)
@@ -101,9 +101,9 @@ class Material:
         return not np.isinf(self.v_d)
 
 
-DUANE = "Duane's Ophthalmology ch. 51C, Table 1 (SCIENCE.md S35): n_d, V_d"
-MITSUI = ("Mitsui Chemicals, MR series product data (n_e, V_e; SCIENCE.md §6 notes that "
-          "the nominal 1.60/1.67/1.74 are n_e); n_d, V_d by Material.from_e_line")
+DUANE = "Duane's Ophthalmology ch. 51C, Table 1 (docs/SCIENCE.md §6): n_d, V_d"
+MITSUI = ("Mitsui Chemicals, MR series product data (n_e, V_e; the nominal "
+          "1.60/1.67/1.74 are n_e, docs/SCIENCE.md §6); n_d, V_d by Material.from_e_line")
 #: Catalogue: the name, the data as published and their source. The high-index
 #: thiourethanes are published as n_e / V_e rounded to 0.01 / 1, so their derived n_d is
 #: known to about +-0.005.
@@ -112,7 +112,7 @@ CATALOGUE: dict[str, Material] = {
     for m in (
         Material("cr39", 1.498, 58.0, DUANE),
         Material("crown", 1.523, 58.6, DUANE),
-        Material("trivex", 1.532, 44.0, "PPG Trivex data (SCIENCE.md S37, S38): n_d 1.532, "
+        Material("trivex", 1.532, 44.0, "PPG Trivex data (docs/SCIENCE.md §6): n_d 1.532, "
                  "V_d 43-45"),
         Material("polycarbonate", 1.586, 30.0, DUANE),
         Material.from_e_line("mr8", 1.60, 41.0, MITSUI + " (MR-8)"),

@@ -1,6 +1,6 @@
 """Clinical spectacle prescriptions (Rx): parsing, formatting, transposition, power vectors.
 
-Conventions (see ``shared/docs/SCIENCE.md`` §1):
+Conventions (see docs/SCIENCE.md §1):
 
 * ``S / C x A`` with ``Add``; powers in dioptres (D), the cylinder axis in degrees in the
   TABO / ISO 8429 convention (examiner's view, counter-clockwise, 0 deg written as 180).
@@ -358,7 +358,7 @@ class Prescription:
 def vertex_effective_power(power, distance_m):
     """Effective power after moving a lens by ``distance_m`` toward the eye: F / (1 - d F).
 
-    Apply per principal meridian. ``distance_m`` > 0 toward the eye (SCIENCE §2).
+    Apply per principal meridian. ``distance_m`` > 0 toward the eye (docs/SCIENCE.md §2).
 
     >>> round(float(vertex_effective_power(-6.0, 0.012)), 4)
     -5.597

@@ -16,7 +16,7 @@ fitting cross at the origin):
 * g''(y) = a(y): along the line x = u(y) the added curvature is a(y) in both directions
   (an umbilic, to the first order in u'), and beside it the cross derivative
   z_xy = a'(y) q'(x') grows as a'(y) x': the cylinder rises twice as fast across the
-  corridor as the power along it (Minkwitz's theorem, SCIENCE.md §8).
+  corridor as the power along it (Minkwitz's theorem, docs/SCIENCE.md §8).
 
 The add is set on the as-worn near reference point by a short correction loop: the
 power delivered there (the vertex-sphere wave for a near object, as `eyelab maps`
@@ -173,7 +173,11 @@ def gaze_through(lens, point, eye_rotation_centre=0.0135):
 def as_worn_add(lens, design, rx, wavelength_nm=587.56, near_distance=0.4):
     """The as-worn add: mean power delivered along the gaze through the near reference
     point (object at ``near_distance`` m from the pupil) minus that through the distance
-    reference point (object at infinity), as the maps compute them."""
+    reference point (object at infinity), by the maps' power error. The objects lie in
+    the directions of the points from the centre of rotation (:func:`gaze_through`), so
+    the lines of sight pass near, not through, them (the lens's prism); the maps instead
+    aim the eye's line of sight through a point
+    (:func:`eyelab.optics.asworn.line_of_sight_through`)."""
     from eyelab.optics.analysis import analyze_points, power_error
     from eyelab.optics.eye import Eye
     from eyelab.optics.paths import ObjectPoints

@@ -22,7 +22,7 @@ import numpy as np
 
 from eyelab.core.checks import check_range
 from eyelab.core.errors import SpecError
-from eyelab.optics.fresnel import transmittance
+from eyelab.optics.fresnel import PolarisedTransmission
 from eyelab.optics.materials import Material
 from eyelab.optics.surfaces import Asphere, Surface
 from eyelab.optics.trace import FATAL, PlacedSurface, Status, intersect, refract
@@ -107,12 +107,13 @@ class LensSystem:
         last surface first. Returns dict ``points`` (n, 3) where each ray leaves the first
         surface, ``dirs`` (n, 3) its direction into the scene, ``status`` (n,) uint8
         (MISSED: vignetted by a surface's aperture or the stop; TIR) and
-        ``transmittance`` (n,) (uncoated Fresnel of every surface; 0 for failed rays)."""
+        ``transmittance`` (n,) (uncoated Fresnel of every surface, s and p tracked; 0 for
+        failed rays)."""
         o = np.asarray(origins, float)
         d = np.asarray(directions, float)
         n = len(o)
         status = np.zeros(n, np.uint8)
-        trans = np.ones(n)
+        fresnel = PolarisedTransmission(n)
         stop_done = False
         for i in range(len(self.surfaces) - 1, -1, -1):
             s = self.surfaces[i]
@@ -124,14 +125,14 @@ class LensSystem:
             n_front = (self.surfaces[i - 1].after if i > 0 else AIR).n(wavelength_nm)
             d2, _, ci, ct, st = refract(d, hit.normals, n_behind / n_front)
             with np.errstate(invalid="ignore", divide="ignore"):
-                trans = trans * np.nan_to_num(transmittance(ci, ct, n_behind, n_front, "none"))
+                fresnel.surface(d, hit.normals, ci, ct, n_behind, n_front)
             status = status | hit.status | st
             o, d = hit.points, d2
         if not stop_done:
             o, d, status = self._through_stop(o, d, status)
         ok = (status & np.uint8(FATAL)) == 0
         return {"points": o, "dirs": d, "status": status,
-                "transmittance": np.where(ok, trans, 0.0)}
+                "transmittance": np.where(ok, fresnel.transmittance, 0.0)}
 
     def trace_forward(self, origins, directions, wavelength_nm: float = 587.56) -> dict:
         """Rays from the scene (travelling +z) through the system to the film plane.
@@ -217,7 +218,8 @@ def doublet_ac254_050() -> LensSystem:
     """Thorlabs AC254-050-A: cemented achromatic doublet, f = 50 mm, Ø 25.4 mm, from
     Thorlabs' Zemax file AC254-050-A.zmx: R1 = 33.34 mm (curvature 0.029994 1/mm),
     R2 = -22.28 mm, R3 = -291.07 mm; centre thicknesses 9.0 mm (N-BAF10) and 2.5 mm (SF10);
-    image conjugate 43.22 mm behind the last vertex. Stop: 90 % of the diameter at the
+    published back focal length 43.4 mm (the Zemax file's image plane, 43.22 mm behind the
+    last vertex, is not the BFL). Stop: 90 % of the diameter at the
     front vertex; film at the back focal point."""
     sd = 0.9 * 25.4e-3 / 2
     s = (SystemSurface(Asphere(29.99400119976), 0.0, N_BAF10, 25.4e-3 / 2),
@@ -226,14 +228,14 @@ def doublet_ac254_050() -> LensSystem:
     sys_ = LensSystem(s, stop_z=-1e-9, stop_radius=sd, film_z=0.06,
                       name="AC254-050-A achromatic doublet",
                       source="Thorlabs AC254-050-A.zmx: curvatures 0.029994 / -0.044883 / "
-                             "-0.0034356 1/mm, CT 9.0 / 2.5 mm, N-BAF10 / SF10, image "
-                             "conjugate 43.22 mm")
+                             "-0.0034356 1/mm, CT 9.0 / 2.5 mm, N-BAF10 / SF10; published "
+                             "BFL 43.4 mm")
     return sys_.focused(math.inf)
 
 
 #: Named lens systems (factories): name -> (factory, published EFL m, published BFL m).
 EXAMPLES = {"biconvex": (biconvex_lb1471, 0.050, 0.0482),
-            "doublet": (doublet_ac254_050, 0.050, 0.04322)}
+            "doublet": (doublet_ac254_050, 0.050, 0.0434)}
 
 
 def full_f_number(system: LensSystem) -> float:

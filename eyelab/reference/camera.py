@@ -1,13 +1,16 @@
 """Distribution ray tracing through a general lens system (Kolb, Mitchell & Hanrahan 1995,
 as Heidrich et al. 1997 use it for their reference images): for every pixel, rays from
-points of the pixel's film area through points of the image-sided sample disc, traced
+points of the pixel's film area through points of the image-sided sample plane, traced
 exactly through every surface and the stop (a vignetted ray carries nothing), then into
-the scene; the film irradiance E(x') = A/n sum L W T (Heidrich Eq. 3 with many random
+the scene; the film irradiance E(x') = A(x')/n sum L W T (Heidrich Eq. 3 with many random
 samples; W = cos th' cos th'' / |x'' - x'|^2, T the surfaces' Fresnel transmission),
 normalised by the exact unvignetted, lossless value at the film centre
-(:meth:`eyelab.optics.film.CameraRays.white_level`). The truth the image-based renderer's
-camera images are measured against; its approximations (perspective slices, morph, few
-lens samples) are absent here.
+(:meth:`eyelab.optics.film.CameraRays.white_level`). Each film point's samples are drawn
+from the bounding disc of its own vignetted bundle, of area A(x') (the ``"bundle"``
+domain of :class:`~eyelab.optics.film.CameraRays`): off the axis the bundle moves away
+from the film centre's disc, and a disc that follows it holds all of its light with the
+fewest vignetted samples. The truth the image-based renderer's camera images are measured
+against; its approximations (perspective slices, morph, few lens samples) are absent here.
 """
 
 from __future__ import annotations
@@ -36,9 +39,13 @@ def render_camera(scene, system, view, quality, name: str = "reference"):
     has its own random stream, so the image does not depend on the thread count."""
     t0 = time.perf_counter()
     report = new_report(name, view, quality)
-    maker = CameraRays(system, view.width, view.height, view.fov_y_deg, view.near)
+    # random samples per film point: each from its own vignetted bundle's bounding disc
+    maker = CameraRays(system, view.width, view.height, view.fov_y_deg, view.near,
+                       domain="bundle")
     dispersive = any(s.after.dispersive for s in system.surfaces)
     wls = RGB_WAVELENGTHS_NM if quality.chromatic and dispersive else (587.56,)
+    for wl in wls:
+        maker.footprints(wl)            # the bundles, tabulated before the threads start
     if len(wls) == 1:
         report["skipped"].append("chromatic: one wavelength")
     inter = EmbreeIntersector(scene)

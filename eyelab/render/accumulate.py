@@ -11,7 +11,7 @@ Exactness: the only rounding is the 16-bit quantisation of each decoded code (at
 0.5/65535 in linear light, 0.025 of a code value next to black, where the sRGB curve is
 steepest) and the final re-encoding to the nearest code; a mean therefore re-encodes to
 within 0.5 code value of the exactly averaged radiance everywhere, dark regions included
-(``tests/test_accumulate.py`` measures it).
+(``tests/test_linear_light.py`` measures it).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ import numpy as np
 
 from eyelab.render import _vtk
 
-#: Vertex shader tags measured to exist in VTK 9.7 (shared/docs/VTK_NOTES.md, Q5).
+#: Vertex shader tags measured to exist in VTK 9.7 (docs/VTK_NOTES.md Q5).
 VERTEX_TAGS = ("//VTK::PositionVC::Dec", "//VTK::PositionVC::Impl",
                "//VTK::CustomBegin::Impl", "//VTK::CustomEnd::Impl")
 
@@ -65,8 +65,8 @@ class OffscreenWindow:
 
     Every displaced actor shares one shader property per route, so there is one GL program
     per shading variant (textured / coloured), compiled once per window, and a pass only
-    changes the ``seed`` / ``jitter`` uniforms (VTK_NOTES Q1). ``render_s`` / ``readback_s``
-    accumulate the time spent inside ``Render()`` and in read-back.
+    changes the ``seed`` / ``jitter`` uniforms (docs/VTK_NOTES.md Q1). ``render_s`` /
+    ``readback_s`` accumulate the time spent inside ``Render()`` and in read-back.
     """
 
     def __init__(self):
@@ -115,8 +115,8 @@ class OffscreenWindow:
         """Select the route. "texture": the field as a 3D RGBA32F texture (linear filtering,
         clamp-to-edge) sampled in the vertex shader, uploaded once per field and kept (up to
         :data:`FIELD_TEXTURES`, so that per-channel fields switch without uploads)
-        (VTK_NOTES Q2 route A); "attribute": matrices looked up per vertex on the CPU
-        (route D)."""
+        (docs/VTK_NOTES.md Q2, route A); "attribute": matrices looked up per vertex on the
+        CPU (route D)."""
         self.route = route
         if route != "texture":
             return
@@ -242,9 +242,9 @@ class OffscreenWindow:
 
 def bind_field_texture(mapper, window: OffscreenWindow) -> None:
     """Bind the window's field texture to the mapper's shader program before each draw
-    (UpdateShaderEvent fires on vtkOpenGLPolyDataMapper; VTK_NOTES Q2 route A). The
-    callback holds the window weakly, so the window and its actors never keep each other
-    alive."""
+    (UpdateShaderEvent fires on vtkOpenGLPolyDataMapper; docs/VTK_NOTES.md Q2, route
+    A). The callback holds the window weakly, so the window and its actors never keep each
+    other alive."""
     ref = weakref.ref(window)
 
     @_vtk.calldata_type(_vtk.VTK_OBJECT)

@@ -33,11 +33,11 @@ from eyelab.imaging.options import (
 from eyelab.imaging.registry import QUALITIES, RENDERERS
 from eyelab.imaging.stereo import OUTPUTS
 from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
-from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS
+from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, EYE_REFERENCE_NM
 from eyelab.optics.eye import LIMITS as EYE_LIMITS
 from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.lens import LIMITS as LENS_LIMITS
-from eyelab.optics.materials import ALIASES, CATALOGUE
+from eyelab.optics.materials import ALIASES, CATALOGUE, RGB_WAVELENGTHS_NM
 from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
 from eyelab.optics.surfaces import REVOLVE_AXES
 from eyelab.optics.system import EXAMPLES, full_f_number, get_system
@@ -309,8 +309,10 @@ KEYS = [
         "tyre when curvature_y is the steeper, a barrel when the flatter; `\"x\"` the same "
         "with x′ and y′ exchanged", choices=REVOLVE_AXES, base=TORIC),
     # -------------------------------------------------------------- [analysis]
-    Key("analysis", "wavelength_nm", "number", "nm", "587.56", "the wavelength `analyze` "
-        "traces (renders trace R, G, B at 656.27, 546.07, 486.13 nm)"),
+    Key("analysis", "wavelength_nm", "number", "nm", f"{EYE_REFERENCE_NM:g}", "the "
+        "wavelength `analyze` traces the lens and the eye at (the eye's own chromatic "
+        "aberration included; its accommodation is the reference wavelength's); renders "
+        "trace R, G, B at " + ", ".join(f"{w:g}" for w in RGB_WAVELENGTHS_NM) + " nm"),
     Key("analysis", "fixation", "choice", "", '`"fixed"`', "for `analyze`: pupil fixed at "
         "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
         "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",

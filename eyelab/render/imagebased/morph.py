@@ -55,7 +55,7 @@ def rasterize(film_tri, attrs, width, height, covered):
     with np.errstate(divide="ignore", invalid="ignore"):
         l1 = ((cx - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (cy - a[:, 1])) / det
         l2 = ((b[:, 0] - a[:, 0]) * (cy - a[:, 1]) - (cx - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
-    l0 = 1 - l1 - l2
+        l0 = 1 - l1 - l2                    # nan for a degenerate triangle: left out below
     eps = -1e-9
     inside = (l0 >= eps) & (l1 >= eps) & (l2 >= eps) & np.isfinite(l1) & np.isfinite(l2)
     idx = py * width + px
