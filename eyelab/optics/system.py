@@ -88,7 +88,8 @@ class LensSystem:
 
     @property
     def exit_radius(self) -> float:
-        """Radius of the image-sided sample disc: the last surface's clear aperture, m."""
+        """The last surface's clear aperture radius, m (bounds every film point's bundle in the
+        image-sided sample plane, :mod:`eyelab.optics.film`)."""
         return self.surfaces[-1].semi_diameter
 
     def with_film(self, film_z: float) -> LensSystem:
