@@ -16,6 +16,11 @@ def add_parser(sub) -> None:
                    help="worker processes of a local Dask cluster (1: in this process)")
     b.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://host:port) to send the jobs to instead")
+    from eyelab.jobs.batch import MAX_JOBS
+
+    b.add_argument("--max-jobs", type=int, default=MAX_JOBS, metavar="N",
+                   help=f"refuse job specs that expand to more than N jobs (default "
+                   f"{MAX_JOBS}; the grid is counted before it is made)")
     from eyelab.apps.common import add_max_memory, add_quiet
 
     add_quiet(b)
@@ -25,8 +30,10 @@ def add_parser(sub) -> None:
 def run(args) -> int:
     from eyelab.apps.common import apply_max_memory
     from eyelab.core.errors import SpecError
-    from eyelab.jobs.batch import load_job_spec, run_batch
+    from eyelab.jobs.batch import load_job_spec, run_batch, validate_jobs
 
+    if not 1 <= args.max_jobs <= 10**7:
+        raise SpecError("--max-jobs", f"must be in [1, 10000000], got {args.max_jobs}")
     if not 1 <= args.workers <= 256:
         raise SpecError("--workers", f"must be in [1, 256], got {args.workers}")
     if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://",
@@ -37,7 +44,8 @@ def run(args) -> int:
 
     use_offscreen()
     apply_max_memory(args)       # the jobs (and Dask workers, via the environment) check it
-    js = load_job_spec(args.jobspec, out_dir=args.output)
+    js = load_job_spec(args.jobspec, out_dir=args.output, max_jobs=args.max_jobs)
+    validate_jobs(js)            # what would fail every job: refused before anything is written
     res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
                     progress=not args.quiet and sys.stderr.isatty())
     print(f"{res['jobs']} jobs: {res['run']} run, {res['skipped_done']} already done, "

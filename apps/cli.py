@@ -8,6 +8,7 @@ print one line naming the field and exit with status 2; no partial output file i
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 
@@ -59,8 +60,10 @@ def _build_parser() -> argparse.ArgumentParser:
     mp.add_argument("-o", "--output", default="eyelab-maps.png", help="PNG file")
     mp.add_argument("--json", help="also write the maps as JSON here")
     mp.add_argument("--half-angle", type=float, default=30.0,
-                    help="gazes within +-this many degrees (default 30)")
-    mp.add_argument("--points", type=int, default=31, help="gazes per axis (default 31)")
+                    help="eye rotations (Fick angles about the centre of rotation) within "
+                         "+-this many degrees (default 30)")
+    mp.add_argument("--points", type=int, default=31,
+                    help="eye rotations per axis (default 31)")
     bench.add_parser(sub)
     return ap
 
@@ -93,23 +96,52 @@ def _render_overrides(parser) -> None:
                         + ", ".join(OUTPUTS))
 
 
+@contextlib.contextmanager
+def _quiet_numerics():
+    """numpy's floating-point warnings are not shown: the command reports what matters
+    (e.g. "nothing in view") in its own lines."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
+
+
 def main(argv=None) -> int:
+    """The command line; returns the exit status (0 done, 1 some jobs or checks not ok, 2
+    bad input, 130 interrupted by Ctrl-C, 143 terminated by SIGTERM)."""
     ap = _build_parser()
     args = ap.parse_args(argv)
+    import signal
+
+    from eyelab.core import interrupt
     from eyelab.imaging.memory import memory_limit_scope
 
     try:
-        with memory_limit_scope():    # --max-memory lasts for this command only
-            rc = _main(args)
+        # Ctrl-C / SIGTERM: outputs are atomic, so unwinding leaves none half-written
+        with memory_limit_scope(), interrupt.handling(), _quiet_numerics():
+            rc = _main(args)      # --max-memory lasts for this command only
+            interrupt.check()     # a request some native code swallowed still counts
         sys.stdout.flush()        # a closed pipe shows here, not at interpreter exit
         return rc
-    except BrokenPipeError:
-        # the reader went away (`eyelab analyze --json | head -1`): stop quietly
-        import os
+    except BaseException as e:
+        signum = interrupt.requested()
+        if signum is None and not isinstance(e, (KeyboardInterrupt, interrupt.Terminated)):
+            if isinstance(e, BrokenPipeError):
+                return _broken_pipe()
+            raise
+        sigterm = isinstance(e, interrupt.Terminated) or signum == signal.SIGTERM
+        print(f"eyelab: {'terminated' if sigterm else 'interrupted'}", file=sys.stderr)
+        return 143 if sigterm else 130
 
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 1
+
+def _broken_pipe() -> int:
+    """The reader went away (`eyelab analyze --json | head -1`): stop quietly."""
+    import os
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return 1
 
 
 def _main(args) -> int:
@@ -159,6 +191,9 @@ def _analyze(args) -> int:
 
         check_output("--output", args.output)
     spec = load_spec(args.spec)
+    if spec.render.camera is not None:
+        raise SpecError("render.camera", "analyze analyses an eye (and its lens); this spec "
+                        "has a camera lens: render it with eyelab render")
     if args.fixation:
         spec = replace(spec, fixation=args.fixation)
     rep = analyze_spec(spec, no_lens=args.no_lens)
@@ -213,6 +248,9 @@ def _render(args) -> int:
         key = e.field.removeprefix("render.").split("[")[0]
         raise SpecError(f"--{_FLAGS.get(key, key)} ({e.field})", e.message) from None
     spec = replace(spec, render=rs)
+    if getattr(args, "no_lens", False) and rs.camera is not None:
+        raise SpecError("--no-lens", f"shows the naked eye; this spec renders through a "
+                        f"camera lens (render.camera = {rs.camera.name!r}), which has no eye")
     from eyelab.imaging.memory import check_memory
 
     apply_max_memory(args)
@@ -292,11 +330,14 @@ def _write_demo(args, spec) -> None:
 
 def _maps(args) -> int:
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
+    from eyelab.jobs.maps import cli_maps as as_worn_maps
     from eyelab.jobs.maps import maps_summary, plot_maps
-    from eyelab.optics.asworn import as_worn_maps
     from eyelab.spec import load_spec, one_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
+    if spec.render.camera is not None:
+        raise SpecError("render.camera", "maps show a spectacle lens as worn; this spec has "
+                        "a camera lens: render it with eyelab render")
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     check_output("--output", args.output)

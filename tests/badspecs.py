@@ -61,7 +61,8 @@ BAD_VALUES = {
     "rx": lambda lo, hi: [
         "-2.00 DS banana", "", "x", "-3" + " " * 400 + "!", "+40.00 DS", "-2 -1 x 400",
         "-2 -1 x", "1e400", "-1.00 DC", "-2.00 -1.00 x 90 add 9", "-2.00 -20.00 x 90", 1, True,
-        [-2.0]],
+        [-2.0], "-3.00 / / -1.00 x 90", "-3.00 /", "/ -3.00", "-1.00 x 90 / -2.00",
+        "-2.00° -1.00 x 90", "-1.00,, -0.50 x 180"],
     "pair": lambda lo, hi: [
         [0.0], [0.0, 0.0, 0.0], "0, 0", 0.0, [True, 0.0], [math.nan, 0.0], [0.0, HUGE],
         [hi + 1, 0.0], [0.0, lo - 1], ["1", 0.0]],
@@ -76,7 +77,7 @@ BAD_VALUES = {
         [8, 8, lo - 1], [8, HUGE, 8], 8],
     "list": lambda lo, hi: ["1e-6", 1e-6, [True], [math.nan], [HUGE], [1e300], ["a"], [[1.0]]],
     "material": lambda lo, hi: [
-        "banana", "", "air", 1.5, True, ["cr39"], {"n_d": 1.0}, {"n_d": "1.5"},
+        "banana", "", "air", 1.5, 1.67, "1.6", 1.55, True, ["cr39"], {"n_d": 1.0}, {"n_d": "1.5"},
         {"n_d": 1.5, "v_d": "40"}, {"n_d": 1.5, "v_d": -10.0}, {"n_d": math.nan},
         {"v_d": 40.0}, {"n_d": 1.5, "colour": "red"}, {"n_d": HUGE}, {"n_d": 1.0001},
         {"n_d": 5.0}],
@@ -119,6 +120,175 @@ def to_toml(spec: dict) -> str:
     return dump_spec(spec)
 
 
+#: Near misses whose one line must also say what was meant: (name, spec, field, hint).
+HINTS = [
+    ("material as a number", {"lens": {"rx": "-1.00", "material": 1.67}}, "lens.material",
+     "did you mean '1.67'"),
+    ("material as a short index", {"lens": {"rx": "-1.00", "material": "1.6"}},
+     "lens.material", "did you mean '1.60'"),
+    ("material as an index alone", {"lens": {"rx": "-1.00", "material": 1.5}},
+     "lens.material", "'cr39'"),
+    ("material misspelt", {"lens": {"rx": "-1.00", "material": "polycarbonat"}},
+     "lens.material", "did you mean 'polycarbonate'"),
+    *((f"design {d!r}", {"lens": {"rx": "-1.00 add +2.00", "design": d}}, "lens.design",
+       f"did you mean {want!r}") for d, want in (
+        ("PAL", "progressive"), ("varifocal", "progressive"), ("Progressive", "progressive"),
+        ("single vision", "single-vision"), ("reading", "near"))),
+    ("[lens] add", {"lens": {"rx": "-1.00", "add": 2.0}}, "lens.add", "write it in lens.rx"),
+    ("[eye] add", {"eye": {"rx": "-1.00", "add": 2.0}}, "eye.add", "lens.rx"),
+    ("[lens] sphere", {"lens": {"sphere": -1.0}}, "lens.sphere", "rx = "),
+    ("[lens] side", {"lens": {"rx": "-1.00", "side": "L"}}, "lens.side", "rx = \"R -1.00"),
+    ("an add in eye.rx without a lens", {"eye": {"rx": "-1.00 add +2.00"}}, "eye.rx",
+     "an add belongs to a lens"),
+    ("an add in eye.rx beside lens.rx", {"eye": {"rx": "-1.00 add +2.00"},
+                                          "lens": {"rx": "-1.00"}}, "eye.rx",
+     "write the add there"),
+    ("an add in eye.rx with explicit surfaces", {"eye": {"rx": "-1.00 add +2.00"},
+                                                  **SURFACES}, "eye.rx", "surface by surface"),
+    ("an eye.rx too myopic", {"eye": {"rx": "-29.00"}}, "eye.rx", "−28.73…+15.23 D"),
+    ("an eye.rx too much cylinder", {"eye": {"rx": "pl -11.50 x 90"}}, "eye.rx",
+     "−11.36…+8.93 D"),
+    ("an L progressive on an R eye", {"eye": {"rx": "R -1.00"}, "lens": {
+        "rx": "L -1.00 add +2.00", "design": "progressive"}}, "lens.rx", "for the left eye"),
+    ("a progressive lens too small for its corridor", {"lens": {
+        "rx": "-1.00 add +2.00", "design": "progressive", "diameter_mm": 30}},
+     "lens.diameter_mm", "must exceed 2 × 16.2 = 32.4 mm"),
+    ("a progressive front too steep for its diameter", {"lens": {
+        "rx": "+6.00 add +3.00", "design": "progressive"}}, "lens.diameter_mm",
+     "must be under √2 × 41.5 = 58.7 mm"),
+    ("a camera with a gaze", {"render": {"renderer": "reference", "camera": "doublet",
+                                         "gaze_deg": [10, 0]}}, "render.gaze_deg",
+     "no eye to turn"),
+    ("a malformed Rx separator", {"eye": {"rx": "-3.00 / / -1.00 x 90"}}, "eye.rx",
+     "a misplaced '/'"),
+]
+
+
+def _side_cases() -> list:
+    """Every [eye] and [lens] key refused in a side's table ([eye.right], [lens.left], ...)
+    naming that table: one wrong type and one value out of range (or the first bad value)
+    per key, the sides taken in turn."""
+    cases = []
+    for n, (table, key, kind, lo, hi, base) in enumerate(
+            f for f in FIELDS if f[0] in ("eye", "lens")):
+        # the right side is read first: a design is refused there (the shared Rx has an
+        # add, so the left lens would be refused first for having no design)
+        side = "right" if key == "design" else ("right", "left")[n % 2]
+        values = _bad_values(kind, lo, hi)
+        for i in (2, len(values) - 1) if kind in ("num", "int") else (0,):
+            spec = _deep_copy(base)
+            spec.setdefault(table, {}).setdefault(side, {})[key] = values[i]
+            cases.append((f"{table}.{side}.{key}#{i}", to_toml(spec).encode(),
+                          f"{table}.{side}.{key}"))
+    return cases
+
+
+PAL = {"rx": "-1.00 DS add +2.00", "design": "progressive"}
+CAMERA = {"renderer": "reference", "camera": "doublet"}
+#: Two eyes, progressive lenses and cameras: the rules between keys and tables.
+STRUCTURE = {
+    # two eyes
+    "an add in a side's eye.rx beside lens.rx": (
+        {"eye": {"left": {"rx": "L -1.00 add +2.00"}}, "lens": {"rx": "-1.00"}},
+        "eye.left.rx"),
+    "an add in eye.rx for two naked eyes": ({"eye": {"rx": "-1.00 add +2.00"},
+                                             "binocular": {}}, "eye.rx"),
+    "a left lens Rx in [lens.right]": ({"lens": {"rx": "-1.00", "right": {
+        "rx": "L -1.00"}}}, "lens.right.rx"),
+    "a side's design misspelt": ({"lens": {"rx": "-1.00 add 2", "right": {
+        "design": "PAL"}, "left": {"design": "progressive"}}}, "lens.right.design"),
+    "a side's corridor without the design": ({"lens": {"rx": "-1.00", "right": {
+        "corridor_mm": 14}}}, "lens.right.corridor_mm"),
+    "a side's lens too small for its corridor": ({"lens": {**PAL, "left": {
+        "diameter_mm": 30}}}, "lens.left.diameter_mm"),
+    "[binocular] unknown key": ({"binocular": {"ipd_mm": 64}}, "binocular.ipd_mm"),
+    "a side table of [binocular]": ({"binocular": {"right": {"pd_mm": 32}}},
+                                    "binocular.right"),
+    "monocular pds and pd": ({"binocular": {"monocular_pd_mm": [32, 32], "pd_mm": 64}},
+                             "binocular.pd_mm"),
+    "a frame pd decentring the left lens too far": (
+        {"lens": {"rx": "-1", "left": {"decentration_mm": [15, 0]}},
+         "binocular": {"frame_pd_mm": 50}}, "binocular.frame_pd_mm"),
+    "a right Rx for the left eye, shared": ({"eye": {"rx": "OD -1.00"},
+                                             "binocular": {}}, "eye.rx"),
+    # progressive lenses: every design key, and what the design excludes
+    **{f"{k} without the design": ({"lens": {"rx": "-1.00 add 2", k: v}}, f"lens.{k}")
+       for k, v in (("corridor_mm", 14), ("inset_mm", 2.5), ("softness_mm", 8))},
+    **{f"a progressive lens with {k}": ({"lens": {**PAL, k: v}}, f"lens.{k}")
+       for k, v in (("base_curve_d", 4.0), ("center_thickness_mm", 3.0), ("torus", "x"))},
+    "a progressive lens without an add": ({"lens": {"rx": "-1.00", "design": "progressive"}},
+                                          "lens.design"),
+    "a progressive add below the design's": ({"lens": {**PAL, "rx": "-1.00 add +0.10"}},
+                                             "lens.rx"),
+    "a progressive add from eye.rx below the design's": (
+        {"eye": {"rx": "-1.00 add +0.10"}, "lens": {"design": "progressive"}}, "eye.rx"),
+    "a progressive design on explicit surfaces": (_merge(SURFACES, "lens", "design",
+                                                         "progressive"), "lens.design"),
+    "a near design without an add": ({"lens": {"rx": "-1.00", "design": "near"}},
+                                      "lens.design"),
+    "an add with no design": ({"lens": {"rx": "-1.00 add 2"}}, "lens.design"),
+    "an R progressive on an L eye": ({"eye": {"rx": "OS -1.00"}, "lens": {
+        **PAL, "rx": "OD -1.00 add 2"}}, "lens.rx"),
+    "a corridor too long for the lens": ({"lens": {**PAL, "corridor_mm": 22,
+                                                   "diameter_mm": 45}}, "lens.diameter_mm"),
+    "an inset taking the near point off the lens": (
+        {"lens": {**PAL, "corridor_mm": 10, "inset_mm": 5, "diameter_mm": 25}},
+        "lens.diameter_mm"),
+    # cameras: what a camera excludes, and its keys without it
+    **{f"a camera with [{t}]": ({"render": CAMERA, t: v}, "render.camera") for t, v in (
+        ("eye", {"age": 40}), ("lens", {"rx": "-1.00"}), ("binocular", {}),
+        ("eye", {"right": {"age": 40}}))},
+    "a camera with a gaze": ({"render": {**CAMERA, "gaze_deg": [0, 0]}}, "render.gaze_deg"),
+    "a camera for the raster renderer": ({"render": {"camera": "doublet"}}, "render.camera"),
+    **{f"a camera for {r}, misspelt": ({"render": {"renderer": r, "camera": "Doublet"}},
+                                       "render.camera") for r in ("reference", "imagebased")},
+    **{f"{k} without a camera ({r})": ({"render": {"renderer": r, k: v}}, f"render.{k}")
+       for r in ("reference", "imagebased")
+       for k, v in (("camera_focus_m", 2.0), ("camera_f_number", 4.0))},
+    "a biconvex stop wider than its full aperture": (
+        {"render": {"renderer": "imagebased", "camera": "biconvex", "camera_f_number": 2.0}},
+        "render.camera_f_number"),
+    "a camera focused inside its first vertex": (
+        {"render": {**CAMERA, "camera_focus_m": 0.05}}, "render.camera_focus_m"),
+}
+
+
+def _maps_argv(spec, out, *flags):
+    return ["maps", spec, "-o", out, *flags]
+
+
+#: ``eyelab maps`` (and render flags) given bad values: (name, spec, argv tail, field the
+#: engine names, the flag or field the command's line names).
+COMMAND_LINES = [
+    *((f"maps --half-angle {v}", {"lens": {"rx": "-1.00"}}, ["maps", "--half-angle", v],
+       "maps.half_angle_deg", "--half-angle") for v in ("0", "61", "-5", "nan", "inf")),
+    *((f"maps --points {v}", {"lens": {"rx": "-1.00"}}, ["maps", "--points", v], "maps.n",
+       "--points") for v in ("2", "202", "0", "-1")),
+    *((f"maps {flag} {v}", {"lens": {"rx": "-1.00"}}, ["maps", flag, v], flag, flag)
+      for flag, v in (("--points", "3.5"), ("--points", "abc"), ("--half-angle", "abc"))),
+    ("maps without a lens", {"eye": {"age": 40}}, ["maps"], "lens", "lens"),
+    ("maps of two eyes", {"lens": {"rx": "-1.00"}, "binocular": {}}, ["maps"], "binocular",
+     "binocular"),
+    ("maps of a camera", {"render": CAMERA, "lens": {"rx": "-1.00"}}, ["maps"],
+     "render.camera", "render.camera"),
+    ("analyze a camera", {"render": CAMERA}, ["analyze"], "render.camera", "render.camera"),
+    ("render -o ''", {}, ["render", "-o", ""], "--output", "--output"),
+    ("render --no-lens with a camera", {"render": CAMERA}, ["render", "--no-lens"],
+     "--no-lens", "--no-lens"),
+    ("maps of a bad spec", {"lens": {"rx": "-3.00 / / -1.00 x 90"}}, ["maps"], "lens.rx",
+     "lens.rx"),
+    ("maps to a jpeg", {"lens": {"rx": "-1.00"}}, ["maps", "-o", "m.jpg"], "--output",
+     "--output"),
+    ("render --gaze with a camera", {"render": {**CAMERA, "width": 16, "height": 16}},
+     ["render", "--gaze", "10", "0"], "--gaze (render.gaze_deg)", "--gaze (render.gaze_deg)"),
+    ("render --binocular with a camera", {"render": CAMERA}, ["render", "--binocular"],
+     "render.camera", "render.camera"),
+    ("render --renderer raster with a camera", {"render": CAMERA},
+     ["render", "--renderer", "raster"], "--renderer (render.renderer)",
+     "--renderer (render.renderer)"),
+]
+
+
 def corpus() -> list:
     """[(name, bytes, field)]: the whole corpus."""
     cases = []
@@ -138,7 +308,8 @@ def corpus() -> list:
     for name, text in (("eye = 5", "eye = 5\n"), ("lens = []", "lens = []\n"),
                        ("render = 'x'", "render = 'x'\n"), ("points = {}", "[points]\n"),
                        ("points = []", "points = []\n"), ("analysis = 1", "analysis = 1\n"),
-                       ("points = [1]", "points = [1]\n")):
+                       ("points = [1]", "points = [1]\n"), ("binocular = 3", "binocular = 3\n"),
+                       ("eye.right = 3", "[eye]\nright = 3\n")):
         cases.append((name, text.encode(), name.split(" ")[0]))
     # keys that only take effect with another key, and keys another choice excludes
     only = {
@@ -188,8 +359,10 @@ def corpus() -> list:
         "steep base curve": ({"lens": {"rx": "-2.00", "base_curve_d": 29, "diameter_mm": 60}},
                              "lens.base_curve_d"),
     }
-    for name, (spec, fld) in only.items():
+    for name, (spec, fld) in {**only, **STRUCTURE}.items():
         cases.append((name, to_toml(spec).encode(), fld))
+    cases += [(name, to_toml(spec).encode(), fld) for name, spec, fld, _ in HINTS]
+    cases += _side_cases()
     # a renderer's key under the other renderer
     cases.append(("reference key on raster", b'[render]\nmodel = "fons"\n', "render.model"))
     cases.append(("raster key on reference",

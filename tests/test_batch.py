@@ -102,14 +102,14 @@ def _idat(path) -> bytes:
 
 
 @pytest.mark.parametrize("text, field", [
-    ('[sweep]\n"eye.rx" = "-1.00"\n', "jobspec.sweep.eye.rx"),
+    ('[sweep]\n"eye.rx" = "-1.00"\n', 'jobspec.sweep."eye.rx"'),
     ('[sweep]\nmode = "cross"\n"eye.rx" = ["-1.00"]\n', "jobspec.sweep.mode"),
     ('[sweep]\nmode = "zip"\n"eye.rx" = ["-1.00"]\n"eye.age" = [1, 2]\n', "jobspec.sweep"),
     ('[output]\nformats = ["tiff"]\n', "jobspec.output.formats"),
     ('[outputs]\ndir = "x"\n', "jobspec.outputs"),
     ('spec = "missing.toml"\n', "spec"),
-    ('[sweep]\n"eye.age" = {start = 10, stop = 1, step = 1}\n', "jobspec.sweep.eye.age.step"),
-    ('[sweep]\n"eye.age" = {start = 10, stop = 20}\n', "jobspec.sweep.eye.age"),
+    ('[sweep]\n"eye.age" = {start = 10, stop = 1, step = 1}\n', 'jobspec.sweep."eye.age".step'),
+    ('[sweep]\n"eye.age" = {start = 10, stop = 20}\n', 'jobspec.sweep."eye.age"'),
 ])
 def test_bad_job_specs_name_the_field(tmp_path, text, field):
     p = tmp_path / "bad.toml"
@@ -135,10 +135,12 @@ def test_cli_exit_codes(tmp_path, capsys):
     assert main(["batch", str(spec), "--quiet"]) == 0
     assert "4 jobs: 4 run" in capsys.readouterr().out
     assert main(["batch", str(spec), "--workers", "0"]) == 2
+    capsys.readouterr()
     bad = tmp_path / "bad.toml"
     bad.write_text('[[cases]]\n"eye.rx" = "banana"\n')
-    assert main(["batch", str(bad), "--quiet", "-o", str(tmp_path / "o2")]) == 1
-    assert "job 0: eye.rx" in capsys.readouterr().out
+    assert main(["batch", str(bad), "--quiet", "-o", str(tmp_path / "o2")]) == 2
+    assert capsys.readouterr().err.startswith("eyelab: error: jobspec.cases[0] (eye.rx): ")
+    assert not (tmp_path / "o2").exists()                    # refused before any output
     junk = tmp_path / "junk.ply"
     junk.write_bytes(b"not a mesh at all")
     bad.write_text(f'[[cases]]\n"render.scene" = "{junk}"\n[[cases]]\n"eye.age" = 30\n')
@@ -233,3 +235,174 @@ def test_bench_batch_small():
     assert set(res["times_s"]) == {"batch_1_worker", "batch_2_workers", "separate_processes"}
     assert res["same_bytes_1_vs_2_workers"] is True
     assert all(v > 0 for v in res["times_s"].values())
+
+
+@pytest.mark.parametrize("sweep, words", [
+    # four axes of 100 values: 10^8 jobs, refused from the counts alone
+    ("".join(f'"{k}" = {{start = 1, stop = 100, step = 1}}\n' for k in
+             ("eye.age", "eye.pupil_diameter_mm", "render.width", "render.height")),
+     "100,000,000 jobs (product of 100 x 100 x 100 x 100)"),
+    # two ranges under the per-range cap whose product is 10^8
+    ('"eye.age" = {start = 0, stop = 9999, step = 1}\n'
+     '"render.width" = {start = 0, stop = 9999, step = 1}\n', "100,000,000 jobs"),
+    # a million jobs
+    ('"eye.age" = {start = 0, stop = 999, step = 1}\n'
+     '"render.width" = {start = 0, stop = 999, step = 1}\n', "1,000,000 jobs"),
+    # a range whose count overflows
+    ('"eye.age" = {start = 0, stop = 1e308, step = 1e-300}\n', "inf values"),
+])
+def test_huge_grids_are_refused_before_they_are_made(tmp_path, capsys, sweep, words):
+    from eyelab.apps.cli import main
+
+    spec = tmp_path / "grid.toml"
+    spec.write_text("[sweep]\n" + sweep)
+    assert main(["batch", str(spec), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and words in err and "jobspec.sweep" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_job_limit_counts_sweep_and_cases(tmp_path):
+    spec = _jobspec(tmp_path, n_rx=3, extra='\n[[cases]]\n"eye.age" = 30\n')
+    with pytest.raises(SpecError, match=r"7 jobs \(product of 3 x 2, plus 1 cases\); "
+                                        r"at most 6 \(--max-jobs"):
+        load_job_spec(spec, max_jobs=6)
+    assert len(load_job_spec(spec, max_jobs=7).jobs) == 7
+
+
+@pytest.mark.parametrize("jobspec, field", [
+    ('[sweep]\n"eye.rxx" = ["-1 DS"]\n', 'jobspec.sweep."eye.rxx"[0] (eye.rxx)'),
+    ('[sweep]\n"eye.rx" = ["-1 DS", "-2 DS", "banana"]\n', 'jobspec.sweep."eye.rx"[2] (eye.rx)'),
+    ('[base]\neye = {pupil_diameter_mm = 42}\n[sweep]\n"eye.rx" = ["-1 DS"]\n',
+     "jobspec.base (eye.pupil_diameter_mm)"),
+    ('[base]\nbinocular = {pd_mm = 64}\n', "jobspec.base (binocular)"),
+    ('[base]\nrender = {width = 4096, height = 3072, samples = 64}\n',
+     "jobspec.base (render.width)"),
+    ('[[cases]]\n"eye.age" = 30\n[[cases]]\n"render.samples" = 0\n',
+     "jobspec.cases[1] (render.samples)"),
+])
+def test_what_would_fail_every_job_is_refused_up_front(tmp_path, capsys, jobspec, field):
+    """A misspelt sweep key, a bad sweep value, a bad base value, a two-eye base, a base
+    over the memory limit, a bad case: one line naming where the value came from and the
+    spec field, exit 2, no folder, no sidecar, no summary."""
+    from eyelab.apps.cli import main
+
+    spec = tmp_path / "jobs.toml"
+    spec.write_text(jobspec)
+    assert main(["batch", str(spec), "-o", str(tmp_path / "out"), "--max-memory", "2"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and err.startswith(f"eyelab: error: {field}: "), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_output_folders_and_schedulers_are_checked_before_work(tmp_path, capsys):
+    from eyelab.apps.cli import main
+
+    spec = _jobspec(tmp_path)
+    (tmp_path / "a_file").write_text("x")
+    for out, words in ((str(tmp_path / "a_file" / "o"), "is not a folder"),
+                       (str(tmp_path / "a_file"), "exists and is not a folder"),
+                       ("", "must be a folder path")):
+        assert main(["batch", str(spec), "-o", out]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("eyelab: error: --output: ") and words in err, err
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        if not os.access(ro, os.W_OK):            # (root may write anywhere)
+            assert main(["batch", str(spec), "-o", str(ro / "o")]) == 2
+            assert "cannot write in" in capsys.readouterr().err
+    finally:
+        ro.chmod(0o700)
+    assert main(["batch", str(spec), "-o", str(tmp_path / "o"), "--scheduler",
+                 "tcp://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("eyelab: error: --scheduler: cannot connect to tcp://127.0.0.1:9")
+    assert len(err.splitlines()) == 1 and not (tmp_path / "o").exists()
+    # a relative folder is taken from where the command runs, made absolute for workers
+    js = load_job_spec(spec, out_dir="rel-out")
+    assert js.out_dir == Path.cwd() / "rel-out"
+
+
+def test_a_finished_job_is_not_rendered_again(tmp_path, monkeypatch):
+    """run_job on a job whose complete sidecar exists returns its row without rendering
+    (what a Dask task rescheduled after its worker died does)."""
+    from eyelab.jobs import batch
+
+    js = load_job_spec(_jobspec(tmp_path))
+    assert run_batch(js, progress=False)["errors"] == []
+    side = js.out_dir / f"{js.jobs[0].stem}.json"
+    before = side.stat().st_ino, side.read_bytes()
+
+    def no_render(*a, **k):
+        raise AssertionError("rendered again")
+
+    monkeypatch.setattr(batch.JobResources, "renderer", no_render)
+    row = batch.run_job(js.jobs[0], js.out_dir, js.formats)
+    assert row["status"] == "ok" and (side.stat().st_ino, side.read_bytes()) == before
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_run_changes_nothing(tmp_path):
+    """A `dask scheduler` and two workers started in another folder; `eyelab batch -o out`
+    (relative) from a third; one worker SIGKILLed once a few jobs are done and a fresh one
+    started: every image equals the serial run's bytes, and no sidecar, once written, is
+    ever rewritten (no finished job is rendered twice)."""
+    spec = _jobspec(tmp_path, n_rx=15)
+    js = load_job_spec(spec, out_dir=tmp_path / "serial")
+    assert run_batch(js, progress=False)["errors"] == []
+    ref = _images(js.out_dir)
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    bindir = Path(sys.executable).parent
+    dask = str(bindir / "dask") if (bindir / "dask").exists() else "dask"
+    workdir, client_dir = tmp_path / "workers", tmp_path / "client"
+    workdir.mkdir()
+    client_dir.mkdir()
+    sched_file = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(sched_file)],
+                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+
+    def worker():
+        procs.append(subprocess.Popen([dask, "worker", address, "--nthreads", "1",
+                                       "--no-dashboard"], env=env, cwd=workdir,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        return procs[-1]
+
+    try:
+        for _ in range(300):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        victim = worker()
+        worker()
+        run = subprocess.Popen([sys.executable, "-P", "-m", "eyelab.apps.cli", "batch",
+                                str(spec), "-o", "out", "--quiet", "--scheduler", address],
+                               cwd=client_dir, env=env, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True)
+        out = client_dir / "out"
+        seen, killed = {}, False
+        while run.poll() is None:
+            for p in out.glob("job-*.json"):
+                st = p.stat()
+                seen.setdefault(p.name, (st.st_ino, st.st_mtime_ns))
+            if not killed and len(seen) >= 6:
+                victim.send_signal(signal.SIGKILL)
+                victim.wait()
+                worker()
+                killed = True
+            time.sleep(0.05)
+        text = run.communicate()[0]
+        assert run.returncode == 0, text
+        assert killed and _images(out) == ref
+        for name, (ino, mtime) in seen.items():
+            st = (out / name).stat()
+            assert (st.st_ino, st.st_mtime_ns) == (ino, mtime), f"{name} was rewritten"
+        assert not list((workdir).glob("out"))
+    finally:
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=30)

@@ -23,6 +23,21 @@ def test_analyze_default_in_process_matches_library(capsys, tmp_path):
     assert printed["points"][0]["blur"]["major_arcmin"] < 0.5
 
 
+def test_analyze_says_which_fixation_it_used(tmp_path, capsys):
+    """Without [analysis] the eye turns about its centre of rotation (the as-worn model);
+    the text and the JSON say which model was used and what it means."""
+    from eyelab.spec.schema import FIXATION_MEANINGS
+
+    spec = tmp_path / "s.toml"
+    spec.write_text('[eye]\nrx = "-2.00"\n[lens]\nrx = "-2.00"\n')
+    for flags, model in (([], "rotating"), (["--fixation", "fixed"], "fixed")):
+        assert main(["analyze", str(spec), "--json", *flags]) == 0
+        rep = json.loads(capsys.readouterr().out)
+        assert (rep["fixation"], rep["fixation_meaning"]) == (model, FIXATION_MEANINGS[model])
+        assert main(["analyze", str(spec), *flags]) == 0
+        assert f"fixation {model}: {FIXATION_MEANINGS[model]}" in capsys.readouterr().out
+
+
 def test_analyze_text_and_no_lens(capsys):
     assert main(["analyze", "--no-lens"]) == 0
     text = capsys.readouterr().out

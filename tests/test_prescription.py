@@ -206,3 +206,26 @@ def test_format_round_trips_over_the_whole_grid():
                 for add in (0.0, 2.25):
                     rx = Prescription(s4 / 4, c4 / 4, float(axis), add)
                     assert Prescription.parse(rx.format()) == rx
+
+
+@pytest.mark.parametrize("text", [
+    "-3.00 / / -1.00 x 90", "-3.00 /", "/ -3.00", "-3.00 / -1.00 / x 90",
+    "-1.00 x 90 / -2.00", "R / -1.00", "-2.00° -1.00 x 90", "-1.00,, -0.50 x 180",
+    "-1.00 -0.50 x 90 /", "-2.00 / +1.00 x 90 add / 2",
+])
+def test_a_misplaced_separator_is_an_error_quoting_the_input(text):
+    with pytest.raises(SpecError) as ei:
+        Prescription.parse(text, field="eye.rx")
+    assert ei.value.field == "eye.rx" and "misplaced" in str(ei.value)
+    assert repr(text) in str(ei.value)
+
+
+@pytest.mark.parametrize("text, expect", [
+    ("-3.00 / -1.00 x 90", (-3.0, -1.0, 90.0)), ("R -1.00 / -0.50 x 180", (-1.0, -0.5, 180.0)),
+    ("pl / -0.50 x 90", (0.0, -0.5, 90.0)), ("-2.00 DS / -1.00 DC x 30", (-2.0, -1.0, 30.0)),
+    ("-2.00 -1.00 x 90°", (-2.0, -1.0, 90.0)), ("OD: -2.00 / -1.00 x 180", (-2.0, -1.0, 180.0)),
+    ("-2.00 / -1.00 x 180, add +2.00", (-2.0, -1.0, 180.0)),
+])
+def test_separators_where_clinicians_write_them(text, expect):
+    rx = Prescription.parse(text)
+    assert (rx.sphere, rx.cylinder, rx.axis) == expect

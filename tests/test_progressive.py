@@ -119,6 +119,49 @@ def test_the_spec_builds_progressive_lenses_and_refuses_misuse():
         assert e.value.field == field
 
 
+def test_a_one_eye_progressive_lens_is_made_for_the_eyes_side():
+    """A one-eye spec's eye has a side only where its Rx names one: a progressive lens is
+    made for that side (its near zone nasal), and a lens Rx naming the other is refused."""
+    from eyelab.core.errors import SpecError
+    from eyelab.spec import parse_spec
+
+    pal = {"rx": "-1.00 add +2.00", "design": "progressive"}
+    for eye, lens_rx, side in (("L -1.00", "-1.00 add +2.00", "L"),
+                               ("OD -1.00", "-1.00 add +2.00", "R"),
+                               ("-1.00", "OS -1.00 add +2.00", "L"),
+                               ("OU -1.00", "L -1.00 add +2.00", "L"),
+                               ("R -1.00", "OD -1.00 add +2.00", "R")):
+        spec = parse_spec({"eye": {"rx": eye}, "lens": {**pal, "rx": lens_rx}})
+        assert spec.lens.design.eye == side, (eye, lens_rx)
+    assert parse_spec({"eye": {"rx": "L -1.00 add 2"},
+                       "lens": {"design": "progressive"}}).lens.design.eye == "L"
+    for eye, lens_rx in (("R -1.00", "L -1.00 add +2.00"), ("OS -1.00", "OD -1.00 add 2")):
+        with pytest.raises(SpecError) as e:
+            parse_spec({"eye": {"rx": eye}, "lens": {**pal, "rx": lens_rx}})
+        assert e.value.field == "lens.rx" and "eye.rx" in e.value.message
+
+
+def test_a_design_that_does_not_fit_its_lens_names_the_spec_key():
+    """Never the engine's surface.sag: the near reference point off the lens, a front too
+    steep for the square it is sampled over, a line of sight with no path, an add below
+    the design's range: each names the key to change and the relation."""
+    from eyelab.core.errors import SpecError
+    from eyelab.spec import parse_spec
+
+    pal = {"rx": "-1.00 add +2.00", "design": "progressive"}
+    for lens, field, says in (
+            ({**pal, "diameter_mm": 30}, "lens.diameter_mm", "must exceed 2 × 16.2"),
+            ({**pal, "diameter_mm": 40.05, "corridor_mm": 18, "inset_mm": 0},
+             "lens.diameter_mm", "larger diameter_mm"),
+            ({**pal, "rx": "+6.00 add +3.00"}, "lens.diameter_mm", "under √2 × 41.5"),
+            ({**pal, "rx": "-1.00 add +0.10"}, "lens.rx", "[0.25, 4]")):
+        with pytest.raises(SpecError) as e:
+            parse_spec({"lens": lens})
+        assert e.value.field == field and says in e.value.message, e.value
+    parse_spec({"lens": {**pal, "diameter_mm": 33}})
+    parse_spec({"lens": {**pal, "rx": "+6.00 add +3.00", "diameter_mm": 55}})
+
+
 def test_the_view_through_the_pal_reproduces_kakimoto_fig_11():
     """A -2.00 D presbyope (amplitude 0.5 D) through her progressive lens: distance sharp
     through the top, 0.4 m sharp through the near reference point, 0.4 m blurred through

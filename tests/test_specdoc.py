@@ -183,3 +183,67 @@ def test_the_range_check_sees_a_range_written_again():
             '    check_range(f"lens.decentration_mm[{0}]", v, -20, 20)\n'
             '    check_range("eye.pupil_diameter_mm", v, *LIMITS["x"])\n')
     assert len(ranges_written_again({"fake.py": fake})) == 3
+
+
+@pytest.mark.parametrize("kind, vertex_mm", [("refractive", 12.0), ("axial", 12.0),
+                                             ("refractive", 20.0)])
+def test_the_eye_rx_range_is_what_the_eye_accepts(kind, vertex_mm):
+    """eye.rx's documented powers (derived from the eye's limits by eyelab.spec.eyerx) are
+    accepted just inside and refused just outside, naming eye.rx and the range (the Rx
+    grammar's own, where that binds first: a -30 D sphere at 20 mm)."""
+    from eyelab.optics.prescription import CYLINDER_RANGE, SPHERE_RANGE
+    from eyelab.spec.eyerx import dioptres, eye_rx_ranges
+
+    r = eye_rx_ranges(vertex_mm, kind)
+    eye = {"kind": kind, "vertex_distance_mm": vertex_mm}
+    for name, rx in (("sphere", "{:+.3f} DS"), ("cylinder", "plano {:+.3f} x 90")):
+        lo, hi = r[name]
+        for inside in (lo + 0.005, hi - 0.005):
+            parse_spec({"eye": {**eye, "rx": rx.format(inside)}})
+        grammar = SPHERE_RANGE if name == "sphere" else CYLINDER_RANGE
+        for outside, end in ((lo - 0.005, lo), (hi + 0.005, hi)):
+            with pytest.raises(SpecError) as e:
+                parse_spec({"eye": {**eye, "rx": rx.format(outside)}})
+            if end in grammar:
+                assert e.value.field == f"eye.rx.{name}", e.value
+            else:
+                assert e.value.field == "eye.rx" and dioptres(lo, hi) in e.value.message
+
+
+def test_the_reference_states_the_eye_rx_range_it_accepts():
+    from eyelab.spec.eyerx import dioptres, eye_rx_ranges
+    from eyelab.spec.schema import EYE_VERTEX_MM
+
+    text = next(k for k in KEYS if (k.table, k.key) == ("eye", "rx")).range()
+    for kind in ("refractive", "axial"):
+        assert dioptres(*eye_rx_ranges(EYE_VERTEX_MM, kind)["sphere"]) in text
+    assert dioptres(*eye_rx_ranges(EYE_VERTEX_MM)["cylinder"]) in text
+    assert "±30" not in text and "add 0–4" not in text
+
+
+def test_the_fixation_default_is_declared_once():
+    """analysis.fixation defaults to the as-worn model for one eye and two alike, from the
+    schema's DEFAULT_FIXATION (the reference shows it)."""
+    from eyelab.spec import Spec
+    from eyelab.spec.schema import DEFAULT_FIXATION, FIXATION_MEANINGS
+
+    assert DEFAULT_FIXATION == "rotating" and set(FIXATION_MEANINGS) == {"fixed", "rotating"}
+    assert parse_spec({}).fixation == DEFAULT_FIXATION
+    assert parse_spec({"binocular": {}}).fixation == DEFAULT_FIXATION
+    assert Spec.__dataclass_fields__["fixation"].default == DEFAULT_FIXATION
+    key = next(k for k in KEYS if (k.table, k.key) == ("analysis", "fixation"))
+    assert key.default == f'`"{DEFAULT_FIXATION}"`'
+
+
+def test_a_camera_excludes_the_gaze():
+    from eyelab.spec.schema import NOT_WITH
+
+    assert ("gaze_deg", "camera") == NOT_WITH["render"][0][:2]
+    cam = {"renderer": "reference", "camera": "doublet"}
+    parse_spec({"render": cam})
+    with pytest.raises(SpecError) as e:
+        parse_spec({"render": {**cam, "gaze_deg": [0, 0]}})
+    assert e.value.field == "render.gaze_deg" and "camera" in e.value.message
+    with pytest.raises(SpecError) as e:
+        parse_spec({"render": cam}).render.with_changes(gaze_deg=[5, 0])
+    assert e.value.field == "render.gaze_deg"

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from eyelab.core.errors import SpecError
+from eyelab.core.interrupt import check as check_interrupt
 
 #: Temporaries are named ``.eyelab-tmp.<final name>.<random><suffix>`` beside the final
 #: file: recognisable, and swept by the next write of the same file (:func:`sweep_for`).
@@ -57,6 +58,7 @@ def atomic_path(path, suffix: str = ".tmp"):
     os.close(fd)
     try:
         yield tmp
+        check_interrupt()         # an interrupted command publishes nothing
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
@@ -78,6 +80,8 @@ def json_default(o):
 def check_output(flag: str, path) -> Path:
     """Fail early, before any work: ``path`` must not be a folder, its parent must be a
     folder (or creatable) that this process may write in. Returns the path."""
+    if not str(path):
+        raise SpecError(flag, "must be a file path, got ''")
     p = Path(path)
     if p.is_dir():
         raise SpecError(flag, f"{str(p)!r} is a folder, not a file")
@@ -85,6 +89,25 @@ def check_output(flag: str, path) -> Path:
         raise SpecError(flag, f"{str(p)!r} is not a regular file (a device, pipe or socket); "
                               "outputs replace whole files")
     parent = p.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise SpecError(flag, f"cannot create {str(p)!r}: {str(parent)!r} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise SpecError(flag, f"cannot write in {str(parent)!r}")
+    return p
+
+
+def check_output_folder(flag: str, path) -> Path:
+    """Fail early, before any work: ``path`` must be a folder, or creatable as one, that
+    this process may write in. Returns it absolute (workers in other folders, e.g. on a
+    Dask cluster, then write where the caller meant)."""
+    if not str(path):
+        raise SpecError(flag, "must be a folder path, got ''")
+    p = Path(path).expanduser().absolute()
+    if p.exists() and not p.is_dir():
+        raise SpecError(flag, f"{str(p)!r} exists and is not a folder")
+    parent = p
     while not parent.exists():
         parent = parent.parent
     if not parent.is_dir():
@@ -120,6 +143,7 @@ def atomic_group(writers: dict) -> None:
             tmp = cm.__enter__()
             stack.append((cm, tmp))
             write(tmp)
+        check_interrupt()
     except BaseException:
         for cm, _ in reversed(stack):
             cm.__exit__(RuntimeError, RuntimeError("aborted"), None)

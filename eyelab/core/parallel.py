@@ -31,8 +31,11 @@ def map_row_chunks(fn, n: int, *, workers: int | None = None, block: int = 16_38
     bounds = [(a, min(a + block, n)) for a in range(0, n, block)] or [(0, 0)]
     if workers == 1 or len(bounds) == 1:
         return [fn(a, b) for a, b in bounds]
-    with ThreadPoolExecutor(max_workers=workers) as ex:
+    ex = ThreadPoolExecutor(max_workers=workers)
+    try:
         return list(ex.map(lambda ab: fn(*ab), bounds))
+    finally:              # after Ctrl-C or a failure, start no further block
+        ex.shutdown(wait=True, cancel_futures=True)
 
 
 #: The process-wide pool of :func:`split_rows`: made on first use, ended by

@@ -22,6 +22,7 @@ from eyelab.optics.analysis import (
 from eyelab.optics.prescription import tabo_axis
 from eyelab.optics.trace import Status
 from eyelab.spec import Spec
+from eyelab.spec.schema import FIXATION_MEANINGS
 
 
 def _v(a):
@@ -133,6 +134,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
             "radius_mm": res.vertex_sphere["radius_m"] * 1e3},
         "wavelength_nm": spec.wavelength_nm,
         "fixation": spec.fixation,
+        "fixation_meaning": FIXATION_MEANINGS[spec.fixation],
         "accommodation": "best effort (Kakimoto Eq. 13)" if spec.accommodation is None
         else spec.accommodation,
         "points": out_points,
@@ -166,6 +168,7 @@ def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
         "monocular_pd_mm": [v * 1e3 for v in b.monocular_pd],
         "frame_pd_mm": None if b.frame_pd is None or no_lens else b.frame_pd * 1e3,
         "fixation": spec.fixation,
+        "fixation_meaning": FIXATION_MEANINGS[spec.fixation],
         "accommodation": "fixed" if spec.accommodation is not None else
         "less-blurred eye (Toor et al. 2018)"},
         "points": points, "eyes": eyes}
@@ -208,7 +211,8 @@ def _format_binocular(rep: dict) -> str:
     lines = [f"eyelab analyze — {rep['source']} (binocular)",
              "monocular PDs {:.1f} / {:.1f} mm (right / left)".format(*b["monocular_pd_mm"])
              + ("" if b["frame_pd_mm"] is None else f", frame PD {b['frame_pd_mm']:.1f} mm")
-             + f"; fixation {b['fixation']}; accommodation {b['accommodation']}"]
+             + f"; accommodation {b['accommodation']}",
+             f"fixation {b['fixation']}: {b['fixation_meaning']}"]
     for p in rep["points"]:
         o = p["object"]
         dist = o["distance_m"] if o["distance_m"] == "inf" else f"{o['distance_m']:g} m"
@@ -249,8 +253,9 @@ def _format_eye(rep: dict) -> list:
         vs = rep["vertex_sphere"]
         lines.append(f"vertex sphere: centred on the {vs['centre'].replace('_', ' ')}, radius "
                      f"{vs['radius_mm']:.2f} mm")
-    lines.append(f"wavelength {rep['wavelength_nm']} nm, fixation {rep['fixation']}, "
-                 f"accommodation {rep['accommodation']}")
+    lines.append(f"wavelength {rep['wavelength_nm']} nm, accommodation "
+                 f"{rep['accommodation']}")
+    lines.append(f"fixation {rep['fixation']}: {rep['fixation_meaning']}")
     for p in rep["points"]:
         o = p["object"]
         dist = o["distance_m"] if o["distance_m"] == "inf" else f"{o['distance_m']:g} m"

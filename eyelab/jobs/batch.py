@@ -30,201 +30,25 @@ any process.
 from __future__ import annotations
 
 import contextlib
-import copy
 import csv
-import functools
 import hashlib
 import html
-import itertools
 import json
+import logging
 import os
 import time
-import tomllib
 import uuid
-from dataclasses import dataclass
 from pathlib import Path
 
-from eyelab.core.cache import LRUCache, content_key
+from eyelab.core.cache import LRUCache
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import linear_to_png16, write_json, write_png
 from eyelab.core.parallel import LendingPool, process_owned, release_owned
+from eyelab.jobs.jobspec import FORMATS, MAX_JOBS, Job, JobSpec, load_job_spec, validate_jobs
 
-FORMATS = ("png", "png16")
-JOB_KEYS = {"spec", "base", "output", "sweep", "cases"}
-OUTPUT_KEYS = {"dir", "formats"}
-
-
-@dataclass(frozen=True)
-class Job:
-    """One job: its index, the spec table it renders, and the dotted keys that made it."""
-
-    index: int
-    data: dict
-    params: dict
-
-    @functools.cached_property
-    def key(self) -> str:
-        from eyelab import __version__
-
-        return content_key(spec=json.dumps(self.data, sort_keys=True, default=str),
-                           version=__version__)
-
-    @property
-    def stem(self) -> str:
-        return f"job-{self.index:05d}-{self.key[:10]}"
-
-
-@dataclass(frozen=True)
-class JobSpec:
-    jobs: tuple
-    out_dir: Path
-    formats: tuple
-    source: str
-
-
-def _set(data: dict, dotted: str, value, where: str) -> None:
-    parts = dotted.split(".")
-    if not all(parts):
-        raise SpecError(where, f"{dotted!r} is not a dotted spec key like 'eye.rx'")
-    t = data
-    for p in parts[:-1]:
-        nxt = t.setdefault(p, {})
-        if not isinstance(nxt, dict):
-            raise SpecError(where, f"{dotted!r}: {p!r} is not a table")
-        t = nxt
-    if value is False and len(parts) == 1:
-        t.pop(parts[0], None)                 # "lens" = false: no lens
-    else:
-        t[parts[-1]] = copy.deepcopy(value)
-
-
-def _merge(into: dict, over: dict) -> None:
-    for k, v in over.items():
-        if isinstance(v, dict) and isinstance(into.get(k), dict):
-            _merge(into[k], v)
-        else:
-            into[k] = copy.deepcopy(v)
-
-
-def load_job_spec(path, *, out_dir=None) -> JobSpec:
-    """Read and expand a job spec file (every field checked, errors name it)."""
-    p = Path(path)
-    if not p.is_file():
-        raise SpecError("jobspec", f"file not found: {str(p)!r}")
-    try:
-        js = tomllib.loads(p.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise SpecError("jobspec", f"{p} is not valid TOML: {e}") from None
-    unknown = sorted(set(js) - JOB_KEYS)
-    if unknown:
-        raise SpecError(f"jobspec.{unknown[0]}", f"unknown key; allowed: {sorted(JOB_KEYS)}")
-    base = _base_spec(js, p.parent)
-    folder, formats = _output(js.get("output", {}), p.parent, out_dir)
-    combos = _sweep(js.get("sweep", {}))
-    cases = js.get("cases", [])
-    if not isinstance(cases, list) or not all(isinstance(c, dict) for c in cases):
-        raise SpecError("jobspec.cases", "must be an array of tables ([[cases]])")
-    combos = combos + [dict(c) for c in cases] or [{}]
-    jobs = []
-    for i, params in enumerate(combos):
-        data = copy.deepcopy(base)
-        for k, v in params.items():
-            _set(data, k, v, f"jobspec.job[{i}].{k}")
-        jobs.append(Job(i, data, params))
-    return JobSpec(tuple(jobs), folder, formats, str(p))
-
-
-def _base_spec(js: dict, here: Path) -> dict:
-    """The spec every job starts from: ``spec`` (else the built-in one) with ``[base]``
-    merged over it; relative paths (of ``spec``, of a mesh scene file) are from ``here``."""
-    from eyelab.spec import read_spec_data
-
-    base_path = js.get("spec")
-    if base_path is not None and not isinstance(base_path, str):
-        raise SpecError("jobspec.spec", "must be a spec file path")
-    if base_path is not None:
-        base_path = Path(base_path) if Path(base_path).is_absolute() else here / base_path
-    base = copy.deepcopy(read_spec_data(base_path)[0])
-    extra = js.get("base", {})
-    if not isinstance(extra, dict):
-        raise SpecError("jobspec.base", "must be a table of spec tables")
-    _merge(base, extra)
-    scene = base.get("render", {}).get("scene")
-    where = scene if isinstance(scene, dict) else base.get("render", {})
-    key = "path" if isinstance(scene, dict) else "scene"
-    rel = where.get(key) if isinstance(where, dict) else None
-    if isinstance(rel, str) and not Path(rel).is_absolute() and (here / rel).is_file():
-        where[key] = str((here / rel).resolve())
-    return base
-
-
-def _output(out, here: Path, out_dir) -> tuple:
-    """(folder, formats without repeats) of the ``[output]`` table; ``out_dir`` replaces
-    its ``dir``, which is relative to ``here``."""
-    if not isinstance(out, dict):
-        raise SpecError("jobspec.output", "must be a table")
-    bad = sorted(set(out) - OUTPUT_KEYS)
-    if bad:
-        raise SpecError(f"jobspec.output.{bad[0]}", f"unknown key; allowed: {sorted(OUTPUT_KEYS)}")
-    formats = out.get("formats", ["png"])
-    if not isinstance(formats, list) or not formats or any(f not in FORMATS for f in formats):
-        raise SpecError("jobspec.output.formats", f"must be a non-empty list of {FORMATS}, "
-                                                  f"got {formats!r}")
-    folder = out_dir or out.get("dir", "batch-out")
-    if not isinstance(folder, (str, Path)):
-        raise SpecError("jobspec.output.dir", "must be a folder path")
-    folder = Path(folder) if Path(folder).is_absolute() or out_dir else here / folder
-    return folder, tuple(dict.fromkeys(formats))
-
-
-def _sweep(sw) -> list:
-    if not isinstance(sw, dict):
-        raise SpecError("jobspec.sweep", "must be a table of dotted keys -> lists")
-    sw = dict(sw)
-    mode = sw.pop("mode", "product")
-    if mode not in ("product", "zip"):
-        raise SpecError("jobspec.sweep.mode", f"must be 'product' or 'zip', got {mode!r}")
-    for k, v in sw.items():
-        if isinstance(v, dict):
-            sw[k] = v = _range(v, f"jobspec.sweep.{k}")
-        if not isinstance(v, list) or not v:
-            raise SpecError(f"jobspec.sweep.{k}", "must be a non-empty list of values or a "
-                                                  "range {start, stop, step}")
-    if not sw:
-        return []
-    keys = list(sw)
-    if mode == "zip":
-        n = {len(v) for v in sw.values()}
-        if len(n) != 1:
-            raise SpecError("jobspec.sweep", f"zip needs lists of one length, got "
-                                             f"{ {k: len(v) for k, v in sw.items()} }")
-        rows = zip(*sw.values(), strict=True)
-    else:
-        rows = itertools.product(*sw.values())
-    return [dict(zip(keys, r, strict=True)) for r in rows]
-
-
-def _range(t: dict, where: str) -> list:
-    """{start, stop, step} -> the numbers start, start + step, ... up to stop inclusive
-    (within 1e-9 of a step), rounded to 10 decimals; at most 10000."""
-    import math
-
-    if set(t) != {"start", "stop", "step"}:
-        raise SpecError(where, f"a range needs exactly start, stop and step, got {sorted(t)}")
-    vals = []
-    for name in ("start", "stop", "step"):
-        v = t[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise SpecError(f"{where}.{name}", f"must be a finite number, got {v!r}")
-        vals.append(float(v))
-    start, stop, step = vals
-    if step == 0 or (stop - start) / step < 0:
-        raise SpecError(f"{where}.step", f"must be non-zero and lead from start to stop, "
-                                         f"got {step:g}")
-    n = int(math.floor((stop - start) / step + 1e-9)) + 1
-    if n > 10000:
-        raise SpecError(where, f"{n} values; at most 10000")
-    return [round(start + i * step, 10) for i in range(n)]
+__all__ = ["FORMATS", "MAX_JOBS", "Job", "JobSpec", "JobResources", "load_job_spec",
+           "validate_jobs", "job_done", "run_job", "run_batch", "sweep_temporaries",
+           "write_summary"]
 
 
 # ------------------------------------------------------------------------ one job
@@ -293,6 +117,8 @@ def run_job(job: Job, out_dir, formats, *, resources: JobResources | None = None
     from eyelab.spec import one_eye, parse_spec
 
     out_dir = Path(out_dir)
+    if job_done(job, out_dir, formats):     # finished already (a rescheduled Dask task)
+        return _row(json.loads((out_dir / f"{job.stem}.json").read_text()))
     t0 = time.perf_counter()
     meta = {"key": job.key, "index": job.index, "params": job.params, "spec": job.data,
             "eyelab_version": __version__, "images": {}, "sha256": {}}
@@ -355,18 +181,23 @@ def run_batch(js: JobSpec, *, workers: int = 1, scheduler: str | None = None,
     the summary (CSV) and contact sheet (HTML). Returns counts and the error list. The
     run's resources (:class:`JobResources`) are closed when it ends."""
     out = js.out_dir
-    out.mkdir(parents=True, exist_ok=True)
-    if not os.access(out, os.W_OK):
-        raise SpecError("jobspec.output.dir", f"{out} is not writable")
-    swept = sweep_temporaries(out)
     todo = [j for j in js.jobs if not job_done(j, out, js.formats)]
     skipped = len(js.jobs) - len(todo)
     t0 = time.perf_counter()
-    if todo:
-        if scheduler is None and workers <= 1:
+    # the cluster first: an unreachable scheduler is named before anything is created
+    client = _connect(scheduler, workers) if todo and (scheduler or workers > 1) else None
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if not os.access(out, os.W_OK):
+            raise SpecError("jobspec.output.dir", f"{out} is not writable")
+        swept = sweep_temporaries(out)
+        if client is not None:
+            _run_dask(client, todo, out, js.formats, progress)
+        elif todo:
             _run_serial(todo, out, js.formats, progress)
-        else:
-            _run_dask(todo, out, js.formats, workers, scheduler, progress)
+    finally:
+        if client is not None:
+            client.close()
     rows = []
     for j in js.jobs:
         try:
@@ -393,18 +224,80 @@ def _run_serial(todo, out, formats, progress):
         bar.close()
 
 
-def _run_dask(todo, out, formats, workers, scheduler, progress):
-    """The jobs as Dask tasks on a new ``LocalCluster`` or the cluster at ``scheduler``; the
-    workers close their resources for the run (an id of its own) however it ends."""
-    from distributed import Client, LocalCluster, as_completed
+#: Seconds to wait for a Dask scheduler to answer.
+CONNECT_TIMEOUT_S = 10
 
-    cluster = None
-    if scheduler is None:
-        # ":0": the scheduler's HTTP server on a free port (None still takes 8787, and
-        # fails when another cluster holds it)
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0")
-    client = Client(scheduler if cluster is None else cluster)
+
+class _Cluster:
+    """A Dask client and, for a local cluster, the cluster it owns; ``close`` ends both."""
+
+    def __init__(self, client, cluster=None):
+        self.client, self.cluster = client, cluster
+
+    def close(self):
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+def _connect(scheduler: str | None, workers: int) -> _Cluster:
+    """A client of the scheduler at ``scheduler`` (an unreachable one is a one-line
+    :class:`SpecError` naming ``--scheduler``), or of a new ``LocalCluster`` of ``workers``
+    single-threaded processes."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return _Cluster(Client(scheduler, timeout=CONNECT_TIMEOUT_S))
+        except (OSError, TimeoutError) as e:
+            raise SpecError("--scheduler", f"cannot connect to {scheduler} within "
+                            f"{CONNECT_TIMEOUT_S} s ({type(e).__name__})") from None
+    # ":0": the scheduler's HTTP server on a free port (None still takes 8787, and fails
+    # when another cluster holds it). The worker processes are started with Ctrl-C
+    # ignored (they inherit it): the terminal sends it to the whole process group, and
+    # this process ends the cluster itself.
+    import signal
+    import threading
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        # Dask's own log lines (a cancelled task's warning after Ctrl-C) are not shown:
+        # eyelab reports the run in its own lines
+        with _env(DASK_LOGGING__DISTRIBUTED="error"):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
+    return _Cluster(Client(cluster), cluster)
+
+
+@contextlib.contextmanager
+def _env(**values):
+    """Environment variables set for the block (child processes started in it inherit
+    them), restored after."""
+    before = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _run_dask(cluster: _Cluster, todo, out, formats, progress):
+    """The jobs as Dask tasks on ``cluster``; the workers close their resources for the run
+    (an id of its own) however it ends. A job a worker finished before it died is not
+    rendered again when Dask reschedules it (:func:`run_job` checks its sidecar)."""
+    from distributed import as_completed
+
+    client = cluster.client
     run_id = f"eyelab-batch-{uuid.uuid4().hex}"
     futs = []
     try:
@@ -418,13 +311,8 @@ def _run_dask(todo, out, formats, workers, scheduler, progress):
         if bar is not None:
             bar.close()
     finally:
-        try:
-            client.cancel(futs)            # after a failure: start no job after the release
-            client.run(release_owned, run_id, on_error="ignore")
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        client.cancel(futs)                # after a failure: start no job after the release
+        client.run(release_owned, run_id, on_error="ignore")
 
 
 def _run_dask_job(job: Job, out_dir: str, formats, run_id: str) -> dict:

@@ -7,7 +7,30 @@ import math
 
 import numpy as np
 
-from eyelab.optics.asworn import AsWornMaps
+from eyelab.core.errors import SpecError
+from eyelab.optics.asworn import AsWornMaps, as_worn_maps
+
+#: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.asworn.as_worn_maps`
+#: names in its errors.
+MAPS_FLAGS = {"maps.half_angle_deg": "--half-angle", "maps.n": "--points"}
+
+
+def named_maps(eye, lens, names: dict | None = None, **kw) -> AsWornMaps:
+    """:func:`~eyelab.optics.asworn.as_worn_maps` (``kw``: its keywords), an error in an
+    argument named as the caller's user wrote it: ``names`` maps the engine's field to that
+    name (e.g. :data:`MAPS_FLAGS`: ``--half-angle (maps.half_angle_deg)``)."""
+    try:
+        return as_worn_maps(eye, lens, **kw)
+    except SpecError as e:
+        if names and e.field in names:
+            raise SpecError(f"{names[e.field]} ({e.field})", e.message) from None
+        raise
+
+
+def cli_maps(eye, lens, **kw) -> AsWornMaps:
+    """``eyelab maps``'s call of :func:`~eyelab.optics.asworn.as_worn_maps`: the same
+    arguments, an error naming the command's flag (:data:`MAPS_FLAGS`)."""
+    return named_maps(eye, lens, MAPS_FLAGS, **kw)
 
 
 def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:

@@ -156,13 +156,53 @@ class _TermReader:
         return i
 
 
+#: Separators: read as spaces once each stands where it may (:func:`_check_separators`).
+_SEPARATORS = ("/", ",", ":", "°")
+
+
+def _is_one_power(toks) -> bool:
+    """Whether tokens (separators dropped) are one power: a number or plano, with or
+    without its sphere unit."""
+    if not toks or not (toks[0][0] == "num" or toks[0][1] in _PLANO):
+        return False
+    return len(toks) == 1 or (len(toks) == 2 and toks[1][1] in _SPH_UNITS | {"D"})
+
+
+def _misplaced(tokens, i) -> bool:
+    """Whether the separator at ``tokens[i]`` stands where none may: first, last (but a
+    degree sign), beside another separator, a '/' anywhere but between the sphere and the
+    cylinder, a '°' anywhere but after the axis."""
+    v = tokens[i][1]
+    if i == 0 or tokens[i - 1][1] in _SEPARATORS:
+        return True
+    if v == "°":
+        return not (tokens[i - 1][0] == "num" and i >= 2 and tokens[i - 2][1] in _AXIS_MARKS)
+    if i == len(tokens) - 1 or tokens[i + 1][1] in _SEPARATORS:
+        return True
+    if v == "/":
+        head = [t for t in tokens[:i] if t[1] not in _SEPARATORS]
+        head = head[1:] if head and head[0][1] in _EYES else head
+        return not (_is_one_power(head) and tokens[i + 1][0] == "num")
+    return False
+
+
+def _check_separators(tokens, err) -> None:
+    """Each separator where it may stand (:func:`_misplaced`): ``-3.00 / / -1.00 x 90``
+    is refused, not read as ``-3.00 / -1.00 x 90``."""
+    for i, (_, v) in enumerate(tokens):
+        if v in _SEPARATORS and _misplaced(tokens, i):
+            raise err(f"a misplaced {v!r} (a '/' stands only between the sphere and the "
+                      "cylinder, a '°' after the axis, one separator at a time)")
+
+
 def _parse_terms(tokens, text, field):
     """(eye, [(value, unit)] powers, axis, add, err) from tokens, per the grammar in
     :meth:`Prescription.parse`; ``err(why)`` makes the error quoting ``text``."""
     def err(why):
         return SpecError(field, f"{why} in prescription {text!r}; {_ALLOWED}")
 
-    toks = [t for t in tokens if t[1] not in ("/", ",", ":", "°")]
+    _check_separators(tokens, err)
+    toks = [t for t in tokens if t[1] not in _SEPARATORS]
     eye = _take_eye(toks, err)
     powers, axis, add = _TermReader(toks, err).read()
     return eye, powers, axis, add, err

@@ -1,8 +1,9 @@
 """Spec files: the TOML a user writes, read into the engine's objects.
 
 :mod:`.tables` reads one table, :mod:`.parse` the eye, the lens and the object points,
-:mod:`.render` the ``[render]`` table, :mod:`.sides` two eyes, :mod:`.load` the whole
-document; :mod:`.docs` writes the README's reference tables.
+:mod:`.render` the ``[render]`` table, :mod:`.sides` the eyes' sides (one eye or two),
+:mod:`.load` the whole document; :mod:`.eyerx` derives the powers ``eye.rx`` takes from the
+eye's limits; :mod:`.docs` writes the README's reference tables.
 """
 
 from eyelab.spec.load import Spec, dump_spec, load_spec, one_eye, parse_spec, read_spec_data

@@ -19,10 +19,11 @@ from eyelab.optics.eye import (
 )
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.paths import ObjectPoints
-from eyelab.spec.parse import ANALYSIS_KEYS, eye_accommodation, parse_eye, parse_lens, parse_points
+from eyelab.spec.parse import ANALYSIS_KEYS, eye_accommodation, parse_points
 from eyelab.spec.render import RenderSpec, parse_render
-from eyelab.spec.sides import has_sides, parse_binocular
-from eyelab.spec.tables import check_keys, number, rx_value
+from eyelab.spec.schema import DEFAULT_FIXATION
+from eyelab.spec.sides import has_sides, parse_binocular, parse_one_eye
+from eyelab.spec.tables import check_keys, number
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,7 @@ class Spec:
     lens: SpectacleLens | None
     points: ObjectPoints
     wavelength_nm: float = 587.56
-    fixation: str = "fixed"
+    fixation: str = DEFAULT_FIXATION
     accommodation: float | None = None
     source: str = "<built-in>"
     render: RenderSpec = field(default_factory=RenderSpec)
@@ -50,17 +51,11 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
         eye, lens = bino.right, bino.right_lens
         eye_t = {k: v for k, v in eye_t.items() if k not in SIDES}
     else:
-        eye = parse_eye(eye_t)
-        lens = None
-        if "lens" in data:
-            eye_rx = rx_value(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
-            lens = parse_lens(data["lens"], eye_rx)
+        eye, lens = parse_one_eye(data)
     an = data.get("analysis", {})
     check_keys(an, ANALYSIS_KEYS, "analysis")
     wl = number(an, "wavelength_nm", "analysis", 587.56)
-    # two eyes fixate each point (vergence) unless the spec says otherwise
-    fix = an.get("fixation", "fixed" if bino is None else "rotating")
-    check_choice("analysis.fixation", fix, FIXATIONS)
+    fix = check_choice("analysis.fixation", an.get("fixation", DEFAULT_FIXATION), FIXATIONS)
     acc = eye_accommodation(eye_t) if isinstance(eye_t, dict) else None
     vsph = check_choice("analysis.vertex_sphere", an.get("vertex_sphere", "rotation_centre"),
                         VERTEX_SPHERES)

@@ -7,6 +7,7 @@ unless a key ends in ``_m``; D for powers; degrees for angles.
 
 from __future__ import annotations
 
+import difflib
 import math
 
 import numpy as np
@@ -26,8 +27,15 @@ from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
-from eyelab.spec.schema import LENS_DESIGNS, SURFACE_TYPES, SYMMETRIC_SURFACES, check
-from eyelab.spec.tables import check_keys, check_rules, number, rx_value
+from eyelab.spec.eyerx import dioptres, eye_rx_ranges
+from eyelab.spec.schema import (
+    EYE_VERTEX_MM,
+    LENS_DESIGNS,
+    SURFACE_TYPES,
+    SYMMETRIC_SURFACES,
+    check,
+)
+from eyelab.spec.tables import check_keys, check_rules, choice, number, rx_value
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
@@ -44,6 +52,12 @@ SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curv
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
 BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_m", "output"}
+#: Other names of the lens designs (:data:`~eyelab.spec.schema.LENS_DESIGNS`), for "did you
+#: mean".
+DESIGN_ALIASES = {"pal": "progressive", "varifocal": "progressive", "varifocals": "progressive",
+                  "multifocal": "progressive", "progressive addition": "progressive",
+                  "sv": "single-vision", "single vision": "single-vision",
+                  "distance": "single-vision", "reading": "near", "readers": "near"}
 
 
 def parse_eye(t: dict) -> Eye:
@@ -98,17 +112,23 @@ def _eye_options(t: dict) -> dict:
 def _eye_from_rx(t: dict, kw: dict) -> Eye:
     """The eye ``eye.rx`` corrects; an eye out of range blames the key that made it so."""
     rx = rx_value(t["rx"], "eye.rx")
-    vd = number(t, "vertex_distance_mm", "eye", 12.0) * 1e-3
+    vd = number(t, "vertex_distance_mm", "eye", EYE_VERTEX_MM) * 1e-3
     if "retina_distance_mm" in t:
         kw["retina_distance"] = number(t, "retina_distance_mm", "eye") * 1e-3
+    kind = t.get("kind", "refractive")
     try:
-        return Eye.from_rx(rx, vertex_distance=vd, kind=t.get("kind", "refractive"), **kw)
+        return Eye.from_rx(rx, vertex_distance=vd, kind=kind, **kw)
     except SpecError as e:
         key = e.field.split(".", 1)[-1]
         blamed = ("eye.retina_distance_mm" if key == "power_min_d"
                   and "retina_distance_mm" in t else f"eye.{key}" if key in t else "eye.rx")
+        retina = kw.get("retina_distance")
+        takes = eye_rx_ranges(vd * 1e3, kind, None if retina is None else retina * 1e3,
+                              kw.get("n_vitreous"))
         raise SpecError(blamed, f"with eye.rx = {str(rx)!r} the eye's {key} would be out "
-                                f"of range ({e.message})") from None
+                        f"of range ({e.message}); at {vd * 1e3:g} mm this {kind} eye takes a "
+                        f"sphere alone {dioptres(*takes['sphere'])}, a cylinder on a plano "
+                        f"sphere {dioptres(*takes['cylinder'])}") from None
 
 
 def eye_accommodation(t: dict):
@@ -160,13 +180,13 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
     Rx does not say)."""
     check_keys(t, LENS_KEYS, "lens")
     pose = _lens_pose(t)
-    material = get_material(t.get("material", "cr39"), field="lens.material")
+    material = _material(t.get("material", "cr39"))
     ct = number(t, "center_thickness_mm", "lens")
     diam = number(t, "diameter_mm", "lens")
     if "coating" in t:
         check_choice("lens.coating", t["coating"], COATINGS)
     if "design" in t:
-        check_choice("lens.design", t["design"], LENS_DESIGNS)
+        choice("lens.design", t["design"], LENS_DESIGNS, DESIGN_ALIASES)
     for key in PROGRESSIVE_KEYS:
         if key in t and t.get("design") != "progressive":
             raise SpecError(f"lens.{key}", "only with design = \"progressive\"")
@@ -175,9 +195,10 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
     if "torus" in t:
         check_choice("lens.torus", t["torus"], REVOLVE_AXES)
     rx = _lens_rx(t, eye_rx)
+    where = "lens.rx" if "rx" in t else "eye.rx"
     if t.get("design") == "progressive":
-        return _progressive(t, rx, material, pose, diam, side)
-    rx = _design_rx(rx, t.get("design"), "lens.rx" if "rx" in t else "eye.rx")
+        return _progressive(t, rx, where, material, pose, (diam or 60.0) * 1e-3, side)
+    rx = _design_rx(rx, t.get("design"), where)
     try:
         return SpectacleLens.from_rx(
             rx, material=material, base_curve=number(t, "base_curve_d", "lens"),
@@ -188,6 +209,42 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
         if e.field == "lens.rx" and "rx" not in t:     # the lens took the eye's Rx
             raise SpecError("eye.rx", f"(the lens is made for it) {e.message}") from None
         raise
+
+
+def _material(value):
+    """``lens.material`` (:func:`~eyelab.optics.materials.get_material`); a number, or a
+    name no material has, gets "did you mean" the catalogue name it may stand for."""
+    try:
+        return get_material(value, field="lens.material")
+    except SpecError as e:
+        if e.field != "lens.material":
+            raise
+        hint = _material_hint(value)
+        raise SpecError(e.field, e.message + (f"; {hint}" if hint else "")) from None
+
+
+def _material_hint(value) -> str:
+    """What a refused material may have meant: a nominal index written as a number or
+    without its last digit ("1.6": "1.60"), the catalogue material of the nearest index,
+    or a name spelt nearly so."""
+    from eyelab.optics.materials import ALIASES, CATALOGUE
+
+    names = [k for k in CATALOGUE if k != "air"] + [k for k in ALIASES if "-" not in k]
+    try:
+        n = float(value) if isinstance(value, (int, float, str)) \
+            and not isinstance(value, bool) else None
+    except (ValueError, OverflowError):
+        n = None
+    if n is None or not math.isfinite(n):
+        near = difflib.get_close_matches(str(value).strip().lower(), names, n=1, cutoff=0.6)
+        return f"did you mean {near[0]!r}?" if near and isinstance(value, str) else ""
+    named = [k for k in ALIASES if k[:1].isdigit() and float(k) == n]
+    closest = min((m for k, m in CATALOGUE.items() if k != "air"),
+                  key=lambda m: abs(m.n_d - n))
+    if named:
+        return f"did you mean {named[0]!r} (a name, in quotes)?"
+    return (f"an index alone is not a material: the catalogue's nearest is "
+            f"{closest.name!r} (n_d {closest.n_d:.3f}), or write {{n_d = {n:g}, v_d = ...}}")
 
 
 def _lens_pose(t: dict) -> LensPose:
@@ -228,9 +285,11 @@ def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
                          coating=t.get("coating", "none"))
 
 
-def _progressive(t, rx, material, pose, diam, side=None) -> SpectacleLens:
+def _progressive(t, rx, where, material, pose, diameter, side=None) -> SpectacleLens:
     """A progressive lens for the Rx's distance part and add (:mod:`eyelab.optics.
-    progressive`); the design's lengths from the spec."""
+    progressive`); the design's lengths from the spec, its side the eye's (``side``), else
+    the Rx's, else right. A design that does not fit the lens is refused naming the key
+    to change (:func:`_progressive_misfit`), never the engine's surface."""
     from eyelab.optics.progressive import ProgressiveDesign, progressive_lens
 
     if rx.add <= 0:
@@ -240,14 +299,68 @@ def _progressive(t, rx, material, pose, diam, side=None) -> SpectacleLens:
         if key in t:
             raise SpecError(f"lens.{key}", "not used by the progressive design (its front "
                                            "is the free-form, its thickness automatic)")
-    design = ProgressiveDesign(
-        rx.add, corridor=number(t, "corridor_mm", "lens", 14.0) * 1e-3,
-        inset=number(t, "inset_mm", "lens", 2.5) * 1e-3,
-        softness=number(t, "softness_mm", "lens", 8.0) * 1e-3,
-        eye=side or ("L" if rx.eye == "L" else "R"))
-    lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design, pose=pose,
-                                  diameter=(diam or 60.0) * 1e-3)
+    try:
+        design = ProgressiveDesign(
+            rx.add, corridor=number(t, "corridor_mm", "lens", 14.0) * 1e-3,
+            inset=number(t, "inset_mm", "lens", 2.5) * 1e-3,
+            softness=number(t, "softness_mm", "lens", 8.0) * 1e-3,
+            eye=side or ("L" if rx.eye == "L" else "R"))
+    except SpecError as e:
+        if e.field != "lens.add":
+            raise
+        raise SpecError(where, f"the add of {rx.format()!r}, for a progressive design: "
+                               f"{e.message}") from None
+    _check_near_point(t, design, diameter)
+    try:
+        lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design,
+                                      pose=pose, diameter=diameter)
+    except SpecError as e:
+        if not e.field.startswith("surface."):
+            raise
+        raise _progressive_misfit(t, rx, material, pose, design, diameter) from None
     return lens
+
+
+def _near_field(t) -> str:
+    """The key that places a progressive design's near zone beyond the lens: the diameter
+    where it is written, else the corridor."""
+    return "lens.diameter_mm" if "diameter_mm" in t else "lens.corridor_mm"
+
+
+def _check_near_point(t, design, diameter) -> None:
+    """The design's near reference point must lie on the lens."""
+    x, y = design.near_point
+    r = math.hypot(x, y) * 1e3
+    if r < diameter / 2 * 1e3:
+        return
+    raise SpecError(_near_field(t), f"the progressive design's near reference point "
+                    f"({-y * 1e3:g} mm down: corridor_mm {design.corridor * 1e3:g} + "
+                    f"{(-y - design.corridor) * 1e3:g}; {abs(x) * 1e3:g} mm nasal: inset_mm) "
+                    f"is {r:.1f} mm from the lens centre, off a {diameter * 1e3:g} mm lens: "
+                    f"diameter_mm must exceed 2 × {r:.1f} = {2 * r:.1f} mm (more for plus "
+                    "powers), or corridor_mm be shorter")
+
+
+def _progressive_misfit(t, rx, material, pose, design, diameter) -> SpecError:
+    """Why the progressive front could not be built, naming the key to change: a distance
+    front too steep for the square the free-form is sampled over (diameter_mm), or a line
+    of sight to the near reference point that leaves the lens (diameter_mm or
+    corridor_mm)."""
+    base = SpectacleLens.from_rx(rx.distance(), material=material, diameter=diameter,
+                                 pose=pose)
+    c = abs(base.front.curvature)
+    if c * diameter / math.sqrt(2) >= 1.0:
+        return SpecError("lens.diameter_mm", f"a progressive front for {rx.format()!r} (its "
+                         f"distance front: radius {1e3 / c:.1f} mm) is sampled over the "
+                         f"square of the lens's {diameter * 1e3:g} mm diameter, whose corners "
+                         "must lie on that sphere: diameter_mm must be under √2 × "
+                         f"{1e3 / c:.1f} = {math.sqrt(2) * 1e3 / c:.1f} mm")
+    r = math.hypot(*design.near_point) * 1e3
+    return SpecError(_near_field(t), f"the line of sight through the progressive design's "
+                     f"near reference point ({r:.1f} mm from the lens centre) finds no path "
+                     f"through the {diameter * 1e3:g} mm lens of {rx.format()!r} (its prism "
+                     "turns it toward the rim): give a larger diameter_mm or a shorter "
+                     "corridor_mm")
 
 
 def _design_rx(rx: Prescription, design, where: str) -> Prescription:

@@ -17,7 +17,7 @@ from eyelab.optics.system import LensSystem
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS, SceneSource
 from eyelab.spec.schema import LIMITS, check
-from eyelab.spec.tables import check_keys
+from eyelab.spec.tables import check_keys, check_rules
 
 
 @dataclass(frozen=True)
@@ -43,9 +43,11 @@ class RenderSpec:
         t = dict(self.table)
         t.update({k: v for k, v in changes.items() if v is not None})
         if "camera" in t and t.get("renderer") not in CAMERA_RENDERERS:
-            raise SpecError("render.camera", f"a camera lens renders with "
-                                             f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not "
-                                             f"{t.get('renderer')!r}")
+            # blame the key the caller changed: the renderer asked for, else the camera
+            blamed = "renderer" if changes.get("renderer") is not None else "camera"
+            raise SpecError(f"render.{blamed}", f"a camera lens renders with "
+                            f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not "
+                            f"{t.get('renderer')!r} (render.camera = {t['camera']!r})")
         if "renderer" in changes and changes["renderer"] is not None:
             other = set(renderer_keys(self.renderer)) - set(renderer_keys(t["renderer"]))
             for k in other:
@@ -96,6 +98,7 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
             raise SpecError(f"render.{key}", f"only for renderer = {' or '.join(map(repr, owners))}"
                                              f" (this spec uses {renderer!r})")
     check_keys(t, allowed, "render")
+    check_rules(t, "render")                 # a camera has no eye to turn (gaze_deg)
     scene, written = parse_scene(t.get("scene", "room"), t.get("background"), base)
     view = View(**{attr: t[key] for key, attr in RENDER_VIEW_KEYS.items() if key in t})
     qkw = {k: t[k] for k in quality_keys(renderer) if k in t}

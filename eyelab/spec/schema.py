@@ -1,16 +1,15 @@
 """The spec's schema: every table and key with its type, unit, range, default, choices and
 meaning, in one list (:data:`KEYS`).
 
-A range is declared once. Where the engine checks a value itself — the eye
-(:data:`eyelab.optics.eye.LIMITS`), the lens (:data:`eyelab.optics.lens.LIMITS`),
-a progressive design (:data:`eyelab.optics.progressive.LIMITS`), the view and each
-renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View` and of the
-quality classes) — the schema takes the range from there; the ranges only the spec knows are
-:data:`SPEC_LIMITS`. The parsers (:mod:`eyelab.spec.parse`, ...) check against
-:data:`LIMITS`, the README's tables are generated from :data:`KEYS`
-(:mod:`eyelab.spec.docs`), and so is the bad-spec corpus (``tests/badspecs.py``);
-``tests/test_specdoc.py`` checks that every key is accepted at both ends of its range and
-refused just beyond, naming itself.
+A range is declared once. Where the engine checks a value itself — the eye, the lens, a
+progressive design (``LIMITS`` of :mod:`eyelab.optics.eye`, ``.lens``, ``.progressive``),
+the view and each renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View`
+and of the quality classes) — the schema takes the range from there (``eye.rx``'s powers
+derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows are :data:`SPEC_LIMITS`.
+The parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the README's
+tables are generated from :data:`KEYS` (:mod:`eyelab.spec.docs`), and so is the bad-spec
+corpus (``tests/badspecs.py``); ``tests/test_specdoc.py`` checks that every key is
+accepted at both ends of its range and refused just beyond, naming itself.
 """
 
 from __future__ import annotations
@@ -43,17 +42,26 @@ from eyelab.optics.surfaces import REVOLVE_AXES
 from eyelab.optics.system import EXAMPLES, full_f_number, get_system
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
+from eyelab.spec.eyerx import eye_rx_text
 
 #: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
 DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
 #: Lens designs an Rx with an add can be made into: its distance part, its near
 #: prescription (sphere + add: reading glasses), or a progressive addition lens.
 LENS_DESIGNS = ("single-vision", "near", "progressive")
-#: Surface types of [lens.front] / [lens.back].
+#: What each ``analysis.fixation`` means (``analyze`` reports it), and the default: the
+#: as-worn model optometrists and lens designers use.
+FIXATION_MEANINGS = {
+    "fixed": "the pupil stays at the origin and the eye turns about it toward each point "
+             "(Kakimoto's model, as a render sees each pixel)",
+    "rotating": "the eye turns about its centre of rotation to look at each point, its "
+                "pupil moving behind the lens (the as-worn model of lens design)"}
+DEFAULT_FIXATION = "rotating"
+EYE_VERTEX_MM = 12.0       #: where eye.rx is worn unless eye.vertex_distance_mm says
 #: Rotationally symmetric surface types (all parsed as an :class:`Asphere`: a plane has
 #: curvature 0, a sphere conic 0 and no coefficients — each key still allowed).
 SYMMETRIC_SURFACES = ("sphere", "plane", "asphere", "conic")
-SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric")
+SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric")        # of [lens.front] / [lens.back]
 #: Ranges only the spec knows (what a user may write where the engine takes another form,
 #: or checks nothing), by field, in the spec's units.
 SPEC_LIMITS = {
@@ -81,9 +89,11 @@ ONLY_WITH = {"eye": (("amplitude_model", "age", "Hofstetter's amplitude for that
                      ("kind", "rx", "the explicit powers define the eye as written"),
                      ("vertex_distance_mm", "rx",
                       "the explicit powers define the eye as written"))}
-#: Pairs of keys of a table that exclude each other.
+#: Pairs of keys of a table that exclude each other (and why, where it is not obvious).
 NOT_WITH = {"eye": (("age", "accommodation_max_d"), ("pupil_diameter_mm", "luminance_cd_m2")),
-            "binocular": (("pd_mm", "monocular_pd_mm"),)}
+            "binocular": (("pd_mm", "monocular_pd_mm"),),
+            "render": (("gaze_deg", "camera", "a camera lens has no eye to turn about its "
+                        "centre of rotation"),)}
 #: A key that excludes a group of others (the Rx or the explicit powers).
 EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d",
                                                   "astigmatism_axis_deg")}}
@@ -193,7 +203,7 @@ KEYS = [
     # ------------------------------------------------------------------- [eye]
     Key("eye", "rx", "text", "", "none (an emmetrope)",
         "the eye's refraction as a clinician's spectacle Rx, at `vertex_distance_mm`",
-        range_text="the Rx grammar below; sphere ±30, cylinder ±12, add 0–4 D"),
+        range_text=eye_rx_text(EYE_VERTEX_MM)),
     Key("eye", "kind", "choice", "", '`"refractive"`', "with `rx`: which part of the eye "
         "carries the error (axial: the length, for the spherical equivalent)",
         choices=EYE_KINDS, base=RX_EYE),
@@ -313,10 +323,10 @@ KEYS = [
         "wavelength `analyze` traces the lens and the eye at (the eye's own chromatic "
         "aberration included; its accommodation is the reference wavelength's); renders "
         "trace R, G, B at " + ", ".join(f"{w:g}" for w in RGB_WAVELENGTHS_NM) + " nm"),
-    Key("analysis", "fixation", "choice", "", '`"fixed"`', "for `analyze`: pupil fixed at "
-        "the origin (Kakimoto), or the eye rotating about its centre of rotation toward each "
-        "point (the as-worn model); a render has one eye pose: `render.gaze_deg`",
-        choices=FIXATIONS),
+    Key("analysis", "fixation", "choice", "", f'`"{DEFAULT_FIXATION}"`', "for `analyze` "
+        "(which reports the one used): " + "; ".join(f'`"{k}"`: {v}' for k, v in
+                                                     FIXATION_MEANINGS.items())
+        + "; a render has one eye pose: `render.gaze_deg`", choices=FIXATIONS),
     Key("analysis", "vertex_sphere", "choice", "", '`"rotation_centre"`', "the sphere "
         "through the lens's back vertex that `analyze` reports the wave on: centred on the "
         "eye's centre of rotation (radius vertex distance + 13.5 mm: the designer's) or on "
@@ -369,7 +379,7 @@ KEYS = [
         choices=CVD_KINDS),
     Key("render", "cvd_severity", "number", "", "1", "its severity"),
     Key("render", "gaze_deg", "pair", "deg", "[0, 0]", "the eye turned [right, up] about "
-        "its centre of rotation behind the head-fixed lens"),
+        "its centre of rotation behind the head-fixed lens (not with `camera`: no eye)"),
     Key("render", "chromatic", "boolean", "", "true", "each colour channel with its own "
         "light paths and blur (C, e, F lines) where the lens disperses or the eye has its "
         "own chromatic aberration; false: one wavelength"),

@@ -1,6 +1,7 @@
-"""Two eyes in one spec: ``[eye]`` / ``[lens]`` hold what both sides share, ``[eye.right]``,
-``[lens.left]``, ... one side's own keys, ``[binocular]`` the pupillary distances, the
-frame PD, the fixation distance and the output."""
+"""The eyes' sides. Two eyes in one spec: ``[eye]`` / ``[lens]`` hold what both sides
+share, ``[eye.right]``, ``[lens.left]``, ... one side's own keys, ``[binocular]`` the
+pupillary distances, the frame PD, the fixation distance and the output. One eye: its side
+is the one its Rx names, if any, and its lens's Rx may not name the other."""
 
 from __future__ import annotations
 
@@ -90,11 +91,14 @@ def parse_binocular(data: dict):
             where = _written("eye", side, eye_sides[side], "rx")
             eye_rx = rx_value(et["rx"], where)
             _check_side(eye_rx, side, where)
-        if lens_shared is None:
+        own = lens_sides.get(side, {})
+        lt = None if lens_shared is None else _side_lens_table(lens_shared, own, side, fpd,
+                                                                mpd)
+        if eye_rx is not None:
+            check_eye_add(eye_rx, lt, where)
+        if lt is None:
             lenses[side] = None
             continue
-        own = lens_sides[side]
-        lt = _side_lens_table(lens_shared, own, side, fpd, mpd)
         lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
                                  parse_lens(lt, rx, side=s))
     return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
@@ -107,11 +111,50 @@ def _written(table: str, side: str, own: dict, key: str) -> str:
     return f"{table}.{side}.{key}" if key in own else f"{table}.{key}"
 
 
-def _check_side(rx: Prescription, side: str, where: str) -> None:
+def _check_side(rx: Prescription, side: str, where: str, why: str = "") -> None:
     """An Rx that names an eye (R/L/OD/OS) must be the side it is given for."""
     if rx.eye in ("R", "L") and rx.eye != side[0].upper():
         eye = "right" if rx.eye == "R" else "left"
-        raise SpecError(where, f"{rx.format()!r} is for the {eye} eye, given for the {side}")
+        raise SpecError(where, f"{rx.format()!r} is for the {eye} eye, given for the {side}"
+                               f"{why}")
+
+
+def parse_one_eye(data: dict) -> tuple:
+    """(eye, lens or None) of a spec with one eye. The eye has a side only where its Rx
+    names one (R/OD, L/OS): a lens Rx naming the other side is refused, and a progressive
+    lens is made for the eye's side (else its own Rx's, else the right)."""
+    eye_t = data.get("eye", {})
+    eye = parse_eye(eye_t)
+    eye_rx = rx_value(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
+    lens_t = data.get("lens")
+    check_eye_add(eye_rx, lens_t, "eye.rx")
+    if lens_t is None:
+        return eye, None
+    side = eye_rx.eye if eye_rx is not None and eye_rx.eye in ("R", "L") else None
+    if side is not None and isinstance(lens_t, dict) and "rx" in lens_t:
+        _check_side(rx_value(lens_t["rx"], "lens.rx"), "right" if side == "R" else "left",
+                    "lens.rx", f" eye (eye.rx = {eye_rx.format()!r}): a lens Rx names the "
+                    "eye's side or none")
+    return eye, parse_lens(lens_t, eye_rx, side=side)
+
+
+def check_eye_add(rx: Prescription | None, lens_t, where: str) -> None:
+    """An add in the eye's Rx is used only by a lens made from that Rx (a ``[lens]``
+    without its own rx or surfaces): the eye itself has no add (its near focus is its
+    accommodation), so anywhere else the add is refused, never ignored."""
+    if rx is None or rx.add == 0:
+        return
+    if isinstance(lens_t, dict) and not {"rx", "front", "back"} & set(lens_t):
+        return
+    if lens_t is not None and not isinstance(lens_t, dict):
+        return                                    # [lens] itself is refused
+    why = ("there is no [lens] to take it" if lens_t is None else
+           "the lens is made for its own rx: write the add there" if "rx" in lens_t else
+           "the lens is given surface by surface")
+    raise SpecError(where, f"{rx.format()!r} has an add, which the eye does not use ({why});"
+                           " an add belongs to a lens made for this Rx (a [lens] without "
+                           "rx, with lens.design), the eye's near focus to eye.age or "
+                           "eye.accommodation_max_d")
 
 
 def _monocular_pd(bt: dict) -> tuple:

@@ -1,0 +1,60 @@
+"""Interruption (Ctrl-C's SIGINT, SIGTERM) as a request that survives being swallowed.
+
+While :func:`handling` is active, SIGINT raises :class:`KeyboardInterrupt` and SIGTERM
+:class:`Terminated` in the main thread, as usual, and the request is also recorded: native
+code that checks for signals and clears the exception (an extension's initialisation, a
+library's event loop) cannot make eyelab forget it. :func:`check` raises it again; the
+atomic writers (:mod:`eyelab.core.fileio`) call it before a temporary replaces a final
+file, so an interrupted command never publishes an output.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+
+#: The signal number asked for (None: none) while :func:`handling` is active.
+_REQUESTED: int | None = None
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread as Ctrl-C raises KeyboardInterrupt."""
+
+
+def _raise(signum: int):
+    raise KeyboardInterrupt if signum == signal.SIGINT else Terminated
+
+
+def _handler(signum, frame):
+    global _REQUESTED
+    _REQUESTED = signum
+    _raise(signum)
+
+
+def requested() -> int | None:
+    """The signal number of a pending interruption request, or None."""
+    return _REQUESTED
+
+
+def check() -> None:
+    """Raise the pending interruption (KeyboardInterrupt / :class:`Terminated`), if any."""
+    if _REQUESTED is not None:
+        _raise(_REQUESTED)
+
+
+@contextlib.contextmanager
+def handling():
+    """SIGINT and SIGTERM recorded and raised for the block (main thread only; elsewhere a
+    no-op), the previous handlers restored after."""
+    global _REQUESTED
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _REQUESTED = None
+    previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
