@@ -1,5 +1,5 @@
 """The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``inspect``, ``batch``,
-``bench``.
+``maps``, ``surface``, ``bench``.
 
 Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
 print one line naming the field and exit with status 2; no partial output file is left.
@@ -50,10 +50,11 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
                     "report is written beside it, .json)")
     _render_overrides(dm)
-    from eyelab.apps import batch, inspector
+    from eyelab.apps import batch, inspector, surface
 
     inspector.add_parser(sub)
     batch.add_parser(sub)
+    surface.add_parser(sub)
     mp = sub.add_parser("maps", help="as-worn maps of the spec's lens: mean power error and "
                         "cylinder over gaze directions (PNG contour maps, JSON)")
     mp.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
@@ -164,6 +165,10 @@ def _main(args) -> int:
             return run(args)
         if args.command == "batch":
             from eyelab.apps.batch import run
+
+            return run(args)
+        if args.command == "surface":
+            from eyelab.apps.surface import run
 
             return run(args)
     except SpecError as e:
@@ -331,7 +336,7 @@ def _write_demo(args, spec) -> None:
 def _maps(args) -> int:
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
     from eyelab.jobs.maps import cli_maps as as_worn_maps
-    from eyelab.jobs.maps import maps_summary, plot_maps
+    from eyelab.jobs.maps import figures_summary, maps_figures, maps_summary, plot_maps
     from eyelab.spec import load_spec, one_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
@@ -348,12 +353,13 @@ def _maps(args) -> int:
         raise SpecError("lens", "the spec has no lens to map")
     maps = as_worn_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle, n=args.points,
                         wavelength_nm=spec.wavelength_nm)
+    figures = maps_figures(spec.eye, spec.lens, wavelength_nm=spec.wavelength_nm, maps=maps)
     title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
     writers = {args.output: lambda tmp: plot_maps(maps, tmp, title)}
     if args.json:
-        writers[args.json] = json_writer(maps.to_json())
+        writers[args.json] = json_writer(dict(maps.to_json(), figures=figures))
     atomic_group(writers)
-    print("\n".join(maps_summary(maps)))
+    print("\n".join(maps_summary(maps) + figures_summary(figures)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
 

@@ -406,3 +406,31 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path):
             p.terminate()
         for p in procs:
             p.wait(timeout=30)
+
+
+def test_relative_lens_and_frame_files_resolve_from_their_specs(tmp_path, monkeypatch):
+    """A base spec in its own folder names a points surface and a frame trace by relative
+    paths: the jobs find them whatever folder the batch runs from."""
+    import shutil
+
+    fixtures = Path(__file__).parent / "fixtures"
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    np.save(specs / "front.npy", np.zeros((77, 77)))
+    shutil.copy(fixtures / "frame_trace.oma", specs / "job.oma")
+    (specs / "base.toml").write_text(
+        '[eye]\nrx = "-2.00 DS"\n[lens]\ncenter_thickness_mm = 2.0\ndiameter_mm = 70\n'
+        'rx = "-2.00 DS"\n[lens.front]\nfile = "front.npy"\nspacing_mm = 1.0\n'
+        '[lens.back]\ntype = "sphere"\nradius_mm = 265\n'
+        '[frame]\nfile = "job.oma"\nmonocular_pd_mm = 32\nfitting_height_mm = 18\n')
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+    (jobs / "jobs.toml").write_text('spec = "../specs/base.toml"\n[sweep]\n'
+                                    '"eye.pupil_diameter_mm" = [3, 4]\n')
+    monkeypatch.chdir("/")
+    from eyelab.jobs.batch import validate_jobs
+
+    js = load_job_spec(jobs / "jobs.toml", out_dir=tmp_path / "out")
+    validate_jobs(js)
+    assert Path(js.jobs[0].data["lens"]["front"]["file"]).resolve() == specs / "front.npy"
+    assert Path(js.jobs[0].data["frame"]["file"]).resolve() == specs / "job.oma"

@@ -156,7 +156,9 @@ def _check_job(data: dict, origin: dict, where: str) -> None:
 
 def _base_spec(js: dict, here: Path) -> dict:
     """The spec every job starts from: ``spec`` (else the built-in one) with ``[base]``
-    merged over it; relative paths (of ``spec``, of a mesh scene file) are from ``here``."""
+    merged over it; relative paths (of ``spec``, of a mesh scene file, of ``[base]``'s
+    points files) are from ``here``, the job spec's folder; the spec file's own points
+    files from its folder."""
     from eyelab.spec import read_spec_data
 
     base_path = js.get("spec")
@@ -164,11 +166,15 @@ def _base_spec(js: dict, here: Path) -> dict:
         raise SpecError("jobspec.spec", "must be a spec file path")
     if base_path is not None:
         base_path = Path(base_path) if Path(base_path).is_absolute() else here / base_path
+    from eyelab.spec.surfacefile import absolute_files
+
     base = copy.deepcopy(read_spec_data(base_path)[0])
+    if base_path is not None:            # its files are relative to its own folder
+        absolute_files(base, base_path.parent)
     extra = js.get("base", {})
     if not isinstance(extra, dict):
         raise SpecError("jobspec.base", "must be a table of spec tables")
-    _merge(base, extra)
+    _merge(base, absolute_files(copy.deepcopy(extra), here))
     scene = base.get("render", {}).get("scene")
     where = scene if isinstance(scene, dict) else base.get("render", {})
     key = "path" if isinstance(scene, dict) else "scene"

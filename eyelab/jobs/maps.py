@@ -1,5 +1,6 @@
-"""As-worn maps for a person: contour plots (matplotlib) and a text summary of the maps
-computed by :mod:`eyelab.optics.asworn`."""
+"""As-worn maps for a person: contour plots (matplotlib), a text summary of the maps
+computed by :mod:`eyelab.optics.asworn`, and the designer's figures of merit read off them
+(:mod:`eyelab.optics.figures`)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,48 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 from eyelab.optics.asworn import AsWornMaps, as_worn_maps
+from eyelab.optics.figures import as_worn_figures
 
 #: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.asworn.as_worn_maps`
 #: names in its errors.
 MAPS_FLAGS = {"maps.half_angle_deg": "--half-angle", "maps.n": "--points"}
+#: The grid the figures of merit are read from, whatever grid the maps are drawn on: eye
+#: rotations within +-40 deg (a progressive lens's near zone lies about 30 deg down) in
+#: 2 deg steps (the figures of docs/gallery/pal.toml agree with a 1 deg grid's to 0.02 mm
+#: and 0.01 D).
+FIGURES_GRID = {"half_angle_deg": 40.0, "n": 41}
+#: The figures' definitions, in the JSON (``figures.definitions``); the sources are cited
+#: in :mod:`eyelab.optics.figures`.
+DEFINITIONS = {
+    "lens_mm": "where the line of sight leaves the lens's front surface, in its own "
+               "coordinates: mm from the lens centre (a progressive lens's fitting cross), x "
+               "to the wearer's right, y up",
+    "power": "the lens's power as worn for the object the maps' model puts on that line of "
+             "sight (vertex-sphere vergence less the object's): sphere / cylinder x axis "
+             "(TABO), D",
+    "add_as_worn_d": "mean power at the near reference point less that at the distance "
+                     "reference point (objects at 0.4 m and at infinity)",
+    "corridor": "the path: the line of least cylinder from the fitting cross to the near "
+                "reference point; length_mm: between its points where the add reaches 10 % "
+                "and 90 % of the add as worn; widths: the narrowest, on horizontal sections "
+                "between those points, of the interval about the path where the cylinder "
+                "is below 0.50 / 0.75 D",
+    "distance_zone, near_zone": "widths on horizontal sections every 1 mm (Sheedy 2004, "
+                                "2006) where the cylinder is below 0.50 D and the mean power "
+                                "within 0.25 D of the reference point's; open: the width "
+                                "reaches the map's edge (a lower bound)",
+    "peak_cylinder": "the largest unwanted cylinder on the figures' grid (D); ratio_to_add: "
+                     "over the add as worn",
+    "minkwitz": "ratio: the lateral cylinder gradient over twice the vertical power gradient "
+                "between the 25 % and 75 % add points, 1 at Minkwitz's limit (Sheedy et al. "
+                "2005)",
+    "minimum_fitting_height_mm": "the depth of the near zone's top (the add within 0.25 D "
+                                 "of the add as worn) below the fitting cross, plus a 4 mm "
+                                 "reading area; a fitting-point height as ISO 13666 "
+                                 "measures it, to the lens's lower edge",
+    "clear_field": "the largest eye-rotation radius (deg) within which |mean power error| "
+                   "and the unwanted cylinder stay at or below 0.25 D",
+}
 
 
 def named_maps(eye, lens, names: dict | None = None, **kw) -> AsWornMaps:
@@ -90,3 +129,103 @@ def maps_summary(maps: AsWornMaps) -> list:
     if not math.isfinite(float(np.nanmax(maps.prism_d))):
         lines.append("no line of sight passes the lens")
     return lines
+
+
+def maps_figures(eye, lens, *, wavelength_nm: float = 587.56, maps: AsWornMaps | None = None,
+                 **grid) -> dict:
+    """The figures of merit of ``lens`` worn by ``eye``
+    (:func:`~eyelab.optics.figures.as_worn_figures`), read off as-worn maps on
+    :data:`FIGURES_GRID` (``grid``: its half_angle_deg / n replaced); ``maps`` is used
+    instead when it already is on that grid. Ready for JSON (:func:`json_ready`)."""
+    g = dict(FIGURES_GRID, **grid)
+    if maps is None or len(maps.eye_rotation_x_deg) != g["n"] \
+            or maps.eye_rotation_x_deg[-1] != g["half_angle_deg"]:
+        maps = as_worn_maps(eye, lens, wavelength_nm=wavelength_nm, **g)
+    out = as_worn_figures(maps, eye, lens, wavelength_nm)
+    out["definitions"] = {k: v for k, v in DEFINITIONS.items()
+                          if k.split(",")[0] in out or k in ("lens_mm", "power")}
+    return json_ready(out)
+
+
+def json_ready(obj):
+    """``obj`` (nested dicts / lists of numbers) with numpy scalars made Python's and
+    values that are not finite made None (JSON has no NaN)."""
+    if isinstance(obj, dict):
+        return {k: json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def _width(w: float, is_open: bool, digits: int = 1) -> str:
+    return f"{'>= ' if is_open else ''}{w:.{digits}f} mm"
+
+
+def _reference_line(name: str, p: dict) -> str:
+    obj = "at infinity" if p["object_vergence_d"] == 0 else \
+        f"at {1 / p['object_vergence_d']:.2f} m"
+    (x, y), (a, e) = ((round(v, 1) + 0.0 for v in p[k]) for k in ("lens_mm", "eye_rotation_deg"))
+    return (f"  {name}: lens ({x:+.1f}, {y:+.1f}) mm, eye rotation ({a:+.1f}, {e:+.1f}) deg, "
+            f"object {obj}: {p['power']} as worn, mean {p['mean_power_d']:+.2f} D (error "
+            f"{p['mean_error_d']:+.2f} D, cylinder {p['cylinder_error_d']:+.2f} D)")
+
+
+def _progressive_lines(f: dict) -> list:
+    c = f["corridor"]
+    w50, w75 = c["widths"]["0.50"], c["widths"]["0.75"]
+    dz, nz, mk, pk = f["distance_zone"], f["near_zone"], f["minkwitz"], f["peak_cylinder"]
+    widest = max(nz["sections"], key=lambda r: r["width_mm"], default=None)
+    lines = [
+        f"  add as worn {f['add_as_worn_d']:+.2f} D (near minus distance mean power; nominal "
+        f"{f['add_nominal_d']:+.2f} D)",
+        f"  corridor (10-90 % of the add along the umbilic path): {c['length_mm']:.1f} mm, "
+        f"y {c['y10_mm']:+.1f} to {c['y90_mm']:+.1f} mm",
+        f"  corridor width: {_width(w50['min_width_mm'], w50['open'], 2)} where cylinder < "
+        f"0.50 D, {_width(w75['min_width_mm'], w75['open'], 2)} < 0.75 D (narrowest, y "
+        f"{w50['at_y_mm']:+.1f} / {w75['at_y_mm']:+.1f} mm)",
+        f"  distance zone (cylinder < 0.50 D, mean power within 0.25 D): "
+        f"{_width(dz['width_at_reference_mm'], dz['reference_open'])} wide at the distance "
+        f"reference; near zone {_width(nz['width_at_reference_mm'], nz['reference_open'])} at "
+        f"the near reference" + ("" if widest is None else
+                                 f", widest {_width(widest['width_mm'], widest['open'])} at y "
+                                 f"{widest['y_mm']:+.0f} mm") + " (1 mm sections: the JSON)",
+        f"  peak unwanted cylinder {pk['d']:.2f} D = {pk['ratio_to_add']:.1f} x the add, at eye "
+        f"rotation ({pk['eye_rotation_deg'][0]:+.0f}, {pk['eye_rotation_deg'][1]:+.0f}) deg",
+    ]
+    if mk:
+        lines.append(f"  Minkwitz ratio {mk['ratio']:.2f} (dC/dx "
+                     f"{mk['cylinder_gradient_d_per_mm']:.2f} D/mm over 2 x dP/dy "
+                     f"{mk['power_gradient_d_per_mm']:.2f} D/mm; 1 = Minkwitz's limit)")
+    lines.append(f"  minimum fitting height {f['minimum_fitting_height_mm']:.1f} mm (near zone top "
+                 f"{-c['near_zone_top_mm']:.1f} mm below the fitting cross + 4 mm to read)")
+    return lines
+
+
+def figures_summary(f: dict) -> list:
+    """The figures of merit (:func:`maps_figures`) as lines of text."""
+    g = f["grid"]
+    lines = [f"figures of merit ({f['kind']}; eye rotations within +-{g['half_angle_deg']:g} deg, "
+             f"{g['step_deg']:g} deg steps; lens points: where the line of sight leaves the front "
+             "surface, mm from the lens centre (a progressive lens's fitting cross), x to the "
+             "wearer's right, y up):"]
+    if f["kind"] == "progressive":
+        lines += [_reference_line("distance reference", f["distance_reference"]),
+                  _reference_line("near reference", f["near_reference"])]
+        if "note" in f:
+            return lines + [f"  {f['note']}"]
+        return lines + _progressive_lines(f)
+    cf, pk = f["clear_field"], f["peak_cylinder"]
+    why = "" if cf["open"] else f", limited by {' and '.join(cf['limited_by'])} at eye " \
+        f"rotation ({cf['limit_eye_rotation_deg'][0]:+.1f}, {cf['limit_eye_rotation_deg'][1]:+.1f})"
+    return lines + [
+        _reference_line("lens centre", f["optical_centre"]),
+        f"  clear field (|mean power error| and cylinder <= {cf['tolerance_d']:.2f} D): "
+        f"{'>= ' if cf['open'] else ''}{cf['radius_deg']:.1f} deg of eye rotation{why}; "
+        f"power alone {cf['radius_mean_power_error_deg']:.1f} deg, cylinder alone "
+        f"{cf['radius_cylinder_deg']:.1f} deg",
+        f"  peak unwanted cylinder {pk['d']:.2f} D at eye rotation "
+        f"({pk['eye_rotation_deg'][0]:+.0f}, {pk['eye_rotation_deg'][1]:+.0f}) deg"]

@@ -140,6 +140,10 @@ class SpectacleLens:
         The prescription the lens was designed for, if any (informational).
     coating : "none" (Fresnel reflection of the bare surfaces) or "ar" (anti-reflection:
         :data:`eyelab.optics.fresnel.AR_REFLECTANCE` per surface)
+    outline : :class:`eyelab.optics.frame.Outline` or None
+        The frame's shape the lens is cut to, in the lens frame (x, y m; the fitting point
+        at the origin), inside the round blank of ``diameter``; rays meeting either
+        surface outside it miss (:meth:`trace`). None: the round blank itself.
     """
 
     front: Surface
@@ -153,10 +157,16 @@ class SpectacleLens:
     #: How the lens was designed beyond its surfaces (a progressive design's reference
     #: points), metadata for reports and maps.
     design: object = field(default=None, compare=False, repr=False)
+    #: The frame's outline the lens is cut to (lens frame), or None: the round blank.
+    outline: object = field(default=None, repr=False)
 
     def __post_init__(self):
         check_in("lens.center_thickness_mm", self.center_thickness * 1e3, LIMITS)
         check_in("lens.diameter_mm", self.diameter * 1e3, LIMITS)
+        if self.outline is not None and self.outline.farthest_from() > self.diameter / 2:
+            raise SpecError("lens.diameter_mm", f"the frame's outline reaches "
+                            f"{self.outline.farthest_from() * 1e3:.1f} mm from the fitting "
+                            f"point, beyond the {self.diameter * 1e3:g} mm blank")
         if self.coating not in COATINGS:
             raise SpecError("lens.coating", f"must be one of {', '.join(map(repr, COATINGS))},"
                                             f" got {self.coating!r}")
@@ -169,12 +179,23 @@ class SpectacleLens:
         x, y = r * np.cos(theta), r * np.sin(theta)
         return self.center_thickness - self.front.sag(x, y) + self.back.sag(x, y)
 
-    def edge_thickness(self, samples: int = 360) -> tuple:
-        """(thinnest, thickest) edge thickness on the rim (m) and the rim angles (rad) where
-        they are."""
+    def rim(self, samples: int = 360) -> tuple:
+        """(centre (2,), angles (samples,) rad, radii (samples,) m): the lens's edge as
+        polar points about a centre in the lens frame — the frame's outline about its own
+        centre where the lens is cut, else the blank's rim about the origin."""
         th = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
-        e = self.thickness(np.full_like(th, self.diameter / 2), th)
-        return float(e.min()), float(e.max()), float(th[e.argmin()]), float(th[e.argmax()])
+        if self.outline is None:
+            return np.zeros(2), th, np.full_like(th, self.diameter / 2)
+        return np.asarray(self.outline.centre, float), th, self.outline.radius_at(th)
+
+    def edge_thickness(self, samples: int = 360) -> tuple:
+        """(thinnest, thickest) edge thickness on the rim (the cut edge of a lens cut to a
+        frame) (m) and the rim angles (rad, about the origin) where they are."""
+        c, th, rad = self.rim(samples)
+        x, y = c[0] + rad * np.cos(th), c[1] + rad * np.sin(th)
+        e = self.thickness(np.hypot(x, y), np.arctan2(y, x))
+        ang = np.mod(np.arctan2(y, x), 2 * np.pi)
+        return float(e.min()), float(e.max()), float(ang[e.argmin()]), float(ang[e.argmax()])
 
     def check_feasible(self, min_edge: float = 0.0, field: str = "lens.center_thickness_mm"
                        ) -> None:
@@ -223,13 +244,14 @@ class SpectacleLens:
         if reverse:
             s1, s2 = s2, s1
         h1 = intersect(s1, origins, directions)
+        cut1 = self._cut_away(h1.points)
         out = []
         for wl in wavelengths_nm:
             nl = self.material.n(wl)
             d1, _, ci1, ct1, st1 = refract(directions, h1.normals, 1.0 / nl)
             h2 = intersect(s2, h1.points, d1)
             d2, _, ci2, ct2, st2 = refract(d1, h2.normals, nl)
-            status = h1.status | st1 | h2.status | st2
+            status = h1.status | st1 | h2.status | st2 | cut1 | self._cut_away(h2.points)
             # a ray that must go forward inside the glass but goes backward has missed
             back = np.einsum("ij,ij->i", h2.points - h1.points, d1) < 0
             status = status | np.where(back, Status.MISSED, 0).astype(np.uint8)
@@ -242,6 +264,16 @@ class SpectacleLens:
             out.append({"hit1": h1, "hit2": h2, "inside": d1, "out_points": h2.points,
                         "out_dirs": d2, "status": status, "transmittance": t})
         return out
+
+    def _cut_away(self, points) -> np.ndarray:
+        """(n,) uint8: MISSED where world ``points`` (n, 3) on a surface lie outside the
+        frame's outline (measured in the lens frame, as the blank's aperture); 0 for an
+        uncut lens."""
+        if self.outline is None:
+            return np.zeros(len(points), np.uint8)
+        q = (np.asarray(points, float) - self.pose.translation) @ self.pose.rotation
+        return np.where(self.outline.contains(q[:, 0], q[:, 1]), 0,
+                        Status.MISSED).astype(np.uint8)
 
     def back_vertex_powers(self, wavelength_nm: float = 587.56):
         """Principal back vertex powers (D) and the direction (rad, lens frame) of the first,
@@ -265,7 +297,9 @@ class SpectacleLens:
 
     # -------------------------------------------------------------------- mesh
     def mesh(self, rings: int = 16, segments: int = 64):
-        """Closed triangle mesh (front, back, edge) in world coordinates.
+        """Closed triangle mesh (front, back, edge) in world coordinates: polar rings
+        about the rim's centre out to the rim (:meth:`rim`: the frame's outline where the
+        lens is cut).
 
         Returns
         -------
@@ -273,11 +307,11 @@ class SpectacleLens:
         faces : (f, 3) int
         part : (v,) uint8, 0 front, 1 back (the edge band reuses the rim vertices)
         """
-        rr = np.linspace(0.0, self.diameter / 2, rings + 1)[1:]
-        th = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
-        R, T = np.meshgrid(rr, th, indexing="ij")
-        x = np.concatenate([[0.0], (R * np.cos(T)).ravel()])
-        y = np.concatenate([[0.0], (R * np.sin(T)).ravel()])
+        c, th, rim = self.rim(segments)
+        S, R = np.meshgrid(np.linspace(0.0, 1.0, rings + 1)[1:], rim, indexing="ij")
+        T = np.broadcast_to(th, R.shape)
+        x = np.concatenate([[c[0]], (c[0] + S * R * np.cos(T)).ravel()])
+        y = np.concatenate([[c[1]], (c[1] + S * R * np.sin(T)).ravel()])
         fs, bs = self.placed_surfaces()
         faces = []
         for i in range(segments):  # centre fan

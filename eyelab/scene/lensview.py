@@ -33,15 +33,22 @@ def lens_covers_view(lens, cam: Camera, samples: int = 33, margin: float = 0.99)
     """True if every ray of a grid over the camera's view (its border included) passes
     through the lens shrunk to ``margin`` of its diameter (the outline the renderer masks
     with is at 99.5 %): the lens and the view are both convex, so then every pixel sees
-    through the lens."""
-    small = dataclasses.replace(lens, diameter=lens.diameter * margin)
+    through the lens. A lens cut to a frame is shrunk about its outline's centre (an
+    outline need not be convex: a grid's rays all through it is then taken as covering)."""
+    if lens.outline is not None:
+        small = dataclasses.replace(lens, outline=lens.outline.scaled(margin))
+    else:
+        small = dataclasses.replace(lens, diameter=lens.diameter * margin)
     return bool(np.all(view_rays_through(small, cam, samples)))
 
 
 def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
     """The same lens with a ``factor`` larger aperture where its surfaces allow (else the
     lens itself): used only for texture coordinates of grid vertices just outside the rim,
-    so that rim cells are filled (the outline mask clips them)."""
+    so that rim cells are filled (the outline mask clips them). A lens cut to a frame
+    widens its whole blank: the cut is dropped."""
+    if lens.outline is not None:
+        lens = dataclasses.replace(lens, outline=None)
     d = min(lens.diameter * factor, max_diameter)
     r = d / 2
     for surf in (lens.front, lens.back):
@@ -73,18 +80,37 @@ def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     c, e = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
     faces = np.concatenate([np.stack([a, b, e], 1), np.stack([a, e, c], 1)])
     faces = faces[ok[faces].all(1)]
-    pts = np.where(ok[:, None], hit.points, 0.0)
+    # a vertex off the (widened) lens belongs to no face: a point on its ray keeps its
+    # direction from the pupil defined (a lens smaller than a wide view)
+    pts = np.where(ok[:, None], hit.points, np.asarray(cam.position, float)
+                   + d * lens.pose.vertex_distance)
     return pts, faces, (gx, gy)
 
 
+#: How far out the outline mesh reaches: of the round blank's radius (its rim's rays
+#: graze the aperture), and of a frame's outline (its own vertices, just inside).
+ROUND_FILL, OUTLINE_FILL = 0.995, 1.0 - 1e-4
+
+
 def lens_back_mesh(lens, rings: int, segments: int):
-    """The lens's back surface as a polar grid (world), out to 99.5 % of the radius: the
-    outline of the lens as the eye sees it. Returns (vertices (n, 3) m, faces (m, 3))."""
-    r = np.linspace(0.0, 0.995 * lens.diameter / 2, rings + 1)[1:]
-    th = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
-    rr, tt = np.meshgrid(r, th, indexing="ij")
-    x = np.concatenate([[0.0], (rr * np.cos(tt)).ravel()])
-    y = np.concatenate([[0.0], (rr * np.sin(tt)).ravel()])
+    """The lens's back surface as a polar grid (world): the outline of the lens as the eye
+    sees it — out to :data:`ROUND_FILL` of the round blank's radius in ``segments``
+    directions, or, for a lens cut to a frame, rings about its outline's centre through
+    :data:`OUTLINE_FILL` of each of the outline's own vertices (the trace's polygon).
+    Returns (vertices (n, 3) m, faces (m, 3))."""
+    if lens.outline is None:
+        c = np.zeros(2)
+        th = np.linspace(0.0, 2 * math.pi, segments, endpoint=False)
+        rim = np.full(segments, ROUND_FILL * lens.diameter / 2)
+    else:
+        c = np.asarray(lens.outline.centre, float)
+        th = np.asarray(lens.outline.angles, float)
+        rim = OUTLINE_FILL * np.asarray(lens.outline.radii, float)
+    segments = len(th)
+    ss, rr = np.meshgrid(np.linspace(0.0, 1.0, rings + 1)[1:], rim, indexing="ij")
+    tt = np.broadcast_to(th, rr.shape)
+    x = np.concatenate([[c[0]], (c[0] + ss * rr * np.cos(tt)).ravel()])
+    y = np.concatenate([[c[1]], (c[1] + ss * rr * np.sin(tt)).ravel()])
     _, back = lens.placed_surfaces()
     z = back.surface.sag(x, y)
     v = np.stack([x, y, z], 1) @ back.rotation.T + back.translation

@@ -19,10 +19,12 @@ from eyelab.optics.eye import (
 )
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.paths import ObjectPoints
+from eyelab.spec.frame import parse_frame
 from eyelab.spec.parse import ANALYSIS_KEYS, eye_accommodation, parse_points
 from eyelab.spec.render import RenderSpec, parse_render
 from eyelab.spec.schema import DEFAULT_FIXATION
 from eyelab.spec.sides import has_sides, parse_binocular, parse_one_eye
+from eyelab.spec.surfacefile import with_spec_folder
 from eyelab.spec.tables import check_keys, number
 
 
@@ -42,16 +44,19 @@ class Spec:
     binocular: Binocular | None = None
 
 
+@with_spec_folder    # relative points files (lens.front.file) are the spec's
 def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> Spec:
-    check_keys(data, {"eye", "lens", "analysis", "points", "render", "binocular"}, "spec")
+    check_keys(data, {"eye", "lens", "analysis", "points", "render", "binocular", "frame"},
+               "spec")
     eye_t = data.get("eye", {})
+    frame = parse_frame(data["frame"], base) if "frame" in data else None
     bino = None
     if "binocular" in data or has_sides(eye_t) or has_sides(data.get("lens")):
-        bino = parse_binocular(data)
+        bino = parse_binocular(data, frame)
         eye, lens = bino.right, bino.right_lens
         eye_t = {k: v for k, v in eye_t.items() if k not in SIDES}
     else:
-        eye, lens = parse_one_eye(data)
+        eye, lens = parse_one_eye(data, frame)
     an = data.get("analysis", {})
     check_keys(an, ANALYSIS_KEYS, "analysis")
     wl = number(an, "wavelength_nm", "analysis", 587.56)
@@ -62,7 +67,7 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
     points = parse_points(data.get("points", [{"distance_m": "inf"}]))
     render = parse_render(data.get("render", {}), base)
     if render.camera is not None:
-        for table in ("lens", "binocular"):
+        for table in ("lens", "binocular", "frame"):
             if table in data:
                 raise SpecError("render.camera", f"a camera lens sees the scene; [{table}] "
                                                  "has no meaning with it")

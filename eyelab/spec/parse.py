@@ -25,6 +25,7 @@ from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens, check_feasible
 from eyelab.optics.materials import get_material
 from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.pointsfile import FIRST_ROWS, check_covers, read_points
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
 from eyelab.spec.eyerx import dioptres, eye_rx_ranges
@@ -35,6 +36,7 @@ from eyelab.spec.schema import (
     SYMMETRIC_SURFACES,
     check,
 )
+from eyelab.spec.surfacefile import spec_file
 from eyelab.spec.tables import check_keys, check_rules, choice, number, rx_value
 
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
@@ -48,7 +50,8 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
 #: Keys only a progressive design takes.
 PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
-                "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve"}
+                "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve", "file",
+                "spacing_mm", "first_row"}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
 BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_m", "output"}
@@ -58,6 +61,8 @@ DESIGN_ALIASES = {"pal": "progressive", "varifocal": "progressive", "varifocals"
                   "multifocal": "progressive", "progressive addition": "progressive",
                   "sv": "single-vision", "single vision": "single-vision",
                   "distance": "single-vision", "reading": "near", "readers": "near"}
+#: A DCS file's surface letters (SURFMT field 3).
+_FACES = {"F": "front", "B": "back"}
 
 
 def parse_eye(t: dict) -> Eye:
@@ -140,9 +145,12 @@ def eye_accommodation(t: dict):
     return check("eye.accommodation_d", acc)
 
 
-def _surface(t, where) -> Surface:
+def _surface(t, where, diameter: float = 0.06) -> Surface:
+    """A surface table ([lens.front], [lens.back]) of a lens of ``diameter`` (m)."""
     check_keys(t, SURFACE_KEYS, where)
-    kind = t.get("type", "sphere")
+    kind = t.get("type", "points" if "file" in t else "sphere")
+    if kind == "points":
+        return _points(t, where, diameter)
 
     def curv(ck, rk):
         if ck in t and rk in t:
@@ -172,6 +180,27 @@ def _surface(t, where) -> Surface:
             raise SpecError(f"{where}.revolve", f"must be 'x' or 'y', got {rev!r}")
         return Toric(cx, cy, ax, rev)
     raise SpecError(f"{where}.type", f"must be one of {', '.join(SURFACE_TYPES)}; got {kind!r}")
+
+
+def _points(t, where, diameter):
+    """A ``type = "points"`` surface (:mod:`eyelab.spec.surfacefile`): its keys checked
+    before its file is read, the file's grid reaching the rim of a lens of ``diameter``."""
+    first = check_choice(f"{where}.first_row", t.get("first_row", "bottom"), FIRST_ROWS)
+    spacing = number(t, "spacing_mm", where)
+    if "file" not in t:
+        raise SpecError(f"{where}.file", 'type = "points" reads the surface from a file: '
+                                         'file = "surface.sdf" (or .csv, .npy)')
+    path = spec_file(t["file"], f"{where}.file")
+    if spacing is not None and path.suffix.lower() == ".sdf":
+        raise SpecError(f"{where}.spacing_mm", "a .sdf file gives its own spacing (SURFMT)")
+    grid = read_points(path, f"{where}.file", spacing_mm=spacing, first_row=first)
+    side = "F" if where.endswith("front") else "B"
+    if grid.surface and grid.surface != side:
+        raise SpecError(f"{where}.file", f"{path.name} is the {_FACES[grid.surface]} surface "
+                                         f"(SURFMT field 3: {grid.surface}), given as "
+                                         f"[{where}]")
+    check_covers(grid, diameter, f"{where}.file")
+    return grid.freeform()
 
 
 def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
@@ -271,7 +300,8 @@ def _lens_rx(t: dict, eye_rx):
 
 def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
     """A lens given surface by surface ([lens.front], [lens.back], centre thickness)."""
-    for key in ("rx", "base_curve_d", "torus", "design"):
+    points = [k for k in ("front", "back") if _is_points(t.get(k))]
+    for key in ("rx", "base_curve_d", "torus", "design")[bool(points):]:
         if key in t:
             raise SpecError(f"lens.{key}", "not allowed with explicit front/back surfaces")
     for key in ("front", "back"):
@@ -279,10 +309,19 @@ def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
             raise SpecError(f"lens.{key}", "an explicit lens needs both front and back")
     if ct is None:
         raise SpecError("lens.center_thickness_mm", "required with explicit surfaces")
-    front, back = _surface(t["front"], "lens.front"), _surface(t["back"], "lens.back")
-    check_feasible(front, back, ct * 1e-3, (diam or 60.0) * 1e-3, min_edge=MIN_EDGE_THICKNESS)
-    return SpectacleLens(front, back, ct * 1e-3, material, (diam or 60.0) * 1e-3, pose,
+    # with a points surface, rx is what the lens was made for: analyze's power errors and
+    # the as-worn maps compare the lens with it
+    rx = rx_value(t["rx"], "lens.rx") if "rx" in t else None
+    d = (diam or 60.0) * 1e-3
+    front, back = _surface(t["front"], "lens.front", d), _surface(t["back"], "lens.back", d)
+    check_feasible(front, back, ct * 1e-3, d, min_edge=MIN_EDGE_THICKNESS)
+    return SpectacleLens(front, back, ct * 1e-3, material, d, pose, rx,
                          coating=t.get("coating", "none"))
+
+
+def _is_points(t) -> bool:
+    """Whether a surface table is ``type = "points"`` (the default where it has a file)."""
+    return isinstance(t, dict) and t.get("type", "points" if "file" in t else None) == "points"
 
 
 def _progressive(t, rx, where, material, pose, diameter, side=None) -> SpectacleLens:

@@ -43,6 +43,8 @@ from eyelab.optics.system import EXAMPLES, full_f_number, get_system
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
 from eyelab.spec.eyerx import eye_rx_text
+from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
+from eyelab.spec.surfacefile import POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
 
 #: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
 DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
@@ -61,7 +63,7 @@ EYE_VERTEX_MM = 12.0       #: where eye.rx is worn unless eye.vertex_distance_mm
 #: Rotationally symmetric surface types (all parsed as an :class:`Asphere`: a plane has
 #: curvature 0, a sphere conic 0 and no coefficients — each key still allowed).
 SYMMETRIC_SURFACES = ("sphere", "plane", "asphere", "conic")
-SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric")        # of [lens.front] / [lens.back]
+SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric", "points")   # of [lens.front] / [lens.back]
 #: Ranges only the spec knows (what a user may write where the engine takes another form,
 #: or checks nothing), by field, in the spec's units.
 SPEC_LIMITS = {
@@ -98,7 +100,8 @@ NOT_WITH = {"eye": (("age", "accommodation_max_d"), ("pupil_diameter_mm", "lumin
 EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d",
                                                   "astigmatism_axis_deg")}}
 #: Every field's range but the renderers' own options (:func:`range_of` has those).
-LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **View.LIMITS, **SPEC_LIMITS}
+LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS, **View.LIMITS,
+          **POINTS_LIMITS, **SPEC_LIMITS}
 
 
 def declared(field_name: str) -> str:
@@ -195,10 +198,6 @@ def _num(v) -> str:
     return f"{v:g}".replace("-", "−")
 
 
-def _choice(values):
-    return tuple(values)
-
-
 KEYS = [
     # ------------------------------------------------------------------- [eye]
     Key("eye", "rx", "text", "", "none (an emmetrope)",
@@ -218,7 +217,7 @@ KEYS = [
     Key("eye", "age", "number", "years", "none", "accommodation amplitude by Hofstetter's "
         "formula (instead of `accommodation_max_d`)"),
     Key("eye", "amplitude_model", "choice", "", '`"mean"`', "with `age`: Hofstetter's "
-        "minimum, mean or maximum", choices=_choice(AMPLITUDE_MODELS), base={"eye": {
+        "minimum, mean or maximum", choices=tuple(AMPLITUDE_MODELS), base={"eye": {
             "age": 40}}),
     Key("eye", "accommodation_max_d", "number", "D", "11.93", "amplitude of accommodation"),
     Key("eye", "pupil_diameter_mm", "number", "mm", "4", "entrance pupil"),
@@ -251,8 +250,9 @@ KEYS = [
         "that would work) unless its surfaces stay apart inside the diameter with an edge "
         "of at least 1 mm, and a minus lens keeps its material's minimum centre", base=RX_LENS,
         edges=False),
-    Key("lens", "diameter_mm", "number", "mm", "60 (less for strong lenses)", "round "
-        "lens diameter", base=RX_LENS),
+    Key("lens", "diameter_mm", "number", "mm", "60 (less for strong lenses; a [frame]'s "
+        "minimum blank size in 5 mm steps where more)", "round lens (blank) diameter; one "
+        "below a [frame]'s minimum blank size is refused", base=RX_LENS),
     Key("lens", "vertex_distance_mm", "number", "mm", "12", "back vertex to the cornea",
         base=RX_LENS),
     Key("lens", "pantoscopic_tilt_deg", "number", "deg", "0", "lower rim toward the "
@@ -282,14 +282,16 @@ KEYS = [
     Key("lens", "softness_mm", "number", "mm", "8", "progressive: lateral half-width over "
         "which the add fades beside the corridor (small: a hard design)",
         base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
-    Key("lens", "front", "text", "", "none", "explicit surfaces instead of `rx`: tables "
-        "[lens.front] and [lens.back] (both, with `center_thickness_mm`); a surface steeper "
-        "than a hemisphere inside the diameter is refused naming `diameter_mm`",
+    Key("lens", "front", "text", "", "none", "explicit surfaces instead of a lens made "
+        "from `rx`: tables [lens.front] and [lens.back] (both, with `center_thickness_mm`; "
+        "with a points surface `rx` may stay, as what power errors compare with); a "
+        "surface steeper than a hemisphere inside the diameter is refused naming "
+        "`diameter_mm`",
         range_text="a surface table"),
     Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
     # ------------------------------------------------ [lens.front] / [lens.back]
-    Key("lens.front", "type", "choice", "", '`"sphere"`', "surface shape",
-        choices=SURFACE_TYPES, base=SURFACES),
+    Key("lens.front", "type", "choice", "", '`"sphere"` (`"points"` with `file`)',
+        "surface shape", choices=SURFACE_TYPES, base=TYPE_BASE),
     Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
         "`radius_mm`)", base={"lens": {"front": {"type": "sphere"},
                                                   "back": {"type": "plane"},
@@ -345,7 +347,7 @@ KEYS = [
         '`render.gaze_deg` (or `"inf"`: parallel lines of sight); both eyes turn to it'),
     Key("binocular", "output", "choice", "", '`"side-by-side"`', "what `eyelab render` "
         "writes: left eye's view left (parallel viewing), crossed, Dubois red/cyan anaglyph, "
-        "or one eye", choices=OUTPUTS),
+        "or one eye", choices=OUTPUTS), *frame_keys(Key, LIMITS),
     # -------------------------------------------------------------- [[points]]
     Key("points[0]", "distance_m", "number", "m", '`"inf"`', 'object distance from the '
         'pupil, or `"inf"`', base={"points": [{}]}),
@@ -374,7 +376,6 @@ KEYS = [
     Key("render", "fov_y_deg", "number", "deg", "60", "vertical field of view"),
     Key("render", "near_m", "number", "m", "0.05", "near clipping depth from the pupil"),
     Key("render", "far_m", "number", "m", "100", "far clipping depth (> near_m)", edges=False),
-
     Key("render", "cvd", "choice", "", "none", "colour-vision deficiency (Machado 2009)",
         choices=CVD_KINDS),
     Key("render", "cvd_severity", "number", "", "1", "its severity"),
@@ -482,7 +483,7 @@ KEYS = [
     Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
         "goes (the pupil is at the origin, looking along −z)",
         base={"render": {"scene": {"path": "room"}}}),
-]
+] + [Key(*args, **kw) for args, kw in POINTS_KEYS]       # [lens.front] type = "points"
 
 #: Headings of the generated tables, in order.
 TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
@@ -492,7 +493,7 @@ TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
           "binocular": "`[binocular]` (two eyes; with it, or alone, `[eye.right]`, "
           "`[eye.left]`, `[lens.right]` and `[lens.left]` hold any key of their table for "
           "one side over the shared `[eye]` / `[lens]` value — `eye.accommodation_d` only "
-          "in `[eye]`: accommodation is consensual)",
+          "in `[eye]`: accommodation is consensual)", "frame": FRAME_TABLE,
           "points[0]": "`[[points]]` (one table per point)",
           "render": "`[render]`", "render.scene": "`[render] scene = {…}` (a mesh file "
           "placed in the world: a vertex v goes to R_z R_y R_x (units × scale × v) + "

@@ -54,7 +54,7 @@ def _for_side(where, side, own, fn):
         raise
 
 
-def parse_binocular(data: dict):
+def parse_binocular(data: dict, frame=None):
     """A spec with two eyes -> :class:`eyelab.optics.binocular.Binocular`.
 
     ``[eye]`` and ``[lens]`` hold what both sides share; ``[eye.right]``, ``[eye.left]``,
@@ -64,14 +64,18 @@ def parse_binocular(data: dict):
     midline (in front of its pupil without it), plus any ``decentration_mm`` written
     (world frame: x to the wearer's right); ``wrap_deg`` is face-form for both lenses (the
     left lens's pose takes its mirror image); a progressive design gets its side's inset.
+    With a ``frame`` (:class:`eyelab.spec.frame.FrameSpec`) each lens is cut to its side's
+    outline, its fitting point before its pupil (the pupils: [binocular]'s, else the
+    trace file's IPD records).
     """
     from eyelab.imaging.stereo import OUTPUTS
     from eyelab.optics.binocular import Binocular
+    from eyelab.spec.frame import binocular_pupils, fitted_lens, frame_for
 
     bt = data.get("binocular", {})
     check_keys(bt, BINOCULAR_KEYS, "binocular")
     check_rules(bt, "binocular")
-    mpd = _monocular_pd(bt)
+    mpd = binocular_pupils(frame, bt) or _monocular_pd(bt)
     fpd = number(bt, "frame_pd_mm", "binocular")
     fix = bt.get("fixation_distance_m", "inf")
     if isinstance(fix, str) and fix.strip().lower() in ("inf", "infinity"):
@@ -96,13 +100,27 @@ def parse_binocular(data: dict):
                                                                 mpd)
         if eye_rx is not None:
             check_eye_add(eye_rx, lt, where)
+        frame_for(frame, lt)
         if lt is None:
             lenses[side] = None
             continue
-        lenses[side] = _for_side("lens", side, own, lambda lt=lt, rx=eye_rx, s=letter:
-                                 parse_lens(lt, rx, side=s))
+
+        def make(t, rx=eye_rx, s=letter, side=side, own=own):
+            return _for_side("lens", side, own, lambda: parse_lens(t, rx, side=s))
+
+        lenses[side] = make(lt) if frame is None else fitted_lens(
+            frame, side, (mpd[SIDES.index(side)], _pd_field(bt, frame)), lt, make)
     return Binocular(eyes["right"], eyes["left"], lenses["right"], lenses["left"], mpd,
                      None if fpd is None else fpd * 1e-3, fix, output)
+
+
+def _pd_field(bt: dict, frame) -> str:
+    """The field the pupils of a two-eye spec came from."""
+    for key in ("monocular_pd_mm", "pd_mm"):
+        if key in bt:
+            return f"binocular.{key}"
+    return "frame.file" if frame.from_file and frame.file_pd_mm("right") is not None \
+        else "binocular.pd_mm"
 
 
 def _written(table: str, side: str, own: dict, key: str) -> str:
@@ -119,15 +137,19 @@ def _check_side(rx: Prescription, side: str, where: str, why: str = "") -> None:
                                f"{why}")
 
 
-def parse_one_eye(data: dict) -> tuple:
+def parse_one_eye(data: dict, frame=None) -> tuple:
     """(eye, lens or None) of a spec with one eye. The eye has a side only where its Rx
     names one (R/OD, L/OS): a lens Rx naming the other side is refused, and a progressive
-    lens is made for the eye's side (else its own Rx's, else the right)."""
+    lens is made for the eye's side (else its own Rx's, else the right). With a ``frame``
+    (:class:`eyelab.spec.frame.FrameSpec`) the lens is cut to that side's outline (the
+    right's where the eye has no side), its fitting point before the pupil."""
+    from eyelab.spec.frame import fitted_lens, frame_for, one_eye_pd
     eye_t = data.get("eye", {})
     eye = parse_eye(eye_t)
     eye_rx = rx_value(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
     lens_t = data.get("lens")
     check_eye_add(eye_rx, lens_t, "eye.rx")
+    frame_for(frame, lens_t)
     if lens_t is None:
         return eye, None
     side = eye_rx.eye if eye_rx is not None and eye_rx.eye in ("R", "L") else None
@@ -135,7 +157,18 @@ def parse_one_eye(data: dict) -> tuple:
         _check_side(rx_value(lens_t["rx"], "lens.rx"), "right" if side == "R" else "left",
                     "lens.rx", f" eye (eye.rx = {eye_rx.format()!r}): a lens Rx names the "
                     "eye's side or none")
-    return eye, parse_lens(lens_t, eye_rx, side=side)
+    if frame is None or not isinstance(lens_t, dict):
+        return eye, parse_lens(lens_t, eye_rx, side=side)
+    which = "left" if (side or _rx_side(lens_t)) == "L" else "right"
+    return eye, fitted_lens(frame, which, one_eye_pd(frame, which), lens_t,
+                            lambda t: parse_lens(t, eye_rx, side=side))
+
+
+def _rx_side(lens_t: dict):
+    """The side a lens table's own Rx names ("R", "L") or None."""
+    if "rx" not in lens_t:
+        return None
+    return rx_value(lens_t["rx"], "lens.rx").eye
 
 
 def check_eye_add(rx: Prescription | None, lens_t, where: str) -> None:

@@ -1,0 +1,96 @@
+"""``eyelab surface SPEC --side front|back -o FILE [--spacing-mm S] [--size-mm D]``: a spec
+lens's surface (sphere, toric, asphere, progressive free-form, points) as a points file
+(:mod:`eyelab.optics.pointsfile`): a Vision Council DCS ``.sdf`` — what a lab's generator
+receives — or a ``.csv`` / ``.npy`` sag grid, by the output's extension; the file reads back
+as ``[lens.front]`` / ``[lens.back]`` ``type = "points"``."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+#: The default grid spacing (mm).
+SPACING_MM = 0.5
+
+
+def add_parser(sub) -> None:
+    s = sub.add_parser("surface", help="write a spec lens's front or back surface as a points "
+                       "file: a Vision Council DCS .sdf (a lab generator's input), .csv or .npy")
+    s.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    s.add_argument("--side", required=True, choices=("front", "back"),
+                   help="which surface of the lens")
+    s.add_argument("-o", "--output", required=True,
+                   help="the points file: .sdf (DCS SURFMT + ZZ records), .csv or .npy")
+    s.add_argument("--spacing-mm", type=float, default=SPACING_MM, metavar="S",
+                   help=f"grid spacing in mm (default {SPACING_MM:g})")
+    s.add_argument("--size-mm", type=float, metavar="D", help="side of the square grid in mm "
+                   "(default: the lens's diameter plus 2 mm on each side, within a free-form "
+                   "surface's own grid)")
+    s.add_argument("--eye", choices=("right", "left"), default="right",
+                   help="the lens of a two-eye spec (default right)")
+
+
+def _lens(spec, eye: str):
+    """The spec's lens (of ``eye`` for two eyes) and its eye letter (R/L)."""
+    from eyelab.core.errors import SpecError
+
+    if spec.render.camera is not None:
+        raise SpecError("render.camera", "a camera spec has no spectacle lens to write")
+    if spec.binocular is not None:
+        lens = getattr(spec.binocular, f"{eye}_lens")
+        letter = eye[0].upper()
+    else:
+        lens = spec.lens
+        letter = "L" if lens is not None and lens.rx is not None and lens.rx.eye == "L" \
+            else "R"
+    if lens is None:
+        raise SpecError("lens", "the spec has no lens whose surface to write")
+    return lens, letter
+
+
+def run(args) -> int:
+    from eyelab.core.checks import check_range
+    from eyelab.core.errors import SpecError
+    from eyelab.core.fileio import check_output
+    from eyelab.optics.pointsfile import (
+        FORMATS,
+        LIMITS,
+        SAG_DECIMALS,
+        default_size_mm,
+        sample_surface,
+        write_points,
+    )
+    from eyelab.spec import load_spec
+
+    if Path(args.output).suffix.lower() not in FORMATS:
+        raise SpecError("--output", f"must end in {', '.join(FORMATS)} (the format), got "
+                                    f"{args.output!r}")
+    check_output("--output", args.output)
+    spacing = check_range("--spacing-mm", args.spacing_mm, *LIMITS["lens.front.spacing_mm"])
+    if args.size_mm is not None:
+        check_range("--size-mm", args.size_mm, *LIMITS["surface.size_mm"])
+    lens, letter = _lens(load_spec(args.spec), args.eye)
+    surface = getattr(lens, args.side)
+    size = args.size_mm if args.size_mm is not None else default_size_mm(lens, spacing, surface)
+    if size < lens.diameter * 1e3 - 1e-9:
+        raise SpecError("--size-mm", f"{size:g} mm does not reach the rim of the "
+                                     f"{lens.diameter * 1e3:g} mm lens: at least "
+                                     f"{lens.diameter * 1e3:g}")
+    grid = sample_surface(surface, spacing, size, "--size-mm")
+    face = args.side[0].upper()
+    fmt = write_points(args.output, grid, side=letter, surface=face)
+    n = len(grid.x)
+    side_mm = grid.x[-1] - grid.x[0]
+    made = lens.rx.format() if lens.rx is not None else "explicit surfaces"
+    print(f"wrote {args.output}: the {args.side} surface of the lens ({made}), {n} x {n} "
+          f"sags at {spacing:g} mm over {side_mm:g} x {side_mm:g} mm ({fmt}; "
+          + ("float64, mm" if fmt == "npy" else f"mm, {SAG_DECIMALS} decimals") + ")")
+    keys = f'type = "points", file = "{Path(args.output).name}"'
+    if fmt != "sdf":
+        keys += f", spacing_mm = {spacing:g}"
+    # the centre thickness rounded up (0.1 um): the edge stays at least as thick
+    ct = math.ceil(round(lens.center_thickness * 1e7, 3)) / 1e4
+    print(f"read it back as [lens.{args.side}] {keys}; the lens: center_thickness_mm = "
+          f"{ct:.4f}, diameter_mm = {lens.diameter * 1e3:g}, material = "
+          f"{lens.material.name!r}")
+    return 0
