@@ -18,7 +18,8 @@ BENCHES = {
                 ("preset", "plot", "truth_spp", "reference_spp", "configs", "scenes", "merge",
                  "omit", "truth_cache")),
     "stability": ("random configurations against the engine and the renderers", ("preset",)),
-    "memory": ("resident memory over many renders", ("quick",)),
+    "memory": ("resident memory over many renders; estimate vs peak of mesh files",
+               ("quick", "mesh_triangles", "memory_only")),
     "inspect": ("the inspector's response to changes", ("quick",)),
     "batch": ("eyelab batch against one process per image", ("quick",)),
     "imagebased": ("Heidrich's image-based model per angle threshold", ("quick", "repeats")),
@@ -73,6 +74,13 @@ _BENCH_FLAGS = {
     "omit": lambda b, name: b.add_argument(
         "--omit", help="leave out these optional rows (comma-separated: variants, "
         "imagebased), for partial runs on small machines"),
+    "mesh_triangles": lambda b, name: b.add_argument(
+        "--mesh-triangles", help="triangle counts of the mesh files whose peak is measured "
+        "against the estimate (comma-separated; default 10000,1000000,8000000; with "
+        "--quick 10000,100000)"),
+    "memory_only": lambda b, name: b.add_argument(
+        "--only", choices=("renders", "meshes"), help="only the many-renders scenarios or "
+        "only the mesh files"),
     "truth_cache": lambda b, name: b.add_argument(
         "--truth-cache", help="folder where converged references are kept and re-used "
         "(keyed by scene, configuration, size and spp)"),
@@ -158,7 +166,13 @@ def _bench_batch(args):
 def _bench_memory(args):
     from eyelab.bench.memory import run_memory_bench
 
-    return run_memory_bench(*((40, 100) if args.quick else (200, 500)))
+    renders = (40, 100) if args.quick else (200, 500)
+    meshes = _int_list("--mesh-triangles", args.mesh_triangles) or (
+        [10_000, 100_000] if args.quick else [10_000, 1_000_000, 8_000_000])
+    if any(n < 1 or n > 100_000_000 for n in meshes):
+        raise SpecError("--mesh-triangles", f"must be counts in [1, 1e8], got {meshes}")
+    return run_memory_bench(*((0, 0) if args.only == "meshes" else renders),
+                            mesh_triangles=() if args.only == "renders" else meshes)
 
 
 def _bench_stability(args):

@@ -262,7 +262,7 @@ class Renderer(abc.ABC):
         no spectacle lens), dispatched here to :meth:`_render_camera`.
         ``progressive``: also return the images after 1, 2, 4, ... samples (renderers that
         refine in passes; others return the final image only)."""
-        view, quality = self._checked(view, quality)
+        view, quality = self._checked(view, quality, scene)
         if isinstance(eye, LensSystem):     # the observer is a camera lens, not an eye
             if lens is not None:
                 raise SpecError("lens", "a camera lens system takes no spectacle lens")
@@ -280,8 +280,10 @@ class Renderer(abc.ABC):
         the renderers registered as seeing cameras."""
         raise NotImplementedError(f"{type(self).__name__} renders eyes only")
 
-    def _checked(self, view, quality) -> tuple:
-        """(view, quality) with the defaults filled in and their types checked."""
+    def _checked(self, view, quality, scene=None) -> tuple:
+        """(view, quality) with the defaults filled in and their types checked, and the
+        render's memory estimate (with ``scene``'s triangles and textures) within the
+        limit."""
         view = View() if view is None else view
         quality = self.quality if quality is None else quality
         if not isinstance(view, View):
@@ -290,7 +292,7 @@ class Renderer(abc.ABC):
             raise TypeError(f"{type(self).__name__} takes a {self.Quality.__name__}, got "
                             f"{type(quality).__name__}")
         # refused before any work when its estimated memory is over the limit
-        check_render_memory(self.name, view, quality)
+        check_render_memory(self.name, view, quality, scene=scene)
         return view, quality
 
     @abc.abstractmethod

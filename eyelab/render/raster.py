@@ -135,7 +135,7 @@ class RasterRenderer(Renderer):
         refinement, lens coordinates) happens before the first yield; between two yields
         only ``every`` passes run, so an interactive viewer stays responsive. The last
         image equals :meth:`render`'s. Closing the generator early stops the work."""
-        view, quality = self._checked(view, quality)
+        view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
         if images not in ("every", "doubling"):
             raise ValueError(f"images must be 'every' or 'doubling', got {images!r}")
@@ -184,7 +184,7 @@ class RasterRenderer(Renderer):
         frame: pymeshlab used from a worker thread corrupted the heap at exit (measured:
         `eyelab bench inspect` aborted in 2 of 2 runs). Not to be run concurrently with a
         render on this renderer. Returns the report of what it computed."""
-        view, quality = self._checked(view, quality)
+        view, quality = self._checked(view, quality, scene)
         report = new_report(self.name, view, quality)
         self._geometry(scene, eye, lens, view, quality, report, refine=False)
         return report

@@ -17,11 +17,25 @@ from eyelab.scene.scene import SceneMesh
 
 #: Refinement stops before a mesh would exceed this many vertices (reported).
 MAX_VERTICES = 100_000
-def _edge_lengths(mesh: SceneMesh):
-    f = mesh.faces
-    v = mesh.vertices
-    return np.concatenate([np.linalg.norm(v[f[:, a]] - v[f[:, b]], axis=1)
-                           for a, b in ((0, 1), (1, 2), (2, 0))])
+#: Faces (vertices) measured per block: the field look-ups' temporaries of a block (~300 B
+#: per face) stay a few tens of MB, whatever the mesh's size (a whole 8 M-triangle mesh at
+#: once: 2.2 GiB).
+FACE_BLOCK = 1 << 16
+
+
+def _blocks(n: int):
+    """Slices of ``range(n)`` in :data:`FACE_BLOCK` steps."""
+    return (slice(s, min(s + FACE_BLOCK, n)) for s in range(0, n, FACE_BLOCK))
+
+
+def _longest_edge(mesh: SceneMesh) -> float:
+    """Length (m) of the mesh's longest edge (0 without faces)."""
+    v, longest = mesh.vertices, 0.0
+    for sl in _blocks(len(mesh.faces)):
+        f = mesh.faces[sl]
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            longest = max(longest, float(np.linalg.norm(v[f[:, a]] - v[f[:, b]], axis=1).max()))
+    return longest
 
 
 def blurs_over(field, mesh: SceneMesh) -> bool:
@@ -44,14 +58,19 @@ def _interpolation_error(vertices, faces, fields, px_scale):
     err = np.zeros(len(faces))
     for f in fields:
         # faces reaching in front of the near plane are clipped there: not measured
-        clipped = (f.camera.depth(vertices) < f.camera.near)[faces].any(axis=1)
-        bv = f.lookup(vertices).reshape(-1, 4)
-        for a, b in ((0, 1), (1, 2), (2, 0)):
-            ia, ib = faces[:, a], faces[:, b]
-            mid = 0.5 * (vertices[ia] + vertices[ib])
-            bm = f.lookup(mid).reshape(-1, 4)
-            e = np.abs(bm - 0.5 * (bv[ia] + bv[ib])).max(axis=1) * px_scale
-            err = np.maximum(err, np.where(clipped, 0.0, e))
+        near = f.camera.depth(vertices) < f.camera.near
+        bv = np.empty((len(vertices), 4))
+        for sl in _blocks(len(vertices)):
+            bv[sl] = f.lookup(vertices[sl]).reshape(-1, 4)
+        for sl in _blocks(len(faces)):          # bounded temporaries (FACE_BLOCK)
+            fb = faces[sl]
+            clipped = near[fb].any(axis=1)
+            for a, b in ((0, 1), (1, 2), (2, 0)):
+                ia, ib = fb[:, a], fb[:, b]
+                mid = 0.5 * (vertices[ia] + vertices[ib])
+                bm = f.lookup(mid).reshape(-1, 4)
+                e = np.abs(bm - 0.5 * (bv[ia] + bv[ib])).max(axis=1) * px_scale
+                err[sl] = np.maximum(err[sl], np.where(clipped, 0.0, e))
     return err
 
 
@@ -61,12 +80,13 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
     faces) until linear interpolation of every field's matrix along every edge is within
     ``tol_px`` pixels of the field itself (for a unit seed; ``px_scale`` = pixels per NDC
     unit, i.e. half the image width) — the displacement then follows the field wherever it
-    changes; meshes where no field blurs, or where the field is already linear enough, are
-    left untouched (and say why)."""
+    changes; meshes where no field blurs, where the field is already linear enough, or of
+    over half :data:`MAX_VERTICES` vertices (never copied into pymeshlab), are left
+    untouched (and say why)."""
     fields = [f for f in fields if f is not None]
     blurred = [f for f in fields if blurs_over(f, mesh)]
     info = {"mesh": mesh.name, "triangles_before": mesh.n_triangles,
-            "longest_edge_m": float(_edge_lengths(mesh).max()) if mesh.n_triangles else 0.0,
+            "longest_edge_m": _longest_edge(mesh),
             "tolerance_px": tol_px}
     if not blurred or not mesh.n_triangles:
         info.update(refined=False, why="no blur over this mesh's depth range")
@@ -77,6 +97,26 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
         info.update(refined=False, why=f"the field is linear to {err.max():.2f} px along "
                                        "every edge already")
         return mesh, info
+    if len(mesh.vertices) * 2 > MAX_VERTICES:   # one subdivision would pass the cap
+        info.update(refined=False, capped_at_max_vertices=True,
+                    why=f"linear interpolation of the field along edges is off by up to "
+                        f"{info['max_error_px_before']:.2f} px (> {tol_px} px), but the mesh "
+                        f"has {len(mesh.vertices)} vertices: subdividing would pass "
+                        f"{MAX_VERTICES}")
+        return mesh, info
+    out, its, capped = _subdivide(mesh, err, blurred, px_scale, tol_px, max_iterations)
+    final = _interpolation_error(out.vertices, out.faces, blurred, px_scale)
+    info.update(refined=True, iterations=its, triangles_after=out.n_triangles,
+                max_error_px_after=float(final.max()), capped_at_max_vertices=capped,
+                why=f"linear interpolation of the field along edges was off by up to "
+                    f"{info['max_error_px_before']:.2f} px (> {tol_px} px)")
+    return out, info
+
+
+def _subdivide(mesh: SceneMesh, err, blurred, px_scale, tol_px, max_iterations) -> tuple:
+    """(mesh, iterations, capped): ``mesh`` subdivided by pymeshlab where its per-face
+    error ``err`` (px, (m,)) exceeds ``tol_px``, repeatedly (see
+    :func:`refine_for_fields`)."""
     import pymeshlab
 
     kw = {"vertex_matrix": mesh.vertices, "face_matrix": mesh.faces.astype(np.int32),
@@ -120,9 +160,4 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
         colors = np.clip(np.round(m.vertex_color_matrix()[:, :3] * 255), 0, 255).astype(np.uint8)
     out = SceneMesh(mesh.name, m.vertex_matrix(), m.face_matrix(), colors, mesh.texture,
                     m.vertex_tex_coord_matrix() if mesh.uv is not None else None)
-    final = _interpolation_error(out.vertices, out.faces, blurred, px_scale)
-    info.update(refined=True, iterations=its, triangles_after=out.n_triangles,
-                max_error_px_after=float(final.max()), capped_at_max_vertices=capped,
-                why=f"linear interpolation of the field along edges was off by up to "
-                    f"{info['max_error_px_before']:.2f} px (> {tol_px} px)")
-    return out, info
+    return out, its, capped
