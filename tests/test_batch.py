@@ -41,6 +41,24 @@ def _jobspec(tmp_path, n_rx=2, formats='["png"]', extra=""):
 def _images(out: Path) -> dict:
     return {p.name: p.read_bytes() for p in sorted(out.glob("job-*.png"))}
 
+def _scheduler(tmp_path, env) -> tuple:
+    """A `dask scheduler` on loopback: (its process, its address)."""
+    sched_file = tmp_path / "scheduler.json"
+    proc = subprocess.Popen([_dask(), "scheduler", "--host", "127.0.0.1", "--port", "0",
+                             "--no-dashboard", "--scheduler-file", str(sched_file)],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(300):
+        if sched_file.exists() and sched_file.stat().st_size:
+            break
+        time.sleep(0.1)
+    return proc, json.loads(sched_file.read_text())["address"]
+
+
+def _dask() -> str:
+    bindir = Path(sys.executable).parent
+    return str(bindir / "dask") if (bindir / "dask").exists() else "dask"
+
+
 
 def test_expansion_outputs_resume_and_invalid_jobs(tmp_path):
     extra = '\n[[cases]]\n"eye.rx" = "-6.00 DS"\n"lens" = false\n' \
@@ -192,21 +210,12 @@ def test_same_bytes_serial_local_cluster_and_real_scheduler(tmp_path):
     assert run_batch(js2, workers=2, progress=False)["errors"] == []
     assert _images(js2.out_dir) == ref
     env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
-    sched_file = tmp_path / "scheduler.json"
-    bindir = Path(sys.executable).parent
-    dask = str(bindir / "dask") if (bindir / "dask").exists() else "dask"
-    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
-                               "--no-dashboard", "--scheduler-file", str(sched_file)],
-                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    scheduler, address = _scheduler(tmp_path, env)
+    procs = [scheduler]
     try:
-        for _ in range(300):
-            if sched_file.exists() and sched_file.stat().st_size:
-                break
-            time.sleep(0.1)
-        address = json.loads(sched_file.read_text())["address"]
         for _ in range(2):
             procs.append(subprocess.Popen(
-                [dask, "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
+                [_dask(), "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         js3 = load_job_spec(spec, out_dir=tmp_path / "cluster")
         assert run_batch(js3, scheduler=address, progress=False)["errors"] == []
@@ -354,28 +363,19 @@ def test_a_worker_killed_mid_run_changes_nothing(tmp_path):
     assert run_batch(js, progress=False)["errors"] == []
     ref = _images(js.out_dir)
     env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
-    bindir = Path(sys.executable).parent
-    dask = str(bindir / "dask") if (bindir / "dask").exists() else "dask"
     workdir, client_dir = tmp_path / "workers", tmp_path / "client"
     workdir.mkdir()
     client_dir.mkdir()
-    sched_file = tmp_path / "scheduler.json"
-    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
-                               "--no-dashboard", "--scheduler-file", str(sched_file)],
-                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    scheduler, address = _scheduler(tmp_path, env)
+    procs = [scheduler]
 
     def worker():
-        procs.append(subprocess.Popen([dask, "worker", address, "--nthreads", "1",
+        procs.append(subprocess.Popen([_dask(), "worker", address, "--nthreads", "1",
                                        "--no-dashboard"], env=env, cwd=workdir,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         return procs[-1]
 
     try:
-        for _ in range(300):
-            if sched_file.exists() and sched_file.stat().st_size:
-                break
-            time.sleep(0.1)
-        address = json.loads(sched_file.read_text())["address"]
         victim = worker()
         worker()
         run = subprocess.Popen([sys.executable, "-P", "-m", "eyelab.apps.cli", "batch",

@@ -88,14 +88,19 @@ def check_output(flag: str, path) -> Path:
     if p.exists() and not p.is_file():
         raise SpecError(flag, f"{str(p)!r} is not a regular file (a device, pipe or socket); "
                               "outputs replace whole files")
-    parent = p.parent
+    _check_creatable(flag, p, p.parent)
+    return p
+
+
+def _check_creatable(flag: str, p: Path, parent: Path) -> None:
+    """``p`` can be made: its nearest existing ancestor from ``parent`` up is a folder this
+    process may write in."""
     while not parent.exists():
         parent = parent.parent
     if not parent.is_dir():
         raise SpecError(flag, f"cannot create {str(p)!r}: {str(parent)!r} is not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise SpecError(flag, f"cannot write in {str(parent)!r}")
-    return p
 
 
 def check_output_folder(flag: str, path) -> Path:
@@ -107,13 +112,7 @@ def check_output_folder(flag: str, path) -> Path:
     p = Path(path).expanduser().absolute()
     if p.exists() and not p.is_dir():
         raise SpecError(flag, f"{str(p)!r} exists and is not a folder")
-    parent = p
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise SpecError(flag, f"cannot create {str(p)!r}: {str(parent)!r} is not a folder")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise SpecError(flag, f"cannot write in {str(parent)!r}")
+    _check_creatable(flag, p, p)
     return p
 
 
