@@ -122,11 +122,12 @@ def main(argv=None) -> int:
         # Ctrl-C / SIGTERM: outputs are atomic, so unwinding leaves none half-written
         with memory_limit_scope(), interrupt.handling(), _quiet_numerics():
             rc = _main(args)      # --max-memory lasts for this command only
-            interrupt.check()     # a request some native code swallowed still counts
         sys.stdout.flush()        # a closed pipe shows here, not at interpreter exit
         return rc
     except BaseException as e:
-        signum = interrupt.requested()
+        # an interrupt, or an error an interrupt caused inside native code (an extension's
+        # initialisation turning KeyboardInterrupt into ImportError): one line either way
+        signum = getattr(e, "eyelab_signal", None)
         if signum is None and not isinstance(e, (KeyboardInterrupt, interrupt.Terminated)):
             if isinstance(e, BrokenPipeError):
                 return _broken_pipe()

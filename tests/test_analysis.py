@@ -221,3 +221,21 @@ def test_analysis_and_the_rendered_channel_field_agree(wl):
     assert got.max() > 1.0                               # the LCA blur is there
     np.testing.assert_allclose(f.accommodation[ok], res.accommodation, atol=1e-4)
     np.testing.assert_allclose(f.major_arcmin[ok], got, rtol=2e-4, atol=1e-4)
+
+
+def test_two_eyes_accommodate_once_whatever_the_wavelength():
+    """Through dispersive (polycarbonate) lenses the two eyes' shared accommodation is the
+    reference wavelength's at any analysis wavelength, as for one eye; the blur differs."""
+    import eyelab
+
+    spec = {"eye": {"rx": "-6.00 DS", "age": 20}, "lens": {"material": "polycarbonate"},
+            "binocular": {"pd_mm": 64},
+            "points": [{"distance_m": 0.5, "field_deg": [0, 0]}]}
+    acc = {}
+    for wl in (587.56, 450.0):
+        rep = eyelab.analyze({**spec, "analysis": {"wavelength_nm": wl}})
+        acc[wl] = rep["points"][0]["accommodation_d"]
+    assert acc[450.0] == pytest.approx(acc[587.56], abs=1e-9)
+    one = eyelab.analyze({k: v for k, v in spec.items() if k != "binocular"}
+                         | {"analysis": {"wavelength_nm": 450.0}})
+    assert one["points"][0]["accommodation_d"] == pytest.approx(acc[450.0], abs=0.01)

@@ -434,3 +434,18 @@ def test_relative_lens_and_frame_files_resolve_from_their_specs(tmp_path, monkey
     validate_jobs(js)
     assert Path(js.jobs[0].data["lens"]["front"]["file"]).resolve() == specs / "front.npy"
     assert Path(js.jobs[0].data["frame"]["file"]).resolve() == specs / "job.oma"
+
+
+def test_a_changed_input_file_makes_a_new_job(tmp_path):
+    """The job key digests the files the spec reads: editing a points surface (or a frame
+    trace, a mesh) makes its jobs undone, so a re-run renders them again."""
+    np.save(tmp_path / "front.npy", np.zeros((77, 77)))
+    (tmp_path / "jobs.toml").write_text(
+        '[base]\nlens = {center_thickness_mm = 2.0, rx = "-2.00 DS", front = {file = '
+        '"front.npy", spacing_mm = 1.0}, back = {type = "sphere", radius_mm = 265}}\n')
+    before = load_job_spec(tmp_path / "jobs.toml", out_dir=tmp_path / "out").jobs[0].key
+    assert load_job_spec(tmp_path / "jobs.toml", out_dir=tmp_path / "out").jobs[0].key \
+        == before
+    np.save(tmp_path / "front.npy", np.full((77, 77), 1e-3))
+    assert load_job_spec(tmp_path / "jobs.toml", out_dir=tmp_path / "out").jobs[0].key \
+        != before

@@ -86,3 +86,23 @@ def test_ctrl_c_during_batch_then_resume(tmp_path, workers):
     assert f"{len(done)} already done" in r.stdout
     assert all((out / n).read_bytes() == b for n, b in done.items())
     assert len(list(out.glob("job-*.png"))) == 12
+
+
+def test_a_request_belongs_to_its_block(tmp_path):
+    """An interrupt recorded inside ``handling()`` does not stop work after the block (an
+    API user's next write), and an error it turned into carries the signal."""
+    from eyelab.core import fileio, interrupt
+
+    with pytest.raises(KeyboardInterrupt), interrupt.handling():
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1.0)
+    with pytest.raises(ImportError) as e, interrupt.handling():
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        except KeyboardInterrupt:        # native code turning it into another error
+            raise ImportError("initialization failed") from None
+    assert e.value.eyelab_signal == signal.SIGINT
+    assert interrupt.requested() is None
+    fileio.write_json(tmp_path / "after.json", {})      # not stopped by the old request
+    assert (tmp_path / "after.json").exists()

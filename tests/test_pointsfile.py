@@ -362,3 +362,15 @@ def test_a_spec_table_parsed_away_from_its_file_keeps_its_points_files(tmp_path)
     lens = parse_spec(absolute_files(data, sub)).lens
     assert data["lens"]["front"]["file"] == str(sub / "f.sdf")
     assert lens.front.derivatives(np.zeros(1), np.zeros(1)).zxx[0] == pytest.approx(10.0)
+
+
+def test_a_surface_for_the_other_eye_is_refused(tmp_path, capsys):
+    """SURFMT's field 2 names the eye: a right lens's surface given for a left lens (by the
+    lens Rx's side) is refused naming the file, not mirrored silently."""
+    shutil.copy(FIXTURES / "paraboloid_writer.sdf", tmp_path / "front.sdf")   # R
+    (tmp_path / "s.toml").write_text('[lens]\ncenter_thickness_mm = 2.0\ndiameter_mm = 12.0\n'
+                                     'rx = "L +5.00 DS"\n[lens.front]\nfile = "front.sdf"\n'
+                                     '[lens.back]\ntype = "plane"\n')
+    rc, out, err = _cli(["analyze", tmp_path / "s.toml"], capsys)
+    assert rc == 2 and err.startswith("eyelab: error: lens.front.file: front.sdf is a right "
+                                      "lens's surface"), err

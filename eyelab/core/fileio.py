@@ -103,13 +103,22 @@ def _check_creatable(flag: str, p: Path, parent: Path) -> None:
         raise SpecError(flag, f"cannot write in {str(parent)!r}")
 
 
+def user_path(field: str, value) -> Path:
+    """``value`` as a :class:`Path` with ``~`` / ``~user`` expanded; an unknown user is a
+    :class:`SpecError` naming ``field``."""
+    try:
+        return Path(value).expanduser()
+    except RuntimeError as e:              # "Could not determine home directory"
+        raise SpecError(field, f"cannot expand {str(value)!r}: {e}") from None
+
+
 def check_output_folder(flag: str, path) -> Path:
     """Fail early, before any work: ``path`` must be a folder, or creatable as one, that
     this process may write in. Returns it absolute (workers in other folders, e.g. on a
     Dask cluster, then write where the caller meant)."""
     if not str(path):
         raise SpecError(flag, "must be a folder path, got ''")
-    p = Path(path).expanduser().absolute()
+    p = user_path(flag, path).absolute()
     if p.exists() and not p.is_dir():
         raise SpecError(flag, f"{str(p)!r} exists and is not a folder")
     _check_creatable(flag, p, p)

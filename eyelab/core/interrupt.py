@@ -46,7 +46,9 @@ def check() -> None:
 @contextlib.contextmanager
 def handling():
     """SIGINT and SIGTERM recorded and raised for the block (main thread only; elsewhere a
-    no-op), the previous handlers restored after."""
+    no-op); a request still pending when the block ends is raised there, and an exception
+    leaving the block after a request carries its signal number as ``eyelab_signal``; the
+    previous handlers are restored and the request forgotten after."""
     global _REQUESTED
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -55,6 +57,14 @@ def handling():
     previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
+        check()          # a request some native code swallowed ends the block too
+    except BaseException as e:
+        if _REQUESTED is not None:     # whatever the interrupt turned into, say so on it
+            with contextlib.suppress(AttributeError, TypeError):
+                e.eyelab_signal = _REQUESTED
+        raise
     finally:
+        _REQUESTED = None          # the request is the block's: later work is not stopped
         for s, h in previous.items():
-            signal.signal(s, h)
+            # None: a handler installed outside Python, which Python cannot put back
+            signal.signal(s, signal.SIG_DFL if h is None else h)

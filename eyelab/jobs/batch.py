@@ -254,6 +254,9 @@ def _connect(scheduler: str | None, workers: int) -> _Cluster:
         except (OSError, TimeoutError) as e:
             raise SpecError("--scheduler", f"cannot connect to {scheduler} within "
                             f"{CONNECT_TIMEOUT_S} s ({type(e).__name__})") from None
+        except (ValueError, TypeError) as e:        # an address Dask cannot parse
+            raise SpecError("--scheduler", f"must be an address like tcp://host:8786, got "
+                            f"{scheduler!r} ({e})") from None
     # ":0": the scheduler's HTTP server on a free port (None still takes 8787, and fails
     # when another cluster holds it). The worker processes are started with Ctrl-C
     # ignored (they inherit it): the terminal sends it to the whole process group, and

@@ -30,7 +30,10 @@ OUTPUT_KEYS = {"dir", "formats"}
 
 @dataclass(frozen=True)
 class Job:
-    """One job: its index, the spec table it renders, and the dotted keys that made it."""
+    """One job: its index, the spec table it renders, and the dotted keys that made it.
+    Its key digests the resolved spec, eyelab's version and the contents of the files the
+    spec reads (a mesh scene, points surfaces, a frame trace): a job whose input file
+    changed is not done."""
 
     index: int
     data: dict
@@ -41,11 +44,44 @@ class Job:
         from eyelab import __version__
 
         return content_key(spec=json.dumps(self.data, sort_keys=True, default=str),
-                           version=__version__)
+                           version=__version__,
+                           files=[_file_digest(p) for p in input_files(self.data)])
 
     @property
     def stem(self) -> str:
         return f"job-{self.index:05d}-{self.key[:10]}"
+
+
+def input_files(data: dict) -> list:
+    """The paths of the files a spec table reads, in a fixed order: ``render.scene`` (or
+    its ``path``) when it names a file, the lens surfaces' and the frame's ``file``."""
+    render = data.get("render") if isinstance(data.get("render"), dict) else {}
+    scene = render.get("scene")
+    scene = scene.get("path") if isinstance(scene, dict) else scene
+    lens = data.get("lens") if isinstance(data.get("lens"), dict) else {}
+    tables = [lens] + [lens.get(s) for s in ("right", "left")]
+    found = [scene] + [t.get(side, {}).get("file") if isinstance(t.get(side), dict) else None
+                       for t in tables if isinstance(t, dict) for side in ("front", "back")]
+    frame = data.get("frame")
+    found.append(frame.get("file") if isinstance(frame, dict) else None)
+    return [f for f in found if isinstance(f, str) and Path(f).is_file()]
+
+
+def _file_digest(path: str) -> str:
+    """SHA-256 of a file's bytes (memoised by path, size and modification time)."""
+    st = Path(path).stat()
+    return _digest(str(Path(path).resolve()), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=256)
+def _digest(path: str, size: int, mtime_ns: int) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 @dataclass(frozen=True)
@@ -170,18 +206,26 @@ def _base_spec(js: dict, here: Path) -> dict:
 
     base = copy.deepcopy(read_spec_data(base_path)[0])
     if base_path is not None:            # its files are relative to its own folder
-        absolute_files(base, base_path.parent)
+        _absolute_scene(absolute_files(base, base_path.parent), base_path.parent)
     extra = js.get("base", {})
     if not isinstance(extra, dict):
         raise SpecError("jobspec.base", "must be a table of spec tables")
-    _merge(base, absolute_files(copy.deepcopy(extra), here))
-    scene = base.get("render", {}).get("scene")
-    where = scene if isinstance(scene, dict) else base.get("render", {})
-    key = "path" if isinstance(scene, dict) else "scene"
-    rel = where.get(key) if isinstance(where, dict) else None
-    if isinstance(rel, str) and not Path(rel).is_absolute() and (here / rel).is_file():
-        where[key] = str((here / rel).resolve())
+    _merge(base, _absolute_scene(absolute_files(copy.deepcopy(extra), here), here))
     return base
+
+
+def _absolute_scene(data: dict, folder: Path) -> dict:
+    """``data`` (changed in place) with a relative ``render.scene`` (or its ``path``) that
+    names a file in ``folder`` made absolute."""
+    render = data.get("render")
+    if not isinstance(render, dict):
+        return data
+    scene = render.get("scene")
+    where, key = (scene, "path") if isinstance(scene, dict) else (render, "scene")
+    rel = where.get(key)
+    if isinstance(rel, str) and not Path(rel).is_absolute() and (folder / rel).is_file():
+        where[key] = str((folder / rel).resolve())
+    return data
 
 
 def _output(out, here: Path, out_dir) -> tuple:

@@ -218,6 +218,8 @@ def figures_summary(f: dict) -> list:
         if "note" in f:
             return lines + [f"  {f['note']}"]
         return lines + _progressive_lines(f)
+    if "note" in f:
+        lines.append(f"  note: {f['note']}")
     cf, pk = f["clear_field"], f["peak_cylinder"]
     why = "" if cf["open"] else f", limited by {' and '.join(cf['limited_by'])} at eye " \
         f"rotation ({cf['limit_eye_rotation_deg'][0]:+.1f}, {cf['limit_eye_rotation_deg'][1]:+.1f})"

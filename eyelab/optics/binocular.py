@@ -47,7 +47,7 @@ import numpy as np
 from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
 from eyelab.optics.analysis import FIXATIONS, trace_chain
-from eyelab.optics.eye import Eye
+from eyelab.optics.eye import EYE_REFERENCE_NM, Eye
 from eyelab.optics.paths import ObjectPoints, find_chief_rays
 
 SIDES = ("right", "left")
@@ -159,14 +159,16 @@ def rms_blur(res) -> np.ndarray:
     return np.sqrt(0.5 * (res.a ** 2 + res.b ** 2))
 
 
-def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=587.56,
+def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=EYE_REFERENCE_NM,
                       fixation: str = "rotating", accommodation=None,
                       vertex_sphere: str = "rotation_centre", no_lens: bool = False) -> dict:
     """Both eyes' analyses of head-frame ``points`` with one accommodative response.
 
     ``fixation`` "rotating": each eye turns about its centre of rotation toward each point
     (both eyes fixate it: vergence); "fixed": the pupils stay put (Kakimoto's model).
-    ``accommodation`` None: per point by the less-blurred-eye rule (module docstring);
+    ``accommodation`` None: per point by the less-blurred-eye rule (module docstring),
+    decided at the eyes' reference wavelength (one accommodation whatever the colour, as
+    :func:`eyelab.optics.analysis.analyze_points` takes it through a dispersive lens);
     else the fixed value for both (each clipped to its eye's amplitude).
 
     Returns {"right": PointAnalysis, "left": PointAnalysis, "accommodation_d": (n,),
@@ -189,7 +191,13 @@ def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=58
                            fixation=fixation, accommodation=acc, vertex_sphere=vertex_sphere)
 
     n = len(points)
-    if accommodation is not None:
+    lenses = [chief[s][0] for s in SIDES if chief[s][0] is not None]
+    if accommodation is None and wavelength_nm != EYE_REFERENCE_NM \
+            and any(lens.material.dispersive for lens in lenses):
+        ref = analyze_binocular(bino, points, fixation=fixation, vertex_sphere=vertex_sphere,
+                                no_lens=no_lens)
+        acc, driving = ref["accommodation_d"], ref["driving_eye"]
+    elif accommodation is not None:
         acc = np.full(n, float(accommodation))
         driving = np.array(["fixed"] * n, dtype=object)
     else:

@@ -482,4 +482,9 @@ def as_worn_figures(maps, eye, lens, wavelength_nm=587.56) -> dict:
                clear_field=clear_field(maps.eye_rotation_x_deg, maps.eye_rotation_y_deg,
                                        maps.mean_error_d, j0, j45, maps.ok),
                peak_cylinder=peak)
+    if lens.rx is not None and lens.rx.add > 0:       # a multifocal given surface by surface
+        out["note"] = ("the lens's Rx has an add but the lens has no progressive design "
+                       "(its surfaces are given, e.g. from points files): its reference "
+                       "points are unknown, so the progressive figures are not given; these "
+                       "are the single-vision figures")
     return out

@@ -282,8 +282,8 @@ class CameraRays:
         stratification of a sample set is kept). The film centre's disc lies in most of
         every bundle, the annulus in a side of the outer film points' bundles only, so the
         denser core leaves every film point more samples than one uniform disc would (the
-        room through the doublet, 16 samples: SSIM 0.964 against the reference, 0.911
-        with one uniform disc)."""
+        quality bench's camera case, the room through the doublet at 16 samples:
+        docs/bench/quality_quick_camera.json)."""
         tab = self.footprints(wavelength_nm)
         smp = np.asarray(samples, float)
         if self.domain == "cover":

@@ -109,18 +109,19 @@ class Outline:
     centre: tuple = (0.0, 0.0)
 
     @classmethod
-    def from_points(cls, points, centre=(0.0, 0.0), what="the outline") -> Outline:
+    def from_points(cls, points, centre=(0.0, 0.0), what="the outline",
+                    field: str = "frame") -> Outline:
         """The outline through ``points`` (n, 2+) (x, y) m in boundary order (either
-        direction); refused (:class:`SpecError` ``frame``) unless it winds once about
-        ``centre`` with every vertex in view of it (each step of angle in (0, pi))."""
+        direction); refused (:class:`SpecError` naming ``field``) unless it winds once
+        about ``centre`` with every vertex in view of it (each step of angle in (0, pi))."""
         p = np.asarray(points, float)[:, :2] - np.asarray(centre, float)
         a = np.unwrap(np.arctan2(p[:, 1], p[:, 0]))
         if a[-1] < a[0]:
             p, a = p[::-1], a[::-1]
         steps = np.append(np.diff(a), a[0] + _TWO_PI - a[-1])
         if not (len(a) >= 3 and np.all(steps > 0) and np.all(steps < math.pi)):
-            raise SpecError("frame", f"{what} does not wind once about its centre with "
-                                     "every point in view of it")
+            raise SpecError(field, f"{what} does not wind once about its centre with "
+                                   "every point in view of it")
         return cls(_floats(a), _floats(np.hypot(p[:, 0], p[:, 1])), _floats(centre))
 
     def vertices(self) -> np.ndarray:
@@ -310,7 +311,8 @@ def _trace_outline(tr: dict) -> Outline:
                                           "increasing A= angles in [0, 36000) (0.01 deg)")
     # counter-clockwise seen from the front -> the wearer's view: x = -r cos, y = r sin
     pts = np.stack([-radii * np.cos(theta), radii * np.sin(theta)], 1)
-    return box_centred(Outline.from_points(pts, what=f"the trace of line {tr['line']}"))
+    return box_centred(Outline.from_points(pts, what=f"the trace of line {tr['line']}",
+                                           field="frame.file"))
 
 
 def read_dcs(text: str) -> tuple:

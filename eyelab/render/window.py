@@ -12,6 +12,7 @@ from importlib import resources
 
 import numpy as np
 
+from eyelab.core.interrupt import Terminated
 from eyelab.render import _vtk
 
 #: Vertex shader tags measured to exist in VTK 9.7 (docs/VTK_NOTES.md Q5).
@@ -249,11 +250,14 @@ def bind_field_texture(mapper, window: OffscreenWindow) -> None:
 
     @_vtk.calldata_type(_vtk.VTK_OBJECT)
     def bind(caller, event, program):
-        w = ref()
-        tex = None if w is None else w.field_texture
-        if tex is not None and program is not None:
-            tex.Activate()
-            program.SetUniformi("blurField", tex.GetTextureUnit())
+        try:
+            w = ref()
+            tex = None if w is None else w.field_texture
+            if tex is not None and program is not None:
+                tex.Activate()
+                program.SetUniformi("blurField", tex.GetTextureUnit())
+        except (KeyboardInterrupt, Terminated):   # VTK would exit(1) on it: the request is
+            return                                # recorded, core.interrupt raises it again
 
     mapper._eyelab_observer = mapper.AddObserver(_vtk.vtkCommand.UpdateShaderEvent, bind)
 

@@ -76,9 +76,13 @@ def _file_stats(path: str, mtime_ns: int, size: int) -> SceneStats | None:
     batch's jobs that share a file read it once)."""
     p = Path(path)
     try:
-        return _READERS[p.suffix.lower()](p)
-    except (OSError, ValueError, KeyError, IndexError, TypeError, struct.error):
+        stats = _READERS[p.suffix.lower()](p)
+    except (OSError, ValueError, KeyError, IndexError, TypeError, AttributeError,
+            RecursionError, struct.error):
+        return None        # not what its extension says: the loader will report it
+    if stats is not None and min(stats.triangles, stats.vertices, stats.texels) < 0:
         return None
+    return stats
 
 
 def image_texels(source) -> int:

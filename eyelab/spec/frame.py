@@ -113,18 +113,13 @@ def _read(path, base) -> str:
     """The text of the trace file ``path`` (relative to the spec's folder)."""
     if not isinstance(path, str) or not path.strip():
         raise SpecError("frame.file", f"must be a path to a DCS trace file, got {path!r}")
-    p = Path(path)
+    from eyelab.core.fileio import user_path
+    from eyelab.optics.dcs import read_text
+
+    p = user_path("frame.file", path)
     if not p.is_absolute() and base is not None:
         p = Path(base) / p
-    try:
-        raw = p.read_bytes()
-    except OSError as e:
-        raise SpecError("frame.file", f"cannot read {path!r}: {e.strerror}") from None
-    try:
-        return raw.decode("ascii")
-    except UnicodeDecodeError as e:
-        raise SpecError("frame.file", f"{path!r} is not an ASCII DCS trace (byte "
-                                      f"{e.start}): only TRCFMT format 1 is read") from None
+    return read_text(p, "frame.file").removeprefix("\ufeff")    # a byte-order mark: text
 
 
 def _shape(t) -> dict:

@@ -145,12 +145,13 @@ def eye_accommodation(t: dict):
     return check("eye.accommodation_d", acc)
 
 
-def _surface(t, where, diameter: float = 0.06) -> Surface:
-    """A surface table ([lens.front], [lens.back]) of a lens of ``diameter`` (m)."""
+def _surface(t, where, diameter: float = 0.06, side=None) -> Surface:
+    """A surface table ([lens.front], [lens.back]) of a lens of ``diameter`` (m) for the
+    eye ``side`` ("R"/"L"/None)."""
     check_keys(t, SURFACE_KEYS, where)
     kind = t.get("type", "points" if "file" in t else "sphere")
     if kind == "points":
-        return _points(t, where, diameter)
+        return _points(t, where, diameter, side)
 
     def curv(ck, rk):
         if ck in t and rk in t:
@@ -182,7 +183,7 @@ def _surface(t, where, diameter: float = 0.06) -> Surface:
     raise SpecError(f"{where}.type", f"must be one of {', '.join(SURFACE_TYPES)}; got {kind!r}")
 
 
-def _points(t, where, diameter):
+def _points(t, where, diameter, side=None):
     """A ``type = "points"`` surface (:mod:`eyelab.spec.surfacefile`): its keys checked
     before its file is read, the file's grid reaching the rim of a lens of ``diameter``."""
     first = check_choice(f"{where}.first_row", t.get("first_row", "bottom"), FIRST_ROWS)
@@ -194,11 +195,17 @@ def _points(t, where, diameter):
     if spacing is not None and path.suffix.lower() == ".sdf":
         raise SpecError(f"{where}.spacing_mm", "a .sdf file gives its own spacing (SURFMT)")
     grid = read_points(path, f"{where}.file", spacing_mm=spacing, first_row=first)
-    side = "F" if where.endswith("front") else "B"
-    if grid.surface and grid.surface != side:
+    face = "F" if where.endswith("front") else "B"
+    if grid.surface and grid.surface != face:
         raise SpecError(f"{where}.file", f"{path.name} is the {_FACES[grid.surface]} surface "
                                          f"(SURFMT field 3: {grid.surface}), given as "
                                          f"[{where}]")
+    if grid.side and side in ("R", "L") and grid.side != side:
+        eyes = {"R": "right", "L": "left"}
+        raise SpecError(f"{where}.file", f"{path.name} is a {eyes[grid.side]} lens's surface "
+                                         f"(SURFMT field 2: {grid.side}), given for the "
+                                         f"{eyes[side]} eye (a mirrored surface is another "
+                                         f"surface: write the {eyes[side]} one)")
     check_covers(grid, diameter, f"{where}.file")
     return grid.freeform()
 
@@ -220,7 +227,7 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
         if key in t and t.get("design") != "progressive":
             raise SpecError(f"lens.{key}", "only with design = \"progressive\"")
     if "front" in t or "back" in t:
-        return _explicit_lens(t, material, pose, ct, diam)
+        return _explicit_lens(t, material, pose, ct, diam, side)
     if "torus" in t:
         check_choice("lens.torus", t["torus"], REVOLVE_AXES)
     rx = _lens_rx(t, eye_rx)
@@ -298,8 +305,10 @@ def _lens_rx(t: dict, eye_rx):
     raise SpecError("lens.rx", "give the lens prescription (or explicit front/back surfaces)")
 
 
-def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
-    """A lens given surface by surface ([lens.front], [lens.back], centre thickness)."""
+def _explicit_lens(t: dict, material, pose, ct, diam, side=None) -> SpectacleLens:
+    """A lens given surface by surface ([lens.front], [lens.back], centre thickness);
+    ``side`` ("R"/"L", or None: the lens Rx's, if it names one): the eye it is for, which
+    a points file's own eye must match."""
     points = [k for k in ("front", "back") if _is_points(t.get(k))]
     for key in ("rx", "base_curve_d", "torus", "design")[bool(points):]:
         if key in t:
@@ -312,8 +321,11 @@ def _explicit_lens(t: dict, material, pose, ct, diam) -> SpectacleLens:
     # with a points surface, rx is what the lens was made for: analyze's power errors and
     # the as-worn maps compare the lens with it
     rx = rx_value(t["rx"], "lens.rx") if "rx" in t else None
+    if side is None and rx is not None and rx.eye in ("R", "L"):
+        side = rx.eye
     d = (diam or 60.0) * 1e-3
-    front, back = _surface(t["front"], "lens.front", d), _surface(t["back"], "lens.back", d)
+    front = _surface(t["front"], "lens.front", d, side)
+    back = _surface(t["back"], "lens.back", d, side)
     check_feasible(front, back, ct * 1e-3, d, min_edge=MIN_EDGE_THICKNESS)
     return SpectacleLens(front, back, ct * 1e-3, material, d, pose, rx,
                          coating=t.get("coating", "none"))

@@ -9,6 +9,7 @@ from contextvars import ContextVar
 from pathlib import Path
 
 from eyelab.core.errors import SpecError
+from eyelab.core.fileio import user_path
 from eyelab.optics.pointsfile import FIRST_ROWS, FORMATS
 from eyelab.optics.pointsfile import LIMITS as POINTS_LIMITS
 
@@ -64,7 +65,7 @@ def spec_file(value, field: str) -> Path:
     the working folder for a spec given as a table)."""
     if not isinstance(value, str) or not value.strip():
         raise SpecError(field, f"must be a points file's path ({_FILES}), got {value!r}")
-    p = Path(value).expanduser()
+    p = user_path(field, value)
     folder = SPEC_FOLDER.get()
     return p if p.is_absolute() or folder is None else folder / p
 
@@ -80,7 +81,11 @@ def absolute_files(data: dict, folder) -> dict:
     holders = [t.get(side) for t in tables if isinstance(t, dict) for side in ("front", "back")]
     holders.append(data.get("frame") if isinstance(data, dict) else None)
     for s in holders:
-        if isinstance(s, dict) and isinstance(s.get("file"), str) \
-                and not Path(s["file"]).expanduser().is_absolute():
-            s["file"] = str(Path(folder) / Path(s["file"]).expanduser())
+        if isinstance(s, dict) and isinstance(s.get("file"), str):
+            try:
+                p = Path(s["file"]).expanduser()
+            except RuntimeError:           # an unknown ~user: the parser names the field
+                continue
+            if not p.is_absolute():
+                s["file"] = str(Path(folder) / p)
     return data
