@@ -111,17 +111,18 @@ def _quiet_numerics():
 def main(argv=None) -> int:
     """The command line; returns the exit status (0 done, 1 some jobs or checks not ok, 2
     bad input, 130 interrupted by Ctrl-C, 143 terminated by SIGTERM)."""
-    ap = _build_parser()
-    args = ap.parse_args(argv)
     import signal
 
     from eyelab.core import interrupt
-    from eyelab.imaging.memory import memory_limit_scope
 
     try:
         # Ctrl-C / SIGTERM: outputs are atomic, so unwinding leaves none half-written
-        with memory_limit_scope(), interrupt.handling(), _quiet_numerics():
-            rc = _main(args)      # --max-memory lasts for this command only
+        with interrupt.handling():
+            args = _build_parser().parse_args(argv)
+            from eyelab.imaging.memory import memory_limit_scope
+
+            with memory_limit_scope(), _quiet_numerics():
+                rc = _main(args)      # --max-memory lasts for this command only
         sys.stdout.flush()        # a closed pipe shows here, not at interpreter exit
         return rc
     except BaseException as e:
@@ -365,5 +366,21 @@ def _maps(args) -> int:
     return 0
 
 
+def entry() -> None:
+    """The ``eyelab`` console command: :func:`main`, its status the process's. After an
+    interruption (130 / 143, outputs already unwound) the process ends at once: the
+    interpreter would otherwise re-raise SIGINT on itself at exit when a native
+    extension had seen the KeyboardInterrupt, and tear down VTK and the thread pools
+    mid-way."""
+    rc = main()
+    if rc in (130, 143):
+        import os
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(rc)
+    sys.exit(rc)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

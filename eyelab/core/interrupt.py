@@ -68,3 +68,28 @@ def handling():
         for s, h in previous.items():
             # None: a handler installed outside Python, which Python cannot put back
             signal.signal(s, signal.SIG_DFL if h is None else h)
+
+
+@contextlib.contextmanager
+def deferred():
+    """SIGINT and SIGTERM held for the block and delivered when it ends: for native code
+    that must not be interrupted half-way (a C extension's module initialisation —
+    VTK's segfaults when a Ctrl-C lands in it). Main thread only; elsewhere a no-op. A
+    signal that came meanwhile goes to the handler the block replaced, right after it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = []
+    previous = {s: signal.signal(s, lambda signum, frame: held.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, signal.SIG_DFL if h is None else h)
+        for signum in held[:1]:
+            h = previous[signum]
+            if callable(h):
+                h(signum, None)
+            elif h == signal.SIG_DFL:
+                signal.raise_signal(signum)

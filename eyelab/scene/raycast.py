@@ -46,7 +46,10 @@ class EmbreeIntersector:
     """Embree scene of all meshes (float32 geometry, as embree requires)."""
 
     def __init__(self, scene: Scene):
-        from embreex import mesh_construction, rtcore_scene
+        from eyelab.core.interrupt import deferred
+
+        with deferred():        # native module initialisation: not to be interrupted
+            from embreex import mesh_construction, rtcore_scene
 
         self._scene = rtcore_scene.EmbreeScene()
         self._meshes = []

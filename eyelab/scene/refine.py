@@ -117,7 +117,10 @@ def _subdivide(mesh: SceneMesh, err, blurred, px_scale, tol_px, max_iterations) 
     """(mesh, iterations, capped): ``mesh`` subdivided by pymeshlab where its per-face
     error ``err`` (px, (m,)) exceeds ``tol_px``, repeatedly (see
     :func:`refine_for_fields`)."""
-    import pymeshlab
+    from eyelab.core.interrupt import deferred
+
+    with deferred():            # an interrupted initialisation leaves pymeshlab unusable
+        import pymeshlab
 
     kw = {"vertex_matrix": mesh.vertices, "face_matrix": mesh.faces.astype(np.int32),
           "f_scalar_array": err}

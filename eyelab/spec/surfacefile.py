@@ -18,9 +18,9 @@ __all__ = ["POINTS_KEYS", "POINTS_LIMITS", "TYPE_BASE", "absolute_files", "spec_
 
 #: The folder of the spec file being parsed (None: a spec given as a table).
 SPEC_FOLDER: ContextVar = ContextVar("eyelab_spec_folder", default=None)
-#: A plano points grid of the repository (2 mm spacing, 31 x 31): the file the schema's
-#: examples read (a key's ``base``, read by the tests only).
-SAMPLE = str(Path(__file__).resolve().parents[2] / "tests" / "fixtures" / "plano_2mm.csv")
+#: A plano points grid shipped with the package (2 mm spacing, 31 x 31; a .csv example):
+#: the file the schema's examples read (a key's ``base``, read by the tests and the corpus).
+SAMPLE = str(Path(__file__).resolve().parents[1] / "data" / "plano_2mm.csv")
 _BASE_FRONT = {"file": SAMPLE, "spacing_mm": 2.0}
 #: A spec whose front is the sample grid.
 POINTS_BASE = {"lens": {"front": {"type": "points", **_BASE_FRONT},
