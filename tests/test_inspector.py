@@ -299,3 +299,158 @@ def test_a_mesh_file_and_a_click_in_the_view(tmp_path, spec_file):
         assert 0 < right < fov and abs(up) < 0.5
     finally:
         win.close()
+
+
+# ------------------------------------------------------------------ the as-worn map view
+FRAME = """
+[frame]
+shape = "oval"
+box_mm = [40, 30]
+dbl_mm = 18
+monocular_pd_mm = 29
+fitting_height_mm = 15
+"""
+NAKED = SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n', "")
+
+
+def test_as_worn_maps_and_the_gaze_marker(spec_file):
+    """The model's maps are eyelab.optics.asworn's over +-40 deg; the marker sits at the
+    gaze's Fick angles with the maps' values there (the grid's own value on a grid point,
+    the engine's at that eye rotation elsewhere, to the interpolation); they are computed
+    after a change's first frame, once per lens (not per gaze), and kept."""
+    from eyelab.jobs.gazemaps import MAP_HALF_ANGLE_DEG, MAP_POINTS
+    from eyelab.optics.asworn import as_worn_maps
+
+    m = InspectorModel(spec_file, samples=1)
+    try:
+        m.run_to_target()
+        m.wait_maps()
+        maps = m.maps()
+        assert m.maps_state() == "ready" and m.gaze_maps.computed == 1
+        assert maps.mean_error_d.shape == (MAP_POINTS, MAP_POINTS)
+        assert maps.eye_rotation_x_deg[-1] == MAP_HALF_ANGLE_DEG
+        ref = as_worn_maps(m.spec.eye, m.lens, half_angle_deg=MAP_HALF_ANGLE_DEG,
+                           n=MAP_POINTS, wavelength_nm=m.spec.wavelength_nm)
+        np.testing.assert_allclose(maps.cylinder_d, ref.cylinder_d, atol=1e-12)
+        m.apply({"gaze": (12.0, 4.0)})                   # a grid point (4 deg steps)
+        m.run_to_target()
+        mk = m.gaze_marker()
+        assert mk["eye_rotation_deg"] == (12.0, 4.0)
+        i, j = np.searchsorted(maps.eye_rotation_x_deg, 12.0), \
+            np.searchsorted(maps.eye_rotation_y_deg, 4.0)
+        assert mk["mean_error_d"] == pytest.approx(maps.mean_error_d[j, i], abs=1e-12)
+        assert mk["cylinder_d"] == pytest.approx(maps.cylinder_d[j, i], abs=1e-12)
+        m.apply({"gaze": (10.0, -6.0)})                  # between grid points
+        m.run_to_target()
+        mk = m.gaze_marker()
+        at = as_worn_maps(m.spec.eye, m.lens, half_angle_deg=10.0, n=11,
+                          wavelength_nm=m.spec.wavelength_nm)      # (10, -6): [2, 10]
+        assert mk["eye_rotation_deg"] == (10.0, -6.0)
+        assert mk["mean_error_d"] == pytest.approx(at.mean_error_d[2, 10], abs=0.005)
+        assert mk["cylinder_d"] == pytest.approx(at.cylinder_d[2, 10], abs=0.005)
+        assert abs(at.cylinder_d[2, 10]) > 0.005                   # not a trivial 0
+        m.wait_maps()
+        assert m.gaze_maps.computed == 1 and m.maps() is maps     # the gaze reuses them
+        # a new lens: its first frame comes before its maps are even started
+        m.apply({"lens_rx": "-3.00 DS"})
+        assert m.tick() and m.result.report["samples"]["done_passes"] == 0    # a preview
+        assert m.maps() is None and not m.gaze_maps.busy and m.gaze_marker() is None
+        m.run_to_target()
+        m.wait_maps()
+        assert m.gaze_maps.computed == 2 and m.maps() is not maps
+        m.apply({"lens": False})
+        assert not m.maps_wanted and m.maps_state() == "none"
+        m.apply({"lens": True})
+        assert m.maps() is not None and m.gaze_maps.computed == 2   # kept
+    finally:
+        m.close()
+
+
+def _marker_px(shot, ren):
+    """(x, y) centroid (px; y down) of the marker's pure-green pixels in renderer ren's
+    viewport of the window screenshot ``shot``, or None."""
+    (vx, vy), (vw, vh) = ren.GetOrigin(), ren.GetSize()
+    H = shot.shape[0]
+    g = np.zeros(shot.shape[:2], bool)
+    sub = shot[H - vy - vh:H - vy, vx:vx + vw]
+    g[H - vy - vh:H - vy, vx:vx + vw] = (sub[..., 0] == 0) & (sub[..., 1] == 255) & \
+        (sub[..., 2] == 0)
+    ys, xs = np.nonzero(g)
+    return None if len(xs) < 10 else (xs.mean(), ys.mean())
+
+
+def test_window_map_panel_follows_the_gaze(tmp_path):
+    """With a lens cut to a frame the window shows the maps (the frame's outline as their
+    edge) and the marker; the marker moves right / up with the gaze without the maps being
+    recomputed or redrawn; ``m`` hides the panel (the side views take its room)."""
+    from eyelab.render.inspector import InspectorWindow
+
+    spec = tmp_path / "framed.toml"
+    spec.write_text(SPEC + FRAME)
+    win = InspectorWindow(InspectorModel(spec, size=(96, 320), samples=1), off_screen=True)
+    try:
+        win.run_to_target()
+        panel = win._maps
+        ren = panel.renderers["mean_error_d"]
+        x0 = ren.GetOrigin()[0]
+        assert panel.shown and panel.draws == 1
+        assert "map_edge_mean_error_d" in panel.renderers["mean_error_d"].actors
+        assert np.isnan(win.model.maps().mean_error_d[0, 0])     # outside the frame
+
+        def shot():
+            win.plotter.render()
+            return win.plotter.screenshot(return_img=True)[..., :3]
+
+        first = shot()
+        assert first[:, x0:].std() > 20                          # a map, not a blank
+        p0 = _marker_px(first, ren)
+        H = first.shape[0]
+        assert p0 is not None
+        want = panel.marker_display()
+        assert abs(p0[0] - want[0]) < 1.5 and abs(p0[1] - (H - want[1])) < 1.5
+        moves = panel.marker_moves
+        win._request("gaze", (6.0, 0.0))           # the chart stays in view
+        win.run_to_target()
+        p1 = _marker_px(shot(), ren)
+        win._request("gaze", (6.0, 6.0))
+        win.run_to_target()
+        p2 = _marker_px(shot(), ren)
+        assert p1[0] - p0[0] > 5 and abs(p1[1] - p0[1]) < 1.5     # right
+        assert p1[1] - p2[1] > 5 and abs(p2[0] - p1[0]) < 1.5     # up (rows grow down)
+        want = panel.marker_display()
+        assert abs(p2[0] - want[0]) < 1.5 and abs(p2[1] - (H - want[1])) < 1.5
+        assert panel.draws == 1 and panel.marker_moves == moves + 2
+        assert win.model.gaze_maps.computed == 1
+        x, y = panel.display_point(-4.0, 2.0, "cylinder_d")     # a click on a map: look there
+        win.plotter.iren.get_event_position = lambda: (int(round(x)), int(round(y)))
+        win._on_click(None, "LeftButtonPressEvent")
+        win.run_to_target()
+        assert win.model.value("gaze") == pytest.approx((-4.0, 2.0), abs=0.5)
+        win._toggle_maps()
+        win.run_to_target()
+        assert not panel.shown and _marker_px(shot(), ren) is None
+        side = win.plotter.renderers[win.plotter.renderers.loc_to_index((0, 1))]
+        assert side.GetViewport()[2] == 1.0
+    finally:
+        win.close()
+
+
+def test_window_without_a_lens_has_no_map_panel(tmp_path):
+    """A naked eye: no maps computed, no panel drawn (no marker in its cells, which the
+    side views cover)."""
+    from eyelab.render.inspector import InspectorWindow
+
+    spec = tmp_path / "naked.toml"
+    spec.write_text(NAKED)
+    win = InspectorWindow(InspectorModel(spec, size=(192, 256), samples=1), off_screen=True)
+    try:
+        win.run_to_target()
+        win.plotter.render()
+        assert "lens" not in win.model.data
+        assert not win._maps.shown and win.model.maps() is None
+        shot = win.plotter.screenshot(return_img=True)[..., :3]
+        for ren in win._maps.renderers.values():
+            assert _marker_px(shot, ren) is None
+        assert win.model.gaze_maps.computed == 0
+    finally:
+        win.close()

@@ -173,7 +173,8 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         "skipped_why": skip_reason,
         "columns": ncol,
         "reference_depth_m": float(reference_depth),
-        "path_iterations_mean": 0.0 if chief is None else float(chief.iterations.mean()),
+        "path_iterations_mean": 0.0 if chief is None or not chief.iterations.size
+        else float(chief.iterations.mean()),
         "timings": timings,
     }
     key = content_key(method="wavefront", eye=eye, lens=lens, camera=camera, shape=shape,

@@ -10,7 +10,9 @@ continuously costs one restart per tick, not one per event. What a restart recom
 decided by the renderer's content-keyed caches: a change of S re-runs passes only, a lens
 change keeps the naked-eye field, and so on (the report's cache misses say what was
 recomputed). The colour-vision deficiency is applied here, to the finished linear image,
-so changing it re-runs nothing.
+so changing it re-runs nothing. The lens's as-worn maps and the line of sight's point on
+them (:class:`~eyelab.jobs.gazemaps.GazeMapsMixin`) are computed on a worker thread once
+the first frame after a lens change has been shown, and kept per lens.
 """
 
 from __future__ import annotations
@@ -33,12 +35,13 @@ from eyelab.jobs.controls import (
     edit_spec_data,
     snap,
 )
+from eyelab.jobs.gazemaps import GazeMaps, GazeMapsMixin
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.prescription import Prescription
 from eyelab.spec import dump_spec, one_eye, parse_spec, read_spec_data
 
 
-class InspectorModel:
+class InspectorModel(GazeMapsMixin):
     """The inspected spec and its frames.
 
     Parameters
@@ -69,6 +72,8 @@ class InspectorModel:
         self.message = ""
         self.timings = {}
         self.gaze_distance_m = None
+        self.maps_on = True          # the as-worn map panel (display only, not in the spec)
+        self.gaze_maps = GazeMaps()
         self.load()
 
     # ------------------------------------------------------------------ state
@@ -156,6 +161,8 @@ class InspectorModel:
             return tuple(render.get("gaze_deg", (0.0, 0.0)))
         if name == "cvd":
             return self.cvd
+        if name == "maps":
+            return self.maps_on
         raise KeyError(name)
 
     def request(self, name: str, value) -> None:
@@ -168,6 +175,9 @@ class InspectorModel:
         first refused value (then nothing changes)."""
         display_only = {"cvd", "cvd_severity"}
         changes = {k: v for k, v in changes.items() if not self._same(k, v)}
+        if "maps" in changes:             # the panel: cannot be refused, re-runs nothing
+            self.maps_on = bool(changes.pop("maps"))
+            self.last_change = "maps: display only"
         if not changes:
             return None
         data = copy.deepcopy(self.data)
@@ -262,6 +272,8 @@ class InspectorModel:
         self.last_change = why
         self._t_change = time.perf_counter()
         self.timings = {}
+        self._maps_key = None            # the maps' key, found once the first frame is shown
+        self._shown = False              # whether this state's first frame has been shown
 
     def _sequence(self, preview: bool):
         """The preview frame (if asked); the full set-up on a worker thread (fields and
@@ -311,6 +323,8 @@ class InspectorModel:
             self.apply(changes)
             if self.last_change.endswith("display only"):
                 return True
+        if self._shown:        # the maps start once the first frame is out, never before
+            self._want_maps()
         if self._frames is None:
             return False
         try:
@@ -321,6 +335,7 @@ class InspectorModel:
         if res is None:            # passes ran; the next image comes at 2, 4, 8, ... S
             return False
         self.result = res
+        self._shown = True
         done = self.result.report["samples"]["done_passes"]
         elapsed = time.perf_counter() - self._t_change
         self.timings.setdefault("first_frame_s", elapsed)
@@ -415,6 +430,7 @@ class InspectorModel:
         if self._frames is not None:
             self._frames.close()
             self._frames = None
+        self.gaze_maps.close()
         self.renderer.close()
 
 

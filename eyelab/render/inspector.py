@@ -1,18 +1,23 @@
 """The inspector's window: one PyVista ``Plotter`` (no Qt) around an inspector model
 (:class:`eyelab.jobs.inspector.InspectorModel`, passed in: this module never imports it).
 
-Layout (a 3 x 2 grid): the simulated view on the left, pixel for pixel (a textured plane
+Layout (a 3 x 3 grid): the simulated view on the left, pixel for pixel (a textured plane
 under a parallel camera whose scale matches the viewport's height, nearest-texel
-sampling); on the right the 3-D scene with the eye, the lens, the view frustum and the
+sampling); beside it the 3-D scene with the eye, the lens, the view frustum and the
 line of sight, and below it the blur field as Sturm-conoid ellipses (Kakimoto Figs.
-12-13) at the depth of the gaze point; along the bottom the sliders, toggles and the
-status line. A repeating timer drives the model: each tick applies the queued changes
-(slider events are coalesced) and runs one step of the progressive frames, so the
-window never blocks longer than the set-up of a change or one step of passes.
+12-13) at the depth of the gaze point; on the right the lens's as-worn maps, mean power
+error above cylinder, with the line of sight's point on them
+(:mod:`eyelab.render.mappanel`; computed once per lens, after the change's first frame,
+and kept: a gaze change only moves the point; no panel without a lens, the side views
+then take its room); along the bottom the sliders, toggles and the status line. A
+repeating timer drives the model: each tick applies the queued changes (slider events
+are coalesced) and runs one step of the progressive frames, so the window never blocks
+longer than the set-up of a change or one step of passes.
 
-Keys: arrows turn the gaze by 2 deg; a left click in the simulated view looks there;
-``l`` lens on/off; ``v`` cycles the colour-vision deficiency; ``c`` designs the lens for
-the eye's current Rx; ``s`` saves the view and the spec that reproduces it; ``r`` resets;
+Keys: arrows turn the gaze by 2 deg; a left click in the simulated view looks there, on a
+map it turns the eye to that eye rotation; ``l`` lens on/off; ``m`` shows or hides the
+as-worn maps; ``v`` cycles the colour-vision deficiency; ``c`` designs the lens for the
+eye's current Rx; ``s`` saves the view and the spec that reproduces it; ``r`` resets;
 ``o`` re-reads the spec file; ``h`` shows or hides the help; ``q`` quits.
 """
 
@@ -25,18 +30,21 @@ import numpy as np
 import pyvista as pv
 
 from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.render.mappanel import MapPanel
 
 #: Timer period (ms) between ticks.
 TICK_MS = 15
 #: Height (px) of the controls strip and width of the side column relative to the view.
 CONTROLS_PX = 230
 SIDE_FRACTION = 0.5
+#: Width of the as-worn map column relative to the view's height (each map is half of it).
+MAPS_FRACTION = 0.55
 #: Degrees per arrow-key press.
 GAZE_STEP_DEG = 2.0
 
-HELP = ("arrows: gaze +-2 deg   click: look there   l: lens on/off   v: colour vision\n"
-        "c: lens for the eye's Rx   s: save view + spec   r: reset   o: reload spec\n"
-        "h: this help   q: quit")
+HELP = ("arrows: gaze +-2 deg   click: look there (view or map)   l: lens on/off\n"
+        "m: as-worn maps on/off   v: colour vision   c: lens for the eye's Rx\n"
+        "s: save view + spec   r: reset   o: reload spec   h: this help   q: quit")
 
 
 class InspectorWindow:
@@ -47,10 +55,12 @@ class InspectorWindow:
         self.save_dir = Path(save_dir)
         w, h = model.size
         side = max(240, int(round(w * SIDE_FRACTION)))
-        self.window_size = (w + side, h + CONTROLS_PX)
-        p = pv.Plotter(off_screen=off_screen, shape=(3, 2),
-                       groups=[(np.s_[0:2], 0), (2, np.s_[0:2])],
-                       row_weights=[h / 2, h / 2, CONTROLS_PX], col_weights=[w, side],
+        maps_w = max(220, int(round(h * MAPS_FRACTION)))
+        self.window_size = (w + side + maps_w, h + CONTROLS_PX)
+        self._columns = (w / self.window_size[0], (w + side) / self.window_size[0])
+        p = pv.Plotter(off_screen=off_screen, shape=(3, 3),
+                       groups=[(np.s_[0:2], 0), (2, np.s_[0:3])],
+                       row_weights=[h / 2, h / 2, CONTROLS_PX], col_weights=[w, side, maps_w],
                        window_size=self.window_size, border=False,
                        title="eyelab inspector")
         self.plotter = p
@@ -61,6 +71,9 @@ class InspectorWindow:
         self._build_view()
         self._build_scene_view()
         self._build_controls()
+        self._maps = MapPanel(p, ((0, 2), (1, 2)), relayout=self._layout,
+                              grid=model.maps_grid)
+        self._maps.sync(model)
         self._field_actor = None
         self._update_side = True
         self._ready = True
@@ -72,6 +85,7 @@ class InspectorWindow:
                         ("Up", lambda: self._turn(0, GAZE_STEP_DEG)),
                         ("Down", lambda: self._turn(0, -GAZE_STEP_DEG)),
                         ("l", lambda: self._request("lens", not model.value("lens"))),
+                        ("m", self._toggle_maps),
                         ("v", self._cycle_cvd), ("c", self._full_correction),
                         ("s", self.save), ("r", self._reset), ("o", self._reload),
                         ("h", self._toggle_help)):
@@ -99,6 +113,15 @@ class InspectorWindow:
         self._fit_view_camera()
         self._help = p.add_text("", position=(8, 8), font_size=9, color="white", name="help")
         self._view_renderer = p.renderer
+
+    def _layout(self, maps_shown: bool) -> None:
+        """The side column's right edge: before the map column, or at the window's edge
+        when the maps are hidden (their renderers are not drawn)."""
+        right = self._columns[1] if maps_shown else 1.0
+        for cell in ((0, 1), (1, 1)):
+            ren = self.plotter.renderers[self.plotter.renderers.loc_to_index(cell)]
+            x0, y0, _, y1 = ren.GetViewport()
+            ren.SetViewport(x0, y0, right, y1)
 
     def _fit_view_camera(self):
         """Parallel scale for one texel per pixel when the viewport is the view's size."""
@@ -189,12 +212,19 @@ class InspectorWindow:
         self._sync_widgets()
         self._update_side = True
 
+    def _toggle_maps(self):
+        self._request("maps", not self.model.value("maps"))
+
     def _toggle_help(self):
         self._help_on = not self._help_on
         self._help.SetInput(HELP if self._help_on else "")
 
     def _on_click(self, obj, event):
         x, y = self.plotter.iren.get_event_position()
+        on_map = self._maps.eye_rotation_at(x, y)
+        if on_map is not None:            # a map's point is an eye rotation: look there
+            self._request("gaze", tuple(round(v, 1) for v in on_map))
+            return
         ren = self._view_renderer
         vx, vy = ren.GetOrigin()
         vw, vh = ren.GetSize()
@@ -222,14 +252,15 @@ class InspectorWindow:
 
     # --------------------------------------------------------------- drawing
     def step(self) -> bool:
-        """One tick of the model; the display refreshed when its image changed."""
+        """One tick of the model; the display refreshed when its image changed, the map
+        panel brought up to the model. Returns whether the window needs a render."""
         before = self.model.last_change
         changed = self.model.tick()
         if self.model.last_change != before:
             self._update_side = True
         if changed:
             self.refresh()
-        return changed
+        return self._maps.sync(self.model) or changed
 
     def refresh(self) -> None:
         """Show the model's current image, status and (after a change) side views."""
@@ -347,6 +378,9 @@ class InspectorWindow:
             self._opened = True
         while not self.model.done or self.model._pending:
             self.step()
+        if self.model.maps_wanted:
+            self.model.wait_maps()
+            self._maps.sync(self.model)
         self.refresh()
 
     def show(self) -> None:
