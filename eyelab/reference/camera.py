@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from eyelab.core.parallel import map_row_chunks
-from eyelab.core.sampling import disc_seeds, pixel_jitter
+from eyelab.core.sampling import GOLDEN_ANGLE, pixel_jitter
 from eyelab.imaging.contract import finish, new_report
 from eyelab.optics.film import CameraRays
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
@@ -52,7 +52,7 @@ def render_camera(scene, system, view, quality, name: str = "reference"):
     h, w = view.height, view.width
     n = h * w
     k = quality.samples
-    base = disc_seeds(k)
+    golden = np.arange(k) * GOLDEN_ANGLE          # Vogel's spiral, made random per pixel
     jit0 = pixel_jitter(k)
     out = np.zeros((n, 3))
     seeds = np.random.SeedSequence(quality.seed)
@@ -68,10 +68,13 @@ def render_camera(scene, system, view, quality, name: str = "reference"):
         rng = np.random.default_rng(streams[a // block])
         m = b - a
         pix = np.arange(a, b)
-        ang = rng.uniform(0, 2 * math.pi, m)
-        ca, sa = np.cos(ang)[:, None], np.sin(ang)[:, None]
-        sx = base[None, :, 0] * ca - base[None, :, 1] * sa
-        sy = base[None, :, 0] * sa + base[None, :, 1] * ca
+        # sample i at area fraction (i + u)/k and angle i x golden + phi, u and phi uniform
+        # per pixel: each sample is uniform over the disc (an unbiased estimate of the
+        # bundle's integral, edges included), the set still stratified in area
+        u = rng.uniform(0, 1, (m, 1))
+        phi = rng.uniform(0, 2 * math.pi, (m, 1))
+        rad = np.sqrt((np.arange(k)[None] + u) / k)
+        sx, sy = rad * np.cos(golden[None] + phi), rad * np.sin(golden[None] + phi)
         jit = np.mod(jit0[None] + 0.5 + rng.uniform(0, 1, (m, 1, 2)), 1.0)
         fx = (pix % w)[:, None] + jit[..., 0]
         fy = (pix // w)[:, None] + jit[..., 1]
