@@ -54,7 +54,7 @@ def handling():
         yield
         return
     _REQUESTED = None
-    previous = {s: signal.signal(s, _handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = _install(_handler)
     try:
         yield
         check()          # a request some native code swallowed ends the block too
@@ -65,9 +65,7 @@ def handling():
         raise
     finally:
         _REQUESTED = None          # the request is the block's: later work is not stopped
-        for s, h in previous.items():
-            # None: a handler installed outside Python, which Python cannot put back
-            signal.signal(s, signal.SIG_DFL if h is None else h)
+        _restore(previous)
 
 
 @contextlib.contextmanager
@@ -80,16 +78,26 @@ def deferred():
         yield
         return
     held = []
-    previous = {s: signal.signal(s, lambda signum, frame: held.append(signum))
-                for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = _install(lambda signum, frame: held.append(signum))
     try:
         yield
     finally:
-        for s, h in previous.items():
-            signal.signal(s, signal.SIG_DFL if h is None else h)
+        _restore(previous)
         for signum in held[:1]:
             h = previous[signum]
             if callable(h):
                 h(signum, None)
             elif h == signal.SIG_DFL:
                 signal.raise_signal(signum)
+
+
+def _install(handler) -> dict:
+    """``handler`` for SIGINT and SIGTERM; returns {signal: the handler it replaced}."""
+    return {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _restore(previous: dict) -> None:
+    """Put back the handlers :func:`_install` replaced (None: one installed outside
+    Python, which Python cannot put back: the default then)."""
+    for s, h in previous.items():
+        signal.signal(s, signal.SIG_DFL if h is None else h)

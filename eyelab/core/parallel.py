@@ -219,3 +219,20 @@ def _close_all(objects) -> None:
             first = first or e
     if first is not None:
         raise first
+
+
+@contextlib.contextmanager
+def scoped_environ(*names: str, **values: str):
+    """Environment variables ``values`` set for the block (processes started in it inherit
+    them), and those and ``names`` restored after — as they were, or absent — whatever the
+    block set."""
+    before = {k: os.environ.get(k) for k in (*names, *values)}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in before.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v

@@ -52,7 +52,6 @@ before any work, naming the key that dominates the estimate.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import os
 from dataclasses import dataclass
@@ -234,18 +233,13 @@ def set_memory_limit(max_memory_gb: float | None) -> None:
         os.environ[ENV_MAX_MEMORY] = repr(float(max_memory_gb))
 
 
-@contextlib.contextmanager
 def memory_limit_scope():
-    """Restore ``$EYELAB_MAX_MEMORY_GB`` on exit: a limit set by :func:`set_memory_limit`
-    inside the block (a command's ``--max-memory``) does not outlive it."""
-    before = os.environ.get(ENV_MAX_MEMORY)
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(ENV_MAX_MEMORY, None)
-        else:
-            os.environ[ENV_MAX_MEMORY] = before
+    """A block after which ``$EYELAB_MAX_MEMORY_GB`` is as before: a limit set by
+    :func:`set_memory_limit` inside it (a command's ``--max-memory``) does not outlive
+    it."""
+    from eyelab.core.parallel import scoped_environ
+
+    return scoped_environ(ENV_MAX_MEMORY)
 
 
 def check_render_memory(renderer: str, view, quality, limit: float | None = None, *,

@@ -43,7 +43,7 @@ from pathlib import Path
 from eyelab.core.cache import LRUCache
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import linear_to_png16, write_json, write_png
-from eyelab.core.parallel import LendingPool, process_owned, release_owned
+from eyelab.core.parallel import LendingPool, process_owned, release_owned, scoped_environ
 from eyelab.jobs.jobspec import FORMATS, MAX_JOBS, Job, JobSpec, load_job_spec, validate_jobs
 
 __all__ = ["FORMATS", "MAX_JOBS", "Job", "JobSpec", "JobResources", "load_job_spec",
@@ -269,29 +269,13 @@ def _connect(scheduler: str | None, workers: int) -> _Cluster:
     try:
         # Dask's own log lines (a cancelled task's warning after Ctrl-C) are not shown:
         # eyelab reports the run in its own lines
-        with _env(DASK_LOGGING__DISTRIBUTED="error"):
+        with scoped_environ(DASK_LOGGING__DISTRIBUTED="error"):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=":0", silence_logs=logging.ERROR)
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
     return _Cluster(Client(cluster), cluster)
-
-
-@contextlib.contextmanager
-def _env(**values):
-    """Environment variables set for the block (child processes started in it inherit
-    them), restored after."""
-    before = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for k, v in before.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
 def _run_dask(cluster: _Cluster, todo, out, formats, progress):

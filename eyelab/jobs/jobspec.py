@@ -53,18 +53,11 @@ class Job:
 
 
 def input_files(data: dict) -> list:
-    """The paths of the files a spec table reads, in a fixed order: ``render.scene`` (or
-    its ``path``) when it names a file, the lens surfaces' and the frame's ``file``."""
-    render = data.get("render") if isinstance(data.get("render"), dict) else {}
-    scene = render.get("scene")
-    scene = scene.get("path") if isinstance(scene, dict) else scene
-    lens = data.get("lens") if isinstance(data.get("lens"), dict) else {}
-    tables = [lens] + [lens.get(s) for s in ("right", "left")]
-    found = [scene] + [t.get(side, {}).get("file") if isinstance(t.get(side), dict) else None
-                       for t in tables if isinstance(t, dict) for side in ("front", "back")]
-    frame = data.get("frame")
-    found.append(frame.get("file") if isinstance(frame, dict) else None)
-    return [f for f in found if isinstance(f, str) and Path(f).is_file()]
+    """The existing files a spec table reads (:func:`eyelab.spec.surfacefile.file_refs`),
+    in a fixed order."""
+    from eyelab.spec.surfacefile import file_refs
+
+    return [t[k] for t, k, _ in file_refs(data) if Path(t[k]).is_file()]
 
 
 def _file_digest(path: str) -> str:
@@ -206,26 +199,12 @@ def _base_spec(js: dict, here: Path) -> dict:
 
     base = copy.deepcopy(read_spec_data(base_path)[0])
     if base_path is not None:            # its files are relative to its own folder
-        _absolute_scene(absolute_files(base, base_path.parent), base_path.parent)
+        absolute_files(base, base_path.parent)
     extra = js.get("base", {})
     if not isinstance(extra, dict):
         raise SpecError("jobspec.base", "must be a table of spec tables")
-    _merge(base, _absolute_scene(absolute_files(copy.deepcopy(extra), here), here))
+    _merge(base, absolute_files(copy.deepcopy(extra), here))
     return base
-
-
-def _absolute_scene(data: dict, folder: Path) -> dict:
-    """``data`` (changed in place) with a relative ``render.scene`` (or its ``path``) that
-    names a file in ``folder`` made absolute."""
-    render = data.get("render")
-    if not isinstance(render, dict):
-        return data
-    scene = render.get("scene")
-    where, key = (scene, "path") if isinstance(scene, dict) else (render, "scene")
-    rel = where.get(key)
-    if isinstance(rel, str) and not Path(rel).is_absolute() and (folder / rel).is_file():
-        where[key] = str((folder / rel).resolve())
-    return data
 
 
 def _output(out, here: Path, out_dir) -> tuple:

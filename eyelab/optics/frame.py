@@ -245,27 +245,20 @@ def _rounded_rectangle(a, b, rc, per_corner=256):
 
 # ------------------------------------------------------------------ DCS traces
 def _records(text: str) -> list:
-    """[(line number, label, [values])] of a DCS text: ``LABEL=v1;v2;...`` lines."""
-    out = []
-    for i, line in enumerate(text.splitlines(), 1):
-        line = line.strip()
-        if not line:
-            continue
-        label, eq, rest = line.partition("=")
-        if not eq or not label.strip():
-            raise SpecError("frame.file", f"line {i}: {line[:40]!r} is not a DCS record "
-                                          "(LABEL=value;value;...)")
-        out.append((i, label.strip().upper(), [v.strip() for v in rest.split(";")]))
-    return out
+    """[(line number, label, [values])] of a DCS text (:func:`eyelab.optics.dcs.
+    parse_records`: framing characters stripped, lines split at line ends only)."""
+    from eyelab.optics.dcs import parse_records
+
+    return [(r.line, r.label, [v.strip() for v in r.values])
+            for r in parse_records(text, "frame.file", "the trace")]
 
 
 def _number(value: str, line: int, what: str) -> float:
-    """``value`` as a finite float, or an error naming ``frame.file`` and the line (0: the
-    record's label instead)."""
-    try:
-        v = float(value)
-    except ValueError:
-        v = math.nan
+    """``value`` as a finite float written as DCS numbers are (:data:`eyelab.optics.dcs.
+    NUMBER`), or an error naming ``frame.file`` and the line (0: the record's label)."""
+    from eyelab.optics.dcs import NUMBER
+
+    v = float(value) if NUMBER.fullmatch(value.strip()) else math.nan
     if not math.isfinite(v):
         where = f"line {line}: " if line else ""
         raise SpecError("frame.file", f"{where}{what} {value[:20]!r} is not a number")

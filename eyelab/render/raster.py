@@ -38,7 +38,6 @@ from eyelab.blur.reconstruct import (
 )
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
-from eyelab.core.interrupt import check as check_interrupt
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
     Renderer,
@@ -402,7 +401,6 @@ class RasterRenderer(Renderer):
                             st["zbuf"] = st["win"].depth()
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
-                    check_interrupt()     # a Ctrl-C that landed in a VTK callback
                     bar.update(1)
                 done = cp
                 if shown is not None and cp not in shown:

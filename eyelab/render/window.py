@@ -12,7 +12,7 @@ from importlib import resources
 
 import numpy as np
 
-from eyelab.core.interrupt import Terminated
+from eyelab.core.interrupt import deferred
 from eyelab.render import _vtk
 
 #: Vertex shader tags measured to exist in VTK 9.7 (docs/VTK_NOTES.md Q5).
@@ -210,7 +210,8 @@ class OffscreenWindow:
         """Render and read RGBA (h, w, 4) uint8 (a view of a reused buffer: copy or consume
         before the next grab), row 0 at the bottom (GL order)."""
         t0 = time.perf_counter()
-        self.win.Render()
+        with deferred():     # VTK calls back into Python while it renders; a Ctrl-C in a
+            self.win.Render()   # callback would make VTK exit(1): delivered after instead
         t1 = time.perf_counter()
         w, h = self.size
         self.win.GetRGBACharPixelData(0, 0, w - 1, h - 1, 0, self._buf)
@@ -249,15 +250,12 @@ def bind_field_texture(mapper, window: OffscreenWindow) -> None:
     ref = weakref.ref(window)
 
     @_vtk.calldata_type(_vtk.VTK_OBJECT)
-    def bind(caller, event, program):
-        try:
-            w = ref()
-            tex = None if w is None else w.field_texture
-            if tex is not None and program is not None:
-                tex.Activate()
-                program.SetUniformi("blurField", tex.GetTextureUnit())
-        except (KeyboardInterrupt, Terminated):   # VTK would exit(1) on it: the request is
-            return                                # recorded, core.interrupt raises it again
+    def bind(caller, event, program):   # runs inside Render(), signals deferred there
+        w = ref()
+        tex = None if w is None else w.field_texture
+        if tex is not None and program is not None:
+            tex.Activate()
+            program.SetUniformi("blurField", tex.GetTextureUnit())
 
     mapper._eyelab_observer = mapper.AddObserver(_vtk.vtkCommand.UpdateShaderEvent, bind)
 

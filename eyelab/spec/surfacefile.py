@@ -13,7 +13,7 @@ from eyelab.core.fileio import user_path
 from eyelab.optics.pointsfile import FIRST_ROWS, FORMATS
 from eyelab.optics.pointsfile import LIMITS as POINTS_LIMITS
 
-__all__ = ["POINTS_KEYS", "POINTS_LIMITS", "TYPE_BASE", "absolute_files", "spec_file",
+__all__ = ["POINTS_KEYS", "POINTS_LIMITS", "TYPE_BASE", "absolute_files", "file_refs", "spec_file",
            "with_spec_folder"]
 
 #: The folder of the spec file being parsed (None: a spec given as a table).
@@ -70,22 +70,39 @@ def spec_file(value, field: str) -> Path:
     return p if p.is_absolute() or folder is None else folder / p
 
 
-def absolute_files(data: dict, folder) -> dict:
-    """``data`` (a spec table, changed in place and returned) with every relative points
-    file — ``[lens.front]``, ``[lens.back]``, and theirs under ``[lens.right]`` /
-    ``[lens.left]`` — and the ``[frame]`` trace file made absolute from ``folder``, the
-    spec file's: for a spec table parsed away from its file (a job of ``eyelab batch``)."""
-    lens = data.get("lens") if isinstance(data, dict) else None
+def file_refs(data: dict) -> list:
+    """(table, key, scene) for every key of a spec table ``data`` that names a file, as
+    written: ``render.scene`` (or its ``path``; ``scene`` True: it may also name a built-in
+    scene), each lens surface's ``file`` (also under ``[lens.right]`` / ``[lens.left]``)
+    and the ``[frame]``'s ``file``. The one list of where a spec reads files."""
+    if not isinstance(data, dict):
+        return []
+    refs = []
+    render = data.get("render")
+    if isinstance(render, dict):
+        scene = render.get("scene")
+        refs.append((scene, "path", True) if isinstance(scene, dict) else
+                    (render, "scene", True))
+    lens = data.get("lens")
     tables = [lens] + [lens.get(s) for s in ("right", "left")] if isinstance(lens, dict) \
         else []
-    holders = [t.get(side) for t in tables if isinstance(t, dict) for side in ("front", "back")]
-    holders.append(data.get("frame") if isinstance(data, dict) else None)
-    for s in holders:
-        if isinstance(s, dict) and isinstance(s.get("file"), str):
-            try:
-                p = Path(s["file"]).expanduser()
-            except RuntimeError:           # an unknown ~user: the parser names the field
-                continue
-            if not p.is_absolute():
-                s["file"] = str(Path(folder) / p)
+    refs += [(t[side], "file", False) for t in tables if isinstance(t, dict)
+             for side in ("front", "back") if isinstance(t.get(side), dict)]
+    if isinstance(data.get("frame"), dict):
+        refs.append((data["frame"], "file", False))
+    return [r for r in refs if isinstance(r[0].get(r[1]), str)]
+
+
+def absolute_files(data: dict, folder) -> dict:
+    """``data`` (a spec table, changed in place and returned) with every relative file of
+    :func:`file_refs` made absolute from ``folder``, the spec file's (a scene only when it
+    names a file there, not a built-in scene): for a spec table parsed away from its file
+    (a job of ``eyelab batch``)."""
+    for t, k, scene in file_refs(data):
+        try:
+            p = Path(t[k]).expanduser()
+        except RuntimeError:               # an unknown ~user: the parser names the field
+            continue
+        if not p.is_absolute() and not (scene and not (Path(folder) / p).is_file()):
+            t[k] = str(Path(folder) / p)
     return data
