@@ -13,7 +13,8 @@ from eyelab.core.fileio import write_json
 BENCHES = {
     "optics": ("throughput of the optics engine", ("points", "repeats")),
     "blurfield": ("blur-field precompute time and accuracy", ("repeats",)),
-    "render": ("raster frame times per stage and per skip", ("repeats",)),
+    "render": ("raster frame times per stage and per skip; the default frame, old vs new",
+               ("repeats", "against", "quality_json")),
     "quality": ("error against converged references vs time, every renderer",
                 ("preset", "plot", "truth_spp", "reference_spp", "configs", "scenes", "merge",
                  "omit", "truth_cache")),
@@ -81,6 +82,12 @@ _BENCH_FLAGS = {
     "memory_only": lambda b, name: b.add_argument(
         "--only", choices=("renders", "meshes"), help="only the many-renders scenarios or "
         "only the mesh files"),
+    "against": lambda b, name: b.add_argument(
+        "--against", metavar="REF", help="also time the default frame of this git ref "
+        "(checked out with git worktree), side by side in interleaved processes"),
+    "quality_json": lambda b, name: b.add_argument(
+        "--quality", metavar="JSON", help="a quality benchmark's JSON: its equal-error "
+        "speed-ups over the reference go into this report"),
     "truth_cache": lambda b, name: b.add_argument(
         "--truth-cache", help="folder where converged references are kept and re-used "
         "(keyed by scene, configuration, size and spp)"),
@@ -122,7 +129,9 @@ def _bench_optics(args):
 def _bench_render(args):
     from eyelab.bench.render import run_render_bench
 
-    return run_render_bench(repeats=min(args.repeats, 3))
+    quality = None if args.quality is None else _read_json("--quality", args.quality)
+    return run_render_bench(repeats=min(args.repeats, 3), against=args.against,
+                            quality=quality)
 
 
 def _bench_quality(args):
@@ -145,7 +154,7 @@ def _bench_inspect(args):
     use_offscreen()
     from eyelab.bench.inspector import run_inspect_bench
 
-    return run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600, 16)))
+    return run_inspect_bench(*((320, 240, 4) if args.quick else (800, 600)))
 
 
 def _bench_imagebased(args):

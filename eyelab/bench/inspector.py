@@ -1,18 +1,20 @@
 """``eyelab bench inspect``: how fast the inspector answers a change (offscreen).
 
 The built-in default spec at 800 x 600 (the room, a -3.00 / -1.00 x 180 myope of 45 with
-their CR-39 lens), target S = 16. For each change — the eye's sphere with the lens off and
-through the lens, the pupil, the gaze, S, the colour-vision deficiency — the time from the
-change to the first updated frame (a one-pass preview on a coarse field when the change
-needs new blur fields) and to S = 16, the longest single tick (how long the window is
-unresponsive at most), and the renderer's stage timings of the frames that did the
-set-up. The model is ticked as the window's timer would tick it, without a window
-(the window adds one texture upload per frame).
+their CR-39 lens), target S = the default quality's (8). For each change — the eye's sphere
+with the lens off and through the lens, the pupil, the gaze, S, the colour-vision
+deficiency — the time from the change to the first updated frame (a one-pass preview on a
+coarse field when the change needs new blur fields) and to the target S, the longest single
+tick (how long the window is unresponsive at most), and the renderer's stage timings of the
+frames that did the set-up. The model is ticked as the window's timer would tick it,
+without a window (the window adds one texture upload per frame).
 """
 
 from __future__ import annotations
 
 import time
+
+from eyelab.imaging.options import DEFAULT_SAMPLES
 
 
 def _measure(model, changes: dict) -> dict:
@@ -41,7 +43,8 @@ def _measure(model, changes: dict) -> dict:
             "recomputed": model.recomputed(), "stages_s": stages}
 
 
-def run_inspect_bench(width: int = 800, height: int = 600, samples: int = 16) -> dict:
+def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAULT_SAMPLES
+                      ) -> dict:
     from eyelab.jobs.inspector import InspectorModel
 
     model = InspectorModel(None, size=(width, height), samples=samples)

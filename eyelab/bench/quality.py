@@ -8,8 +8,12 @@ ground truth (PSNR, SSIM, blur-size error, RMSE; linear RGB). The Pareto picture
 against time. Raster times are steady-state frames (caches and shaders warm), as an
 interactive viewer sees them; the first (cold) frame time is recorded beside them.
 
-The raster renderer runs with its reconstruction filter on (``RasterQuality.reconstruct``),
-which is what brings S = 32 to SSIM >= 0.95 where the blur spans many pixels.
+The raster renderer runs at its default quality but for S (the reconstruction filter on),
+so its S = 8 row (:data:`~eyelab.imaging.options.DEFAULT_SAMPLES`) is the default frame
+a user sees: ``checks.raster_ssim_at_default_min``. Each raster row also gets its
+equal-error speed-up: the time the reference renderer would need for the raster row's
+error — its error falls as 1/sqrt(spp) (Monte Carlo), extrapolated from its
+highest-spp row — divided by the raster row's time.
 
 The image-based renderer (Heidrich et al. 1997) gets its rows beside them at
 :data:`IMAGEBASED_SAMPLES` lens samples (warm frames: its plan kept), on every case and on
@@ -35,7 +39,12 @@ from eyelab.core.errors import SpecError
 from eyelab.core.fileio import atomic_path, json_default
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import View
-from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQuality
+from eyelab.imaging.options import (
+    DEFAULT_SAMPLES,
+    ImageBasedQuality,
+    RasterQuality,
+    ReferenceQuality,
+)
 from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.prescription import Prescription
@@ -252,11 +261,11 @@ def _measure_case(sname, cname, scene, eye, lens, view, lad: _Ladders) -> dict:
 
 
 def _raster_rows(scene, eye, lens, view, truth, raster_s) -> list:
-    """The raster renderer (reconstruction on) at each S: first frame and the best of 3
+    """The raster renderer (default quality but S) at each S: first frame and the best of 3
     steady-state frames, error against ``truth``."""
     rows = []
     for s in raster_s:
-        with RasterRenderer(RasterQuality(samples=s, reconstruct=True)) as r:
+        with RasterRenderer(RasterQuality(samples=s)) as r:
             t = time.perf_counter()
             r.render(scene, eye, lens, view)
             cold = time.perf_counter() - t
@@ -291,13 +300,17 @@ def _reference_rows(scene, eye, lens, view, truth, ref_spp) -> list:
 
 def _compare_at_equal_time(case) -> None:
     """Add to each raster row the reference's RMSE interpolated (log-log) at the raster
-    row's time, and whether the raster error is below it."""
+    row's time, whether the raster error is below it, and the equal-error speed-up: the
+    reference's time for the raster row's RMSE (its highest-spp row's time x (its RMSE /
+    the raster's)^2: Monte Carlo error ~ 1/sqrt(spp), time ~ spp) over the raster's."""
     rt = np.array([m["time_s"] for m in case["reference"]])
     re = np.array([m["rmse"] for m in case["reference"]])
     for m in case["raster"]:
         m["reference_rmse_at_same_time"] = float(np.exp(np.interp(
             np.log(m["time_s"]), np.log(rt), np.log(re))))
         m["raster_wins_at_same_time"] = m["rmse"] < m["reference_rmse_at_same_time"]
+        m["reference_time_at_same_error_s"] = float(rt[-1] * (re[-1] / m["rmse"]) ** 2)
+        m["speedup_at_equal_error"] = m["reference_time_at_same_error_s"] / m["time_s"]
 
 
 def _camera_cases(w, h, truth_spp, ref_spp, quick, truth_cache, omit=(), only=None):
@@ -367,7 +380,10 @@ def _case_row(case):
                 f"{ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
                 f"{case['truth_spp']} spp{ib}")
     s32 = [m for m in case["raster"] if m["samples"] == 32][0]
-    return (f"{case['scene']:>12} {case['config']:>22}: raster S=32 SSIM {s32['ssim']:.4f} "
+    d = _default_row(case)
+    return (f"{case['scene']:>12} {case['config']:>22}: raster default (S={d['samples']}) SSIM "
+            f"{d['ssim']:.4f} in {d['time_s'] * 1e3:.0f} ms, x{d['speedup_at_equal_error']:.0f}"
+            f" the reference at equal error; S=32 SSIM {s32['ssim']:.4f} "
             f"PSNR {s32['psnr_db']:.1f} dB in {s32['time_s'] * 1e3:.0f} ms; reference "
             f"{ref['spp']} spp SSIM {ref['ssim']:.4f} in {ref['time_s'] * 1e3:.0f} ms; truth "
             f"{case['truth_spp']} spp at {case['truth_rays_per_s'] / 1e6:.2f} M rays/s{var}"
@@ -381,6 +397,8 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
     camera_cases = list(camera_cases)
     if not cases and not camera_cases:
         raise SpecError("configs", "no case ran; name at least one configuration")
+    for c in cases:                     # derived from the rows: recomputed when merging
+        _compare_at_equal_time(c)
     rows = [_case_row(c) for c in cases + camera_cases]
     truth_spp = sorted({c["truth_spp"] for c in cases + camera_cases})
     checks = {} if not cases else _raster_checks(cases)
@@ -396,6 +414,10 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
            "cases": cases, "camera_cases": camera_cases, "checks": checks,
            "summary": rows}
     if cases:
+        rows.append(f"default quality (S={DEFAULT_SAMPLES}): min SSIM "
+                    f"{checks['raster_ssim_at_default_min']:.4f}; equal-error speed-up over "
+                    f"the reference median x{checks['speedup_at_equal_error_median']:.0f}, "
+                    f"min x{checks['speedup_at_equal_error_min']:.0f}")
         rows.append(f"min raster SSIM at S=32: {checks['raster_ssim_at_32_min']:.4f}; raster "
                     f"error below the reference's at equal time: S=8 in "
                     f"{checks['raster_wins_fraction_S8'] * 100:.0f} % of cases, all S in "
@@ -407,17 +429,30 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
                     f"at {max(checks['imagebased_samples'])} lens samples (angle threshold "
                     f"{IMAGEBASED_THRESHOLD_DEG}°)")
     if plot_path:
-        _plot(cases + camera_cases, plot_path)
+        from eyelab.bench.qualityplot import plot_error_vs_time
+
+        plot_error_vs_time(cases + camera_cases, plot_path)
         out["plot"] = str(plot_path)
     return out
+
+
+def _default_row(case) -> dict:
+    """The case's raster row at the default quality (S = DEFAULT_SAMPLES)."""
+    return next(m for m in case["raster"] if m["samples"] == DEFAULT_SAMPLES)
 
 
 def _raster_checks(cases) -> dict:
     """The raster renderer's acceptance numbers over ``cases``."""
     wins = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]]
+    default = [_default_row(c) for c in cases]
+    speedups = [m["speedup_at_equal_error"] for m in default]
     s8 = [m["raster_wins_at_same_time"] for c in cases for m in c["raster"]
           if m["samples"] == 8]
     return {
+        "default_samples": DEFAULT_SAMPLES,
+        "raster_ssim_at_default_min": min(m["ssim"] for m in default),
+        "speedup_at_equal_error_median": float(np.median(speedups)),
+        "speedup_at_equal_error_min": float(np.min(speedups)),
         "raster_ssim_at_32_min": min(m["ssim"] for c in cases for m in c["raster"]
                                      if m["samples"] == 32),
         # the interactive setting: S = 8 passes against the reference given the same time
@@ -446,42 +481,3 @@ def merge_results(results, plot_path=None) -> dict:
                     camera_cases=[c for r in results for c in r.get("camera_cases", [])])
     out["omitted"] = sorted({o for r in results for o in r.get("omitted", [])})
     return out
-
-
-def _plot(cases, path):
-    """Error (RMSE, 1 - SSIM) against wall time: one line per case and method; colour =
-    scene, solid circles = raster (S = 1, 2, 4 ...), dashed squares = reference (spp)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.lines import Line2D
-
-    names = sorted({c["scene"] for c in cases})
-    colour = {n: f"C{i}" for i, n in enumerate(names)}
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), dpi=100)
-    for ax, key, label in ((axes[0], "rmse", "RMSE vs converged reference (linear RGB)"),
-                           (axes[1], "ssim", "1 - SSIM vs converged reference")):
-        for c in cases:
-            for meth, style in (("raster", "o-"), ("reference", "s--"), ("imagebased", "^:")):
-                if meth not in c:
-                    continue
-                t = [m["time_s"] for m in c[meth]]
-                e = [m[key] if key == "rmse" else max(1.0 - m[key], 1e-5) for m in c[meth]]
-                ax.loglog(t, e, style, color=colour[c["scene"]], alpha=0.55, ms=3, lw=1)
-        ax.set_xlabel("wall time per image (s)")
-        ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.2)
-    handles = [Line2D([], [], color="k", marker="o", ls="-", ms=3, label="raster (S passes)"),
-               Line2D([], [], color="k", marker="s", ls="--", ms=3,
-                      label="reference (spp)"),
-               Line2D([], [], color="k", marker="^", ls=":", ms=3,
-                      label="image-based (lens samples)")]
-    handles += [Line2D([], [], color=colour[n], lw=2, label=n) for n in names]
-    axes[1].legend(handles=handles, fontsize=7)
-    configs_ = sorted({c["config"] for c in cases})
-    fig.suptitle(f"eyelab: error against time ({len(cases)} cases; "
-                 f"{', '.join(configs_)})", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)

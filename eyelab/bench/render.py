@@ -1,5 +1,7 @@
 """``eyelab bench render``: frame times of the raster renderer, per stage, and what each
-skip saves.
+skip saves; the default-quality frame (the built-in spec at 1024 x 768, naked and through
+its lens), old against new with ``against`` (:mod:`eyelab.bench.frames`); and, from a
+quality benchmark's JSON, its equal-error speed-ups over the reference renderer.
 
 Scenes of ~10k and ~100k triangles (boxes spread from 0.3 to 6 m, one mesh) at the given
 size, S = 1, 10, 32, through a lens and without. Steady-state frames (caches warm) are
@@ -56,13 +58,37 @@ def _frame(r, scene, eye, lens, view, repeats):
     return best
 
 
+def equal_error_table(quality: dict) -> dict:
+    """From a quality benchmark's result: per case the default-quality raster row's SSIM,
+    time and equal-error speed-up over the reference (recomputed from the rows), their
+    median and minimum."""
+    from eyelab.bench.quality import _default_row, merge_results
+    from eyelab.core.errors import SpecError
+
+    if not isinstance(quality, dict) or quality.get("benchmark") != "quality" or not \
+            quality.get("cases"):
+        raise SpecError("--quality", "not a quality benchmark's JSON with cases")
+    q = merge_results([quality])
+    rows = [{"scene": c["scene"], "config": c["config"], **{k: _default_row(c)[k] for k in (
+        "samples", "ssim", "time_s", "speedup_at_equal_error")}} for c in q["cases"]]
+    sp = [r["speedup_at_equal_error"] for r in rows]
+    return {"preset": q["preset"], "size": q["size"], "rows": rows,
+            "median": float(np.median(sp)), "min": float(np.min(sp))}
+
+
 def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), samples=(1, 10, 32),
-                     repeats=2) -> dict:
+                     repeats=2, *, against: str | None = None, quality: dict | None = None
+                     ) -> dict:
     rx = Prescription(-3.0, -1.0, 180)
     eye = Eye.from_rx(rx, accommodation_max=1.0)
     lens = SpectacleLens.from_rx(rx)
     rows = []
-    bar = progress_bar(len(triangles) * len(samples) + 2, "render bench", "row")
+    rounds = 2
+    bar = progress_bar(len(triangles) * len(samples) + 2 + rounds * (2 if against else 1),
+                       "render bench", "row")
+    from eyelab.bench.frames import default_frames
+
+    default = default_frames(against, rounds=rounds, progress=bar)
     for n in triangles:
         scene = boxes_scene(n)
         for s in samples:
@@ -112,9 +138,14 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
         "one_wavelength": skips["lens_in_view"] / skips["one_wavelength"],
         "one_wavelength_no_lens": skips["no_lens"] / skips["one_wavelength_no_lens"],
         "caches_reused": skips["cold_frame_new_eye"] / skips["warm_frame"]}
-    out = {"benchmark": "render", "size": [width, height], "rows": rows, "skip_times_s": skips,
-           "skip_speedups": speedups}
-    lines = []
+    out = {"benchmark": "render", "size": [width, height], "default_frame": default,
+           "rows": rows, "skip_times_s": skips, "skip_speedups": speedups}
+    lines = _default_lines(default)
+    if quality is not None:
+        out["equal_error"] = table = equal_error_table(quality)
+        lines.append(f"equal-error speed-up over the reference ({table['preset']} quality "
+                     f"bench, {table['size'][0]}x{table['size'][1]}, default quality): median "
+                     f"x{table['median']:.0f}, min x{table['min']:.0f}")
     for r_ in rows:
         lines.append(f"{r_['triangles']:>7} tris S={r_['samples']:<3} {r_['view']:>12}: "
                      f"{r_['frame_s'] * 1e3:7.1f} ms ({r_['fps']:.1f} fps), GL "
@@ -123,3 +154,21 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     lines.append("skip speed-ups: " + ", ".join(f"{k} x{v:.2f}" for k, v in speedups.items()))
     out["summary"] = lines
     return out
+
+
+def _default_lines(d: dict) -> list:
+    """Summary lines of :func:`eyelab.bench.frames.default_frames`' result."""
+    w, h = d["size"]
+    lines = []
+    for label in ("old", "new"):
+        if label in d:
+            q = d[label]["quality"]
+            lines.append(f"default frame {w}x{h} ({label}: S={q.get('samples')}, filter "
+                         f"{q.get('reconstruct')}, env x{q.get('env_oversample')}): naked "
+                         f"{d[label]['naked'] * 1e3:.0f} ms, through the lens "
+                         f"{d[label]['through_lens'] * 1e3:.0f} ms")
+    if "speedup" in d:
+        lines.append(f"new vs old ({d['against']['ref']} = {d['against']['commit'][:10]}): "
+                     f"naked x{d['speedup']['naked']:.2f}, through the lens "
+                     f"x{d['speedup']['through_lens']:.2f}")
+    return lines

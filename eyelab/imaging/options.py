@@ -16,6 +16,12 @@ from eyelab.core.errors import SpecError
 
 #: Passes of the raster renderer are 8-bit read-backs summed in uint16: exact up to 256.
 MAX_PASSES = 256
+#: The raster renderer's default S: with the reconstruction filter (on by default) 8 passes
+#: give no ghosting at any blur size — the filter carries up to RECON_MAX_FRACTION of the
+#: blur's variance, and 8 samples of a disc are then spaced by at most 2 filter sigmas
+#: (docs/bench/quality_*.json: every case at SSIM >= 0.97 against the converged reference
+#: at S = 8, filter on).
+DEFAULT_SAMPLES = 8
 #: Blur-field routes of the raster renderer: "texture" (3D texture sampled in the vertex
 #: shader, docs/VTK_NOTES.md Q2, route A) or "attribute" (per-vertex look-up on the CPU,
 #: route D).
@@ -57,11 +63,11 @@ class RasterQuality:
                               "render.lens_rings": (2, 256), "render.lens_segments": (8, 1024),
                               "render.lens_grid_px": (1, 64), "render.env_oversample": (0.5, 4)}
 
-    samples: int = 10
+    samples: int = DEFAULT_SAMPLES
     field_shape: tuple = (128, 32, 32)
     depth_mode: str = "ndc"
     refine: bool = True
-    reconstruct: bool = False
+    reconstruct: bool = True
     antialias: bool = True
     skip_unneeded: bool = True
     chromatic: bool = True
@@ -69,7 +75,7 @@ class RasterQuality:
     lens_rings: int = 24
     lens_segments: int = 96
     lens_grid_px: int = 8
-    env_oversample: float = 1.5
+    env_oversample: float = 1.0
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
 

@@ -40,6 +40,15 @@ def set_tcoords(pd, uv) -> None:
     pd.Modified()
 
 
+def add_point_array(pd, name: str, values) -> None:
+    """Attach an (n,) or (n, k) array to polydata's point data as float32 under ``name``
+    (replacing one of that name), e.g. a shader's vertex attribute."""
+    arr = _vtk.numpy_to_vtk(np.ascontiguousarray(values, dtype=np.float32), deep=True)
+    arr.SetName(name)
+    pd.GetPointData().AddArray(arr)
+    pd.Modified()
+
+
 def image_data(img_top_first):
     """vtkImageData of an (h, w, 3) uint8 image with row 0 at the top (VTK wants bottom)."""
     data = _vtk.vtkImageData()

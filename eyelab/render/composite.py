@@ -2,9 +2,12 @@
 
 The lens is drawn from the eye as a grid mesh on its back surface, textured with the
 blurred environment image at the per-vertex texture coordinates of the exactly refracted
-rays (one draw per colour channel when the lens disperses). Its outline, the pixels whose
-rays fail in the lens (drawn in a defined 'invalid' colour) and the rim come from the
-polar outline mesh. Actors are built once per compositor and their data updated.
+rays, in one draw: each colour channel at its own wavelength's coordinates (vertex
+attributes ``uvR`` / ``uvB`` beside VTK's tcoord for green) and times the lens's Fresnel
+transmittance (attribute ``lensT``), in linear light (``shaders/lensview.*.glsl``). Its
+outline, the pixels whose rays fail in the lens (drawn in a defined 'invalid' colour) and
+the rim come from the polar outline mesh. Actors are built once per compositor and their
+data updated.
 """
 
 from __future__ import annotations
@@ -14,10 +17,9 @@ from contextlib import contextmanager
 import numpy as np
 
 from eyelab.core.cache import LRUCache
-from eyelab.core.color import decode_srgb
 from eyelab.render import _vtk
-from eyelab.render.accumulate import encode_linear
 from eyelab.render.actors import (
+    add_point_array,
     image_data,
     polydata,
     set_geometry,
@@ -25,7 +27,11 @@ from eyelab.render.actors import (
     set_tcoords,
     unlit_actor,
 )
-from eyelab.render.window import OffscreenWindow, inject_fragment
+from eyelab.render.window import OffscreenWindow, inject_fragment, inject_vertex
+
+#: The lens grid's own vertex attributes (besides VTK's tcoord, the green channel's
+#: coordinates): the red and blue channels' coordinates and the transmittance (R, G, B).
+LENS_ATTRIBUTES = ("uvR", "uvB", "lensT")
 
 
 class LensCompositor:
@@ -46,8 +52,15 @@ class LensCompositor:
         self._pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
         self._actor = unlit_actor(self._pd, tex)
         sp = _vtk.vtkOpenGLShaderProperty()
-        inject_fragment(sp, "encode_srgb.frag")   # ... and re-encoded for the framebuffer
+        for name in ("lensview.dec", "lensview.impl"):
+            inject_vertex(sp, name)
+        for name in ("lensview.frag.dec", "lensview.frag"):   # ... and re-encoded
+            inject_fragment(sp, name)
         self._actor.SetShaderProperty(sp)
+        mapper = self._actor.GetMapper()
+        for name in LENS_ATTRIBUTES:
+            mapper.MapDataArrayToVertexAttribute(
+                name, name, _vtk.vtkDataObject.FIELD_ASSOCIATION_POINTS, -1)
         self._grid_key = None
         self._mask_pd = polydata(np.zeros((3, 3)), np.array([[0, 1, 2]]))
         self._mask_actor = unlit_actor(self._mask_pd)
@@ -78,30 +91,31 @@ class LensCompositor:
             for a in saved:
                 a.VisibilityOn()
 
-    def lens_view(self, env_rgba: np.ndarray, grid_v, grid_f, uv_sets, grid_key
-                  ) -> np.ndarray:
+    def lens_view(self, env_rgba: np.ndarray, grid_v, grid_f, uv_sets, transmittance,
+                  grid_key) -> np.ndarray:
         """(h, w, 3) uint8, row 0 at the top: the lens grid (vertices (n, 3), faces) textured
         with ``env_rgba`` (h_e, w_e, 4) uint8 (GL row order, opaque) at ``uv_sets``
-        (channels, n, 2): channel c of the result from set c (one set: all channels)."""
+        (channels, n, 2) — channel c of the result from set c (R, G, B), or every channel
+        from a single set — times ``transmittance`` (channels, n) or None (1), in one
+        draw. The grid's attributes are uploaded when ``grid_key`` changes."""
         if grid_key != self._grid_key:
             set_geometry(self._pd, grid_v, grid_f)
+            uv = [uv_sets[0]] * 3 if len(uv_sets) == 1 else list(uv_sets)
+            set_tcoords(self._pd, uv[1])
+            n = len(grid_v)
+            t = (np.ones((3, n)) if transmittance is None
+                 else np.broadcast_to(np.asarray(transmittance, float), (3, n)))
+            for name, arr in (("uvR", uv[0]), ("uvB", uv[2]), ("lensT", t.T)):
+                add_point_array(self._pd, name, arr)
             self._grid_key = grid_key
         set_image_rgba_gl(self._image, env_rgba)
-        out = None
         with self._lens_stage() as ren:
             ren.AddActor(self._actor)
             try:
-                for ch, uv in enumerate(uv_sets):
-                    set_tcoords(self._pd, uv)
-                    rgba = self.window.grab_rgba()           # GL order: row 0 at the bottom
-                    if len(uv_sets) == 1:
-                        return rgba[::-1, :, :3].copy()
-                    if out is None:
-                        out = np.empty(rgba.shape[:2] + (3,), np.uint8)
-                    out[..., ch] = rgba[::-1, :, ch]
+                rgba = self.window.grab_rgba()           # GL order: row 0 at the bottom
             finally:
                 ren.RemoveActor(self._actor)
-        return out
+        return rgba[::-1, :, :3].copy()
 
     def masks(self, lens_v, lens_f, valid, key):
         """(invalid, inside, rim) (h, w) bool masks of the lens outline mesh: inside the
@@ -136,17 +150,10 @@ class LensCompositor:
             actor.SetTexture(None)
 
 
-def compose(naked, lens_img, masks, rim_color, invalid_color, *, transmittance=None
-            ) -> np.ndarray:
-    """The lens view inside the outline (times the lens's Fresnel ``transmittance`` (h, w,
-    channels), applied in linear light), the naked view around it, the invalid pixels and
+def compose(naked, lens_img, masks, rim_color, invalid_color) -> np.ndarray:
+    """The lens view inside the outline, the naked view around it, the invalid pixels and
     the rim in their colours. All (h, w, 3) uint8 / (h, w) bool."""
     invalid, inside, rim = masks
-    if transmittance is not None:
-        sel = inside & ~invalid & ~rim
-        lin = decode_srgb(lens_img[sel]) * transmittance[sel]
-        lens_img = lens_img.copy()
-        lens_img[sel] = encode_linear(lin)
     out = np.where(inside[..., None], lens_img, naked)
     out[invalid] = invalid_color
     out[rim] = rim_color

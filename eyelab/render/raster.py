@@ -474,12 +474,12 @@ class RasterRenderer(Renderer):
             self._compositor = LensCompositor(self._eye_win, self.caches["small"])
         geo = env["geo"]
         lens_img = self._compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
-                                              geo["tc_grid"].uv, env["geo_key"])
+                                              geo["tc_grid"].uv, geo["transmittance"],
+                                              env["geo_key"])
         masks = self._compositor.masks(geo["lens_v"], geo["lens_f"],
                                        geo["tc"].lens_ok.all(0),
                                        ("masks", env["geo_key"], self._eye_win.size))
-        image = compose(image, lens_img, masks, q.rim_color, q.invalid_color,
-                        transmittance=geo["transmittance"])
+        image = compose(image, lens_img, masks, q.rim_color, q.invalid_color)
         invalid, inside, _ = masks
         report["details"]["lens"].update(pixels_inside=int(inside.sum()),
                                          pixels_invalid=int(invalid.sum()))

@@ -67,32 +67,23 @@ def lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:
     """Lens outline mesh, view grid mesh and their texture coordinates (§3)."""
     inter = EmbreeIntersector(scene)
     lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
-    gv, gf, axes = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
+    gv, gf, _ = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
     tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls, pupil=cam.position)
     # the grid's coordinates through the lens extended beyond its rim (the outline mask
     # clips it), so that rim cells are filled
     tcg = lens_texcoords(widened_lens(lens), gv, vcam, inter, wavelengths=wls,
                          pupil=cam.position)
     return {"lens_v": lv, "lens_f": lf, "grid_v": gv, "grid_f": gf, "tc": tc, "tc_grid": tcg,
-            "transmittance": transmittance_map(tcg.transmittance, axes, view)}
+            "transmittance": grid_transmittance(tcg.transmittance)}
 
 
-def transmittance_map(t_grid, axes, view) -> np.ndarray | None:
-    """(h, w, channels) float32 Fresnel transmittance per pixel (row 0 at the top), bilinear
-    between the lens grid's vertices (``t_grid`` (channels, ny * nx) on the NDC ``axes``);
-    None when the lens transmits everything (an index-1 lens)."""
-    from scipy.ndimage import map_coordinates
-
-    gx, gy = axes
-    t = np.asarray(t_grid, float).reshape(len(t_grid), len(gy), len(gx))
-    if np.all(t >= 1.0):
-        return None
-    x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
-    y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
-    fy, fx = np.meshgrid((y - gy[0]) / (gy[1] - gy[0]), (x - gx[0]) / (gx[1] - gx[0]),
-                         indexing="ij")
-    return np.stack([map_coordinates(tc, [fy, fx], order=1, mode="nearest")
-                     for tc in t], axis=-1).astype(np.float32)
+def grid_transmittance(t_grid) -> np.ndarray | None:
+    """The lens grid's Fresnel transmittance (channels, n) (of its vertices' rays), None when
+    the lens transmits everything (an index-1 lens). The lens view interpolates it across
+    the grid's triangles (within a cell of ``lens_grid_px``, where it varies by far less
+    than an 8-bit code)."""
+    t = np.asarray(t_grid, float)
+    return None if np.all(t >= 1.0) else t
 
 
 def progressive_checkpoints(samples):

@@ -26,8 +26,9 @@ SPARE_ACTORS = 48
 #: Field textures a window keeps uploaded (one per colour channel, plus one spare).
 FIELD_TEXTURES = 4
 
-#: Fragment shader tags used (the late hook after VTK has set ``fragOutput0``).
-FRAGMENT_TAGS = ("//VTK::DepthPeeling::Impl",)
+#: Fragment shader tags used: the late hook after VTK has set ``fragOutput0``, and the
+#: texture-coordinate declarations (where inputs of a vertex shader's outputs go).
+FRAGMENT_TAGS = ("//VTK::DepthPeeling::Impl", "//VTK::TCoord::Dec")
 
 #: The shader files of each blur-field route (see :class:`OffscreenWindow.use_field`).
 ROUTE_SHADERS = {"attribute": ("displace.dec", "displace.impl"),

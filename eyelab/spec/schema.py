@@ -4,8 +4,9 @@ meaning, in one list (:data:`KEYS`).
 A range is declared once. Where the engine checks a value itself — the eye, the lens, a
 progressive design (``LIMITS`` of :mod:`eyelab.optics.eye`, ``.lens``, ``.progressive``),
 the view and each renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View`
-and of the quality classes) — the schema takes the range from there (``eye.rx``'s powers
-derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows are :data:`SPEC_LIMITS`.
+and of the quality classes, whose defaults too) — the schema takes the range from there
+(``eye.rx``'s powers derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows
+are :data:`SPEC_LIMITS`.
 The parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the README's
 tables are generated from :data:`KEYS` (:mod:`eyelab.spec.docs`), and so is the bad-spec
 corpus (``tests/badspecs.py``); ``tests/test_specdoc.py`` checks that every key is
@@ -14,7 +15,6 @@ accepted at both ends of its range and refused just beyond, naming itself.
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field
 
@@ -45,6 +45,7 @@ from eyelab.scene.scene import UNITS
 from eyelab.spec.eyerx import eye_rx_text
 from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
 from eyelab.spec.surfacefile import POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
+from eyelab.spec.valuetext import number_text, option_default
 
 #: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
 DOUBLET_FULL_F_NUMBER = float(full_f_number(get_system("doublet")))
@@ -176,8 +177,9 @@ class Key:
     def __post_init__(self):
         if self.lo is None and not self.choices and self.kind not in ("text", "boolean"):
             lo, hi = range_of(f"{self.table}.{self.key}", self.renderer)
-            object.__setattr__(self, "lo", lo)
-            object.__setattr__(self, "hi", hi)
+            self.__dict__.update(lo=lo, hi=hi)          # frozen: set once, here
+        if self.default is None:                     # a renderer option's: its class's
+            self.__dict__.update(default=option_default(self.renderer, self.key))
 
     def range(self) -> str:
         if self.range_text:
@@ -186,16 +188,8 @@ class Key:
             return ", ".join(f'`"{c}"`' for c in self.choices)
         if self.lo is None:
             return ""
-        lo = "" if self.lo_open else _num(self.lo)
-        return f"{'> ' + _num(self.lo) + ', ≤ ' if self.lo_open else lo + '–'}{_num(self.hi)}"
-
-
-def _num(v) -> str:
-    if v == 2**63 - 1:
-        return "2⁶³ − 1"
-    if abs(v) >= 1e5 and math.log10(abs(v)).is_integer():
-        return f"{'−' if v < 0 else ''}1e{int(math.log10(abs(v)))}"
-    return f"{v:g}".replace("-", "−")
+        lo, hi = number_text(self.lo), number_text(self.hi)
+        return f"> {lo}, ≤ {hi}" if self.lo_open else f"{lo}–{hi}"
 
 
 KEYS = [
@@ -384,71 +378,71 @@ KEYS = [
     Key("render", "chromatic", "boolean", "", "true", "each colour channel with its own "
         "light paths and blur (C, e, F lines) where the lens disperses or the eye has its "
         "own chromatic aberration; false: one wavelength"),
-    Key("render", "samples", "integer", "", "10", "passes S",
+    Key("render", "samples", "integer", "", None, "passes S",
         renderer="raster", base={"render": {"renderer": "raster"}}),
-    Key("render", "field_shape", "triple", "voxels", "[128, 32, 32]", "blur-field grid "
+    Key("render", "field_shape", "triple", "voxels", None, "blur-field grid "
         "[nz, ny, nx] (integers)", renderer="raster", integers=True,
         base={"render": {"renderer": "raster", "field_shape": [8, 8, 8]}}),
-    Key("render", "depth_mode", "choice", "", '`"ndc"`', "slices uniform in NDC z "
+    Key("render", "depth_mode", "choice", "", None, "slices uniform in NDC z "
         "(dioptres) or in metres", choices=DEPTH_MODES, renderer="raster"),
-    Key("render", "refine", "boolean", "", "true", "adaptive tessellation where the field "
+    Key("render", "refine", "boolean", "", None, "adaptive tessellation where the field "
         "is not linear along edges", renderer="raster"),
-    Key("render", "reconstruct", "boolean", "", "false", "per-pixel blur-shaped Gaussian "
+    Key("render", "reconstruct", "boolean", "", None, "per-pixel blur-shaped Gaussian "
         "reconstruction against ghosting, variance-compensated (the blur's size kept)",
         renderer="raster"),
-    Key("render", "antialias", "boolean", "", "true", "a sub-pixel jitter per pass",
+    Key("render", "antialias", "boolean", "", None, "a sub-pixel jitter per pass",
         renderer="raster"),
-    Key("render", "skip_unneeded", "boolean", "", "true", "skip passes the frame does not "
+    Key("render", "skip_unneeded", "boolean", "", None, "skip passes the frame does not "
         "need", renderer="raster"),
-    Key("render", "field_route", "choice", "", '`"texture"`', "field sampled in the "
+    Key("render", "field_route", "choice", "", None, "field sampled in the "
         "vertex shader or per vertex on the CPU", choices=FIELD_ROUTES, renderer="raster"),
-    Key("render", "lens_rings", "integer", "", "24", "lens outline mesh: rings",
+    Key("render", "lens_rings", "integer", "", None, "lens outline mesh: rings",
         renderer="raster"),
-    Key("render", "lens_segments", "integer", "", "96", "lens outline mesh: segments",
+    Key("render", "lens_segments", "integer", "", None, "lens outline mesh: segments",
         renderer="raster"),
-    Key("render", "lens_grid_px", "integer", "px", "8", "spacing of the lens mesh that "
+    Key("render", "lens_grid_px", "integer", "px", None, "spacing of the lens mesh that "
         "carries texture coordinates", renderer="raster"),
-    Key("render", "env_oversample", "number", "", "1.5", "environment-image density "
+    Key("render", "env_oversample", "number", "", None, "environment-image density "
         "relative to the eye view's", renderer="raster"),
-    Key("render", "rim_color", "triple", "sRGB 0–255", "[30, 30, 30]", "the lens rim",
+    Key("render", "rim_color", "triple", "sRGB 0–255", None, "the lens rim",
         renderer="raster", integers=True),
-    Key("render", "invalid_color", "triple", "sRGB 0–255", "[128, 128, 128]", "pixels "
+    Key("render", "invalid_color", "triple", "sRGB 0–255", None, "pixels "
         "whose rays fail in the lens", renderer="raster", integers=True),
-    Key("render", "samples", "integer", "", "64", "rays per pixel and colour channel",
+    Key("render", "samples", "integer", "", None, "rays per pixel and colour channel",
         renderer="reference", base={"render": {"renderer": "reference"}}),
-    Key("render", "model", "choice", "", '`"thin"`', "Kakimoto's thin toric eye or Fons "
+    Key("render", "model", "choice", "", None, "Kakimoto's thin toric eye or Fons "
         "et al.'s reduced-eye sampling", choices=MODELS, renderer="reference",
         base={"render": {"renderer": "reference"}}),
-    Key("render", "fons_n", "integer", "", "4", "radii of the Fons pupil pattern",
+    Key("render", "fons_n", "integer", "", None, "radii of the Fons pupil pattern",
         renderer="reference", base={"render": {"renderer": "reference"}}),
-    Key("render", "fons_m", "integer", "", "8", "diameters of the Fons pupil pattern",
+    Key("render", "fons_m", "integer", "", None, "diameters of the Fons pupil pattern",
         renderer="reference", base={"render": {"renderer": "reference"}}),
-    Key("render", "seed", "integer", "", "0", "per-pixel rotations and jitter "
+    Key("render", "seed", "integer", "", None, "per-pixel rotations and jitter "
         "(deterministic)", renderer="reference",
         base={"render": {"renderer": "reference"}}),
     Key("render", "workers", "integer", "", "every core", "threads",
         renderer="reference", base={"render": {"renderer": "reference"}}),
-    Key("render", "accommodation", "choice", "", '`"eq13"`', "per-pixel accommodation: "
+    Key("render", "accommodation", "choice", "", None, "per-pixel accommodation: "
         "Eq. 13 (as the blur field) or the real-ray retinal spot's RMS minimum",
         choices=ACCOMMODATION_RULES, renderer="reference",
         base={"render": {"renderer": "reference"}}),
-    Key("render", "samples", "integer", "", "10", "lens (pupil) sample points, each a set "
+    Key("render", "samples", "integer", "", None, "lens (pupil) sample points, each a set "
         "of perspective renders", renderer="imagebased", base=IB),
-    Key("render", "grid", "integer", "", "10", "film grid quads per side of each "
+    Key("render", "grid", "integer", "", None, "film grid quads per side of each "
         "quad-tree cell", renderer="imagebased", base=IB),
-    Key("render", "angle_threshold_deg", "number", "deg", "0.05", "split a cell while a "
+    Key("render", "angle_threshold_deg", "number", "deg", None, "split a cell while a "
         "traced ray and its projection's ray part by more",
         renderer="imagebased", base=IB),
-    Key("render", "max_depth", "integer", "", "3", "deepest quad-tree level",
+    Key("render", "max_depth", "integer", "", None, "deepest quad-tree level",
         renderer="imagebased", base=IB),
-    Key("render", "cop", "choice", "", '`"angle"`', "centre of projection: maximum sum "
+    Key("render", "cop", "choice", "", None, "centre of projection: maximum sum "
         "cos² (Heidrich §3.3) or least-squares distance", choices=COP_FITS,
         renderer="imagebased", base=IB),
-    Key("render", "oversample", "number", "", "2", "slice pixels per film pixel",
+    Key("render", "oversample", "number", "", None, "slice pixels per film pixel",
         renderer="imagebased", base=IB),
-    Key("render", "max_slice", "integer", "px", "2048", "largest slice side",
+    Key("render", "max_slice", "integer", "px", None, "largest slice side",
         renderer="imagebased", base=IB),
-    Key("render", "radiometry", "choice", "", '`"auto"`', "film irradiance (Eq. 3; a "
+    Key("render", "radiometry", "choice", "", None, "film irradiance (Eq. 3; a "
         "camera's vignetting shows), radiance (Eq. 3 over sum W: what an eye sees), or "
         "auto (irradiance for a camera, radiance for an eye)", choices=RADIOMETRY,
         renderer="imagebased", base=IB),
@@ -478,8 +472,7 @@ KEYS = [
     Key("render.scene", "scale", "number", "", "1", "a further scale factor",
         base={"render": {"scene": {"path": "room"}}}),
     Key("render.scene", "rotation_deg", "triple", "deg", "[0, 0, 0]", "rotations about x, "
-        "then y, then z (world axes)",
-        base={"render": {"scene": {"path": "room"}}}),
+        "then y, then z (world axes)", base={"render": {"scene": {"path": "room"}}}),
     Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
         "goes (the pupil is at the origin, looking along −z)",
         base={"render": {"scene": {"path": "room"}}}),

@@ -1,0 +1,121 @@
+"""The default-quality frame, old against new: the built-in spec's eye at 1024 x 768, naked
+and through its lens, warm frames, each code version in its own process, the versions'
+processes interleaved so that they share the machine's noise (``eyelab bench render
+--against REF``). An earlier version is checked out with ``git worktree`` into a
+temporary folder and imported from there (``PYTHONPATH``); it must have
+``eyelab.jobs.api.as_spec`` / ``with_render`` and ``eyelab.jobs.render.render_spec``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import eyelab
+from eyelab.core.errors import SpecError
+
+#: The frame measured: the built-in spec at this size, at its renderer's defaults.
+DEFAULT_FRAME_SIZE = (1024, 768)
+
+#: Run in a fresh process of one code version: warm frames of the default spec, naked and
+#: through the lens, alternating; prints one JSON line (best and all times, the quality).
+FRAME_SCRIPT = r"""
+import json, sys, time
+from eyelab.jobs.api import as_spec, with_render
+from eyelab.jobs.render import render_spec
+from eyelab.imaging.registry import make_renderer
+w, h, repeats = json.loads(sys.argv[1])
+spec = with_render(as_spec(None), dict(width=w, height=h))
+rs = spec.render
+times = {"naked": [], "through_lens": []}
+with make_renderer(rs.renderer, rs.quality) as r:
+    for no_lens in (True, False):                     # cold frames: caches and shaders
+        render_spec(spec, no_lens=no_lens, renderer=r)
+    for _ in range(repeats):
+        for label, no_lens in (("naked", True), ("through_lens", False)):
+            t = time.perf_counter()
+            render_spec(spec, no_lens=no_lens, renderer=r)
+            times[label].append(time.perf_counter() - t)
+q = rs.quality
+print(json.dumps({"times_s": times,
+                  "quality": {k: getattr(q, k) for k in ("samples", "reconstruct",
+                                                         "env_oversample", "chromatic")
+                              if hasattr(q, k)}}))
+"""
+
+
+def _git(*args, cwd) -> str:
+    out = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SpecError("--against", f"git {' '.join(args)}: {out.stderr.strip()}")
+    return out.stdout.strip()
+
+
+@contextmanager
+def worktree(ref: str):
+    """A temporary ``git worktree`` of ``ref`` of the checkout eyelab is imported from;
+    yields (its folder, the commit). Refused (SpecError) outside a git checkout."""
+    here = Path(eyelab.__file__).resolve().parent.parent
+    if not (here / ".git").exists():
+        raise SpecError("--against", f"needs eyelab imported from a git checkout, not {here}")
+    commit = _git("rev-parse", "--verify", f"{ref}^{{commit}}", cwd=here)
+    with tempfile.TemporaryDirectory(prefix="eyelab-against-") as tmp:
+        path = Path(tmp) / "tree"
+        _git("worktree", "add", "--detach", str(path), commit, cwd=here)
+        try:
+            yield path, commit
+        finally:
+            _git("worktree", "remove", "--force", str(path), cwd=here)
+
+
+def _frames(root, size, repeats) -> dict:
+    """One process of the code at ``root`` (None: this one): FRAME_SCRIPT's result."""
+    env = dict(os.environ)
+    if root is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(root)] + [p for p in env.get(
+            "PYTHONPATH", "").split(os.pathsep) if p])
+    with tempfile.TemporaryDirectory() as cwd:
+        out = subprocess.run([sys.executable, "-P", "-c", FRAME_SCRIPT,
+                              json.dumps([size[0], size[1], repeats])],
+                             cwd=cwd, env=env, capture_output=True, text=True)
+    if out.returncode != 0:
+        raise RuntimeError(f"frame process failed: {out.stderr.strip()[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repeats=3,
+                   rounds=2, progress=None) -> dict:
+    """Best warm frame time (s) of the default spec, naked and through its lens, for this
+    code ("new") and, with ``against`` (a git ref), for that version ("old"), with the
+    ratios old / new. ``rounds`` processes per version, interleaved (old, new, old,
+    new, ...), ``repeats`` frames of each kind in each."""
+    runs = {"new": []}
+    with (worktree(against) if against else _null()) as tree:
+        roots = {"new": None}
+        if tree is not None:
+            roots = {"old": tree[0], "new": None}
+            runs["old"] = []
+        for _ in range(rounds):
+            for label, root in roots.items():
+                runs[label].append(_frames(root, size, repeats))
+                if progress is not None:
+                    progress.update(1)
+    out = {"size": list(size), "repeats": repeats, "rounds": rounds}
+    for label, results in runs.items():
+        out[label] = {kind: min(t for r in results for t in r["times_s"][kind])
+                      for kind in ("naked", "through_lens")}
+        out[label]["quality"] = results[0]["quality"]
+    if against:
+        out["against"] = {"ref": against, "commit": tree[1]}
+        out["speedup"] = {k: out["old"][k] / out["new"][k] for k in ("naked", "through_lens")}
+    return out
+
+
+@contextmanager
+def _null():
+    yield None

@@ -1,0 +1,4 @@
+//VTK::PositionVC::Impl
+  uvRVSOutput = uvR;
+  uvBVSOutput = uvB;
+  lensTVSOutput = lensT;
