@@ -141,7 +141,9 @@ def sigma_map(zbuf: np.ndarray, cam, field, vol: dict) -> dict:
     full = np.repeat(np.repeat(small, 2, 0), 2, 1)[:h, :w]
     major, minor = full[..., 0], full[..., 1]
     u = np.stack([full[..., 3], -full[..., 4]], -1)         # NDC y up -> image rows down
-    return {"minor": minor, "line": np.sqrt(np.maximum(major**2 - minor**2, 0.0)), "u": u}
+    line = np.sqrt(np.maximum(major**2 - minor**2, 0.0))
+    return {"minor": minor, "line": line, "u": u,
+            "filters": bool(minor.max() >= MIN_SIGMA or line.max() >= MIN_LINE_SIGMA)}
 
 
 def reconstruct(img: np.ndarray, sig: dict) -> np.ndarray:

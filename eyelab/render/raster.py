@@ -446,8 +446,9 @@ class RasterRenderer(Renderer):
 
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               sigma, report, "reconstruction_sigma")
-        lin = acc.mean_linear()
-        out = reconstruct(lin, sig)
+        out = lin = acc.mean_linear() if sig["filters"] else None
+        if sig["filters"]:
+            out = reconstruct(lin, sig)
         if out is lin:                     # no sigma reaches the filters' thresholds
             rgba = acc.mean_rgba()
         else:                              # filtered: encoded once, back to GL order
