@@ -16,8 +16,8 @@ BENCHES = {
     "render": ("raster frame times per stage and per skip; the default frame, old vs new",
                ("repeats", "against", "quality_json")),
     "quality": ("error against converged references vs time, every renderer",
-                ("preset", "plot", "truth_spp", "reference_spp", "configs", "scenes", "merge",
-                 "omit", "truth_cache")),
+                ("preset", "size", "plot", "truth_spp", "reference_spp", "configs", "scenes",
+                 "merge", "omit", "truth_cache")),
     "stability": ("random configurations against the engine and the renderers", ("preset",)),
     "memory": ("resident memory over many renders; estimate vs peak of mesh files",
                ("quick", "mesh_triangles", "memory_only")),
@@ -58,6 +58,8 @@ _BENCH_FLAGS = {
         help="points per wavefront-tracing batch (default 1e6)"),
     "repeats": lambda b, name: b.add_argument("--repeats", type=int, default=3,
                                               help="repeats, best taken (default 3)"),
+    "size": lambda b, name: b.add_argument(
+        "--size", metavar="WxH", help="image size instead of the preset's (16-4096 each)"),
     "plot": lambda b, name: b.add_argument("--plot", help="also write the error-vs-time "
                                            "plot (PNG) here"),
     "truth_spp": lambda b, name: b.add_argument(
@@ -140,7 +142,8 @@ def _bench_quality(args):
     if args.merge:
         return merge_results([_read_json("--merge", p) for p in args.merge],
                              plot_path=args.plot)
-    return run_quality_bench(quick=not args.full, plot_path=args.plot,
+    return run_quality_bench(quick=not args.full, size=_size("--size", args.size),
+                             plot_path=args.plot,
                              truth_spp=args.truth_spp,
                              ref_spp=_int_list("--reference-spp", args.reference_spp),
                              only_configs=_names(args.configs),
@@ -212,6 +215,19 @@ def _read_json(flag, path):
             return json.load(fh)
     except (OSError, ValueError) as e:
         raise SpecError(flag, f"cannot read {path}: {e}") from None
+
+
+def _size(flag, text):
+    """(w, h) of "WxH", each 16-4096, or None."""
+    if text is None:
+        return None
+    parts = text.lower().split("x")
+    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+        raise SpecError(flag, f"must be WxH, e.g. 320x240, got {text!r}")
+    w, h = (int(p) for p in parts)
+    check_range_int(flag, w, 16, 4096)
+    check_range_int(flag, h, 16, 4096)
+    return w, h
 
 
 def _names(text):

@@ -165,11 +165,21 @@ def test_bench_render_small(tmp_path, monkeypatch):
     import eyelab.bench.render as br
 
     orig = br.run_render_bench
-    monkeypatch.setattr(br, "run_render_bench", lambda repeats=1: orig(
-        width=96, height=72, triangles=(600,), samples=(1, 4), repeats=1))
+    monkeypatch.setattr(br, "run_render_bench", lambda repeats=1, against=None, quality=None:
+                        orig(width=96, height=72, triangles=(600,), samples=(1, 4), repeats=1,
+                             against=against, quality=quality))
     out = tmp_path / "r.json"
-    assert main(["bench", "render", "--repeats", "1", "-o", str(out)]) == 0
+    quality = tmp_path / "q.json"
+    quality.write_text(json.dumps(_quality_result()))
+    assert main(["bench", "render", "--repeats", "1", "--quality", str(quality),
+                 "-o", str(out)]) == 0
     res = json.loads(out.read_text())
+    frame = res["default_frame"]
+    assert frame["size"] == [96, 72] and "old" not in frame
+    assert frame["new"]["quality"]["samples"] == 8 and frame["new"]["naked"] > 0
+    # the quality result's equal-error speed-up: reference time x (its RMSE / raster's)^2
+    assert res["equal_error"]["rows"][0]["speedup_at_equal_error"] == pytest.approx(
+        10.0 * (0.04 / 0.01) ** 2 / 0.5)
     assert {r["view"] for r in res["rows"]} == {"naked", "through_lens"}
     # the numbers are measurements (no timing assertions in tests): check their presence
     assert set(res["skip_speedups"]) == {"one_pass_for_zero_field", "no_lens_passes",
@@ -177,6 +187,50 @@ def test_bench_render_small(tmp_path, monkeypatch):
                                          "one_wavelength", "one_wavelength_no_lens"}
     assert all(np.isfinite(v) and v > 0 for v in res["skip_speedups"].values())
     assert all(r["gl_render_s"] > 0 for r in res["rows"])
+
+
+def _quality_result():
+    """A quality benchmark's result with one case: raster S = 8 (RMSE 0.01 in 0.5 s),
+    reference 1 and 16 spp (RMSE 0.16 in 0.625 s, 0.04 in 10 s)."""
+    raster = [{"samples": s, "ssim": 0.99, "psnr_db": 40.0, "rmse": 0.01, "time_s": 0.5}
+              for s in (8, 32)]
+    ref = [{"spp": 1, "ssim": 0.5, "rmse": 0.16, "time_s": 0.625},
+           {"spp": 16, "ssim": 0.9, "rmse": 0.04, "time_s": 10.0}]
+    case = {"scene": "chart_6m", "config": "x", "truth_spp": 256, "truth_time_s": 1.0,
+            "truth_rays_per_s": 1e6, "raster": raster, "reference": ref}
+    return {"benchmark": "quality", "preset": "quick", "size": [160, 120], "cases": [case],
+            "reference_spp": [1, 16]}
+
+
+def test_bench_render_against_an_earlier_version_or_a_clear_refusal(tmp_path, capsys):
+    """``--against REF`` times the default frame of REF (a git worktree) beside this code's;
+    where eyelab is not imported from a git checkout (an installed wheel) it is a
+    one-line error naming the flag."""
+    from eyelab.bench.frames import default_frames, worktree
+    from eyelab.core.errors import SpecError
+
+    try:
+        with worktree("HEAD"):
+            pass
+    except SpecError as e:
+        assert "--against" in str(e) and "git" in str(e)
+        assert main(["bench", "render", "--against", "HEAD", "-o",
+                     str(tmp_path / "r.json")]) == 2
+        assert len(capsys.readouterr().err.strip().splitlines()) == 1
+        return
+    res = default_frames("HEAD", size=(64, 48), repeats=1, rounds=1)
+    assert res["against"]["ref"] == "HEAD" and len(res["against"]["commit"]) == 40
+    assert set(res["speedup"]) == {"naked", "through_lens"}
+    assert all(res[v]["through_lens"] > 0 for v in ("old", "new"))
+
+
+def test_bench_render_refuses_a_json_that_is_not_a_quality_result(tmp_path, capsys):
+    q = tmp_path / "q.json"
+    q.write_text('{"benchmark": "render"}')
+    assert main(["bench", "render", "--quality", str(q), "-o", str(tmp_path / "r.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--quality" in err
+    assert not (tmp_path / "r.json").exists()
 
 
 @pytest.mark.parametrize("spec_text, field", [

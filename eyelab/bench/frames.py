@@ -1,8 +1,8 @@
-"""The default-quality frame, old against new: the built-in spec's eye at 1024 x 768, naked
-and through its lens, warm frames, each code version in its own process, the versions'
-processes interleaved so that they share the machine's noise (``eyelab bench render
---against REF``). An earlier version is checked out with ``git worktree`` into a
-temporary folder and imported from there (``PYTHONPATH``); it must have
+"""The default-quality frame, old against new: the built-in spec's eye (at 1024 x 768 in
+``eyelab bench render``), naked and through its lens, warm frames, each code version in its
+own process, the versions' processes interleaved so that they share the machine's noise
+(``eyelab bench render --against REF``). An earlier version is checked out with ``git
+worktree`` into a temporary folder and imported from there (``PYTHONPATH``); it must have
 ``eyelab.jobs.api.as_spec`` / ``with_render`` and ``eyelab.jobs.render.render_spec``.
 """
 

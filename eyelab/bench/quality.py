@@ -77,6 +77,10 @@ def configs(quick: bool):
                          SpectacleLens.from_rx(Prescription(-4.0))),
             "+3D_lens": (Eye.from_rx(Prescription(3.0), accommodation_max=1.0),
                          SpectacleLens.from_rx(Prescription(3.0))),
+            # a newcomer's first try: the default spec's 45-year-old eye made a -4 D myope
+            # with a 5 mm pupil (Hofstetter's mean amplitude at 45: 5 D), uncorrected
+            "-4D_5mm_uncorrected": (Eye.from_rx(Prescription(-4.0), accommodation_max=5.0,
+                                                pupil_diameter=5e-3), None),
         })
     return out
 

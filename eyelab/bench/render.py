@@ -83,12 +83,14 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     eye = Eye.from_rx(rx, accommodation_max=1.0)
     lens = SpectacleLens.from_rx(rx)
     rows = []
+    table = None if quality is None else equal_error_table(quality)   # refused before the run
     rounds = 2
     bar = progress_bar(len(triangles) * len(samples) + 2 + rounds * (2 if against else 1),
                        "render bench", "row")
     from eyelab.bench.frames import default_frames
 
-    default = default_frames(against, rounds=rounds, progress=bar)
+    default = default_frames(against, size=(width, height), repeats=repeats, rounds=rounds,
+                             progress=bar)
     for n in triangles:
         scene = boxes_scene(n)
         for s in samples:
@@ -141,8 +143,8 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     out = {"benchmark": "render", "size": [width, height], "default_frame": default,
            "rows": rows, "skip_times_s": skips, "skip_speedups": speedups}
     lines = _default_lines(default)
-    if quality is not None:
-        out["equal_error"] = table = equal_error_table(quality)
+    if table is not None:
+        out["equal_error"] = table
         lines.append(f"equal-error speed-up over the reference ({table['preset']} quality "
                      f"bench, {table['size'][0]}x{table['size'][1]}, default quality): median "
                      f"x{table['median']:.0f}, min x{table['min']:.0f}")

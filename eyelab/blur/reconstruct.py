@@ -142,8 +142,26 @@ def sigma_map(zbuf: np.ndarray, cam, field, vol: dict) -> dict:
     major, minor = full[..., 0], full[..., 1]
     u = np.stack([full[..., 3], -full[..., 4]], -1)         # NDC y up -> image rows down
     line = np.sqrt(np.maximum(major**2 - minor**2, 0.0))
-    return {"minor": minor, "line": line, "u": u,
-            "filters": bool(minor.max() >= MIN_SIGMA or line.max() >= MIN_LINE_SIGMA)}
+    return {"minor": minor, "line": line, "u": u, "region": filtered_region(minor, line)}
+
+
+def filtered_region(minor, line) -> tuple | None:
+    """((y0, y1, x0, x1), (py0, py1, px0, px1)) of the (h, w) sigma maps: the rows and
+    columns of every pixel the filters change, and that box padded by how far the filters
+    read around a pixel — the largest sigma level's kernel radius (the level is at most
+    twice the largest sigma, or the first level) plus the 1-D Gaussian's 4 sigma, plus
+    bilinear taps — clipped to the image; None when no pixel is filtered. Filtering the
+    padded box alone gives the changed pixels the whole image's values."""
+    sel = (minor >= MIN_SIGMA) | (line >= MIN_LINE_SIGMA)
+    rows, cols = np.flatnonzero(sel.any(1)), np.flatnonzero(sel.any(0))
+    if not len(rows):
+        return None
+    h, w = minor.shape
+    level = max(2.0 * float(minor.max()), 0.35)
+    pad = int(4.0 * level + 0.5) + 1 + int(np.ceil(4.0 * float(line.max()))) + 2
+    box = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+    return box, (max(box[0] - pad, 0), min(box[1] + pad, h), max(box[2] - pad, 0),
+                 min(box[3] + pad, w))
 
 
 def reconstruct(img: np.ndarray, sig: dict) -> np.ndarray:

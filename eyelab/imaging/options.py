@@ -75,7 +75,7 @@ class RasterQuality:
     lens_rings: int = 24
     lens_segments: int = 96
     lens_grid_px: int = 8
-    env_oversample: float = 1.0
+    env_oversample: float = 1.5
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
 

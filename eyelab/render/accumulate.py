@@ -87,13 +87,17 @@ class PassAccumulator:
         f *= np.float32(1.0 / self.count)
         return f
 
-    def mean_linear(self) -> np.ndarray:
-        """(h, w, 3) float32 linear light in [0, 1], row 0 at the top."""
+    def mean_linear(self, rows=None) -> np.ndarray:
+        """(h, w, 3) float32 linear light in [0, 1], row 0 at the top; ``rows`` = (a, b):
+        only the rows a:b (counted from the top)."""
         if self.count == 0:
             raise ValueError("no pass accumulated")
+        h = self.shape[0]
+        a, b = (0, h) if rows is None else rows
+        lo, hi = h - b, h - a                          # the same rows in GL order
         if self.count == 1:
-            return (DECODE16[self._first[::-1, :, :3]] / 65535.0).astype(np.float32)
-        return self._mean16_rows(0, self.shape[0])[::-1, :, :3] * np.float32(1 / 65535.0)
+            return (DECODE16[self._first[lo:hi][::-1, :, :3]] / 65535.0).astype(np.float32)
+        return self._mean16_rows(lo, hi)[::-1, :, :3] * np.float32(1 / 65535.0)
 
     def mean_rgba(self) -> np.ndarray:
         """(h, w, 4) uint8 sRGB RGBA of the linear average, contiguous, GL row order, alpha

@@ -446,15 +446,15 @@ class RasterRenderer(Renderer):
 
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               sigma, report, "reconstruction_sigma")
-        out = lin = acc.mean_linear() if sig["filters"] else None
-        if sig["filters"]:
-            out = reconstruct(lin, sig)
-        if out is lin:                     # no sigma reaches the filters' thresholds
-            rgba = acc.mean_rgba()
-        else:                              # filtered: encoded once, back to GL order
-            rgba = np.empty(acc.shape + (4,), np.uint8)
-            rgba[..., :3] = encode_linear(out[::-1])
-            rgba[..., 3] = 255
+        rgba = acc.mean_rgba()
+        if sig["region"] is not None:      # filtered: only the box the filters change
+            (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
+            lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1]
+            out = reconstruct(lin, {k: sig[k][py0:py1, px0:px1] for k in ("minor", "line",
+                                                                             "u")})
+            h = acc.shape[0]               # encoded once, back to GL order
+            rgba[h - y1:h - y0, x0:x1, :3] = encode_linear(
+                out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])
         tm = report["timings_s"]
         tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
         return rgba
