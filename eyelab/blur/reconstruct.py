@@ -50,8 +50,10 @@ def pixel_svd(field, size) -> tuple:
     ``size`` = (w, h) window (NDC x, y per unit seed -> px); s (nz, ny, nx, 2) are the blur
     ellipse's semi-axes a >= b, u's first column its major axis (x right, y up). Computed
     once per field and window, shared by :func:`sigma_volume` and :func:`compensated`."""
+    from eyelab.core.vecmath import svd2x2
+
     px = np.array([size[0] / 2, size[1] / 2])
-    return np.linalg.svd(field.matrix * px[:, None])
+    return svd2x2(field.matrix * px[:, None])
 
 
 def sigma_volume(svds, passes: int) -> dict:
@@ -107,42 +109,66 @@ def compensated(field, svd, vol: dict, size):
     return dataclasses.replace(field, matrix=matrix, key=key)
 
 
-def sigma_map(zbuf: np.ndarray, cam, field, vol: dict) -> dict:
-    """Per pixel of a window whose z-buffer is ``zbuf`` (h, w) in [0, 1] (row 0 at the
-    bottom, GL order): the voxel values of ``vol`` (:func:`sigma_volume`) at each pixel's
-    scene point through ``field``'s camera and grid, evaluated on every 2nd pixel
-    (nearest voxel) and repeated, row 0 at the top: "minor" (h, w) px, the isotropic
-    Gaussian's sigma; "line" (h, w) px, the 1-D Gaussian's along "u" (h, w, 2) (column,
-    row) unit vectors — sqrt(major^2 - minor^2).
+def pixel_voxels(zbuf: np.ndarray, cam, field) -> dict:
+    """Where each pixel of a window whose z-buffer is ``zbuf`` (h, w) in [0, 1] (row 0 at
+    the bottom, GL order) looks in ``field``'s voxel grid, evaluated on every 2nd pixel
+    (row 0 at the top): "voxel" (h2, w2) the nearest voxel of the pixel's scene point
+    through the field's camera, as flat index + 1 (0: no surface, or behind the camera);
+    "near" the voxel of the nearest surface pixel and "dist" the distance to it (full
+    pixels), for background pixels; "shape" (h, w). Found once per frame's depth buffer;
+    :func:`sigma_map` maps any sigma volume through it."""
+    from scipy.ndimage import distance_transform_edt
+
+    h, w = zbuf.shape
+    zb = zbuf[::-1][::2, ::2]
+    ys, xs = np.mgrid[0:h:2, 0:w:2]
+    fg = zb < 1.0
+    voxel = np.zeros(zb.shape, np.int64)
+    near, dist = voxel, np.zeros(zb.shape)
+    if fg.any():
+        ndc = np.stack([(2 * xs[fg] + 1.0) / w - 1, 1 - (2 * ys[fg] + 1.0) / h,
+                        2 * zb[fg] - 1], -1)
+        ids = np.arange(1, int(np.prod(field.shape)) + 1).reshape(field.shape)
+        voxel[fg] = field.sample(ids, cam.ndc_to_world(ndc), interpolate=False)
+        if not fg.all():
+            d, (iy, ix) = distance_transform_edt(~fg, return_indices=True)
+            near, dist = voxel[iy, ix], 2.0 * d                # in full pixels
+    return {"voxel": voxel, "near": near, "dist": dist, "shape": (h, w)}
+
+
+def sigma_map(zbuf: np.ndarray, cam, field, vol: dict, voxels: dict | None = None) -> dict:
+    """Per pixel of a window whose z-buffer is ``zbuf`` (h, w) (row 0 at the bottom, GL
+    order): the voxel values of ``vol`` (:func:`sigma_volume`) at each pixel's scene point
+    through ``field``'s camera and grid (nearest voxel, every 2nd pixel, repeated; the
+    look-up ``voxels`` of :func:`pixel_voxels`, found here if None), row 0 at the top:
+    "minor" (h, w) px, the isotropic Gaussian's sigma; "line" (h, w) px, the 1-D
+    Gaussian's along "u" (h, w, 2) (column, row) unit vectors — sqrt(major^2 -
+    minor^2); "region" the pixels the filters change and what they read
+    (:func:`filtered_region`; None: the image is unchanged). All float32.
 
     A background pixel (no surface) receives the light that blur spreads beyond the
     silhouettes around it, so it takes the values of its nearest surface pixel if that
     pixel's blur reaches it (distance <= reach), else 0: without it the filter, which
     gathers, would leave the ghost copies in every halo against the background, and a
     compensated blur would lose variance there."""
-    from scipy.ndimage import distance_transform_edt
-
-    h, w = zbuf.shape
-    zb = zbuf[::-1][::2, ::2]
-    ys, xs = np.mgrid[0:h:2, 0:w:2]
-    ndc = np.stack([(2 * xs + 1.0) / w - 1, 1 - (2 * ys + 1.0) / h, 2 * zb - 1], -1)
-    fg = zb < 1.0
-    small = np.zeros(zb.shape + (5,))
-    if fg.any():
-        pts = cam.ndc_to_world(ndc[fg])
-        stack = np.concatenate([np.stack([vol["major"], vol["minor"], vol["reach"]], -1),
-                                vol["u"]], -1)
-        small[fg] = field.sample(stack, pts, interpolate=False)
-        if not fg.all():
-            dist, (iy, ix) = distance_transform_edt(~fg, return_indices=True)
-            near = small[iy, ix]
-            ok = ~fg & (2 * dist <= near[..., 2])          # dist in half-resolution pixels
-            small[ok] = near[ok]
-    full = np.repeat(np.repeat(small, 2, 0), 2, 1)[:h, :w]
-    major, minor = full[..., 0], full[..., 1]
-    u = np.stack([full[..., 3], -full[..., 4]], -1)         # NDC y up -> image rows down
+    v = pixel_voxels(zbuf, cam, field) if voxels is None else voxels
+    h, w = v["shape"]
+    stack = np.concatenate([np.stack([vol["major"], vol["minor"], vol["reach"]], -1),
+                            vol["u"]], -1).reshape(-1, 5)
+    table = np.concatenate([np.zeros((1, 5)), stack]).astype(np.float32)   # 0: no voxel
+    small = table[v["voxel"]]
+    cand = table[v["near"]]
+    spread = (v["voxel"] == 0) & (v["dist"] <= cand[..., 2])
+    small[spread] = cand[spread]
+    major, minor = small[..., 0], small[..., 1]
     line = np.sqrt(np.maximum(major**2 - minor**2, 0.0))
-    return {"minor": minor, "line": line, "u": u, "region": filtered_region(minor, line)}
+    half = np.stack([minor, line, small[..., 3], -small[..., 4]], -1)  # NDC y up -> rows down
+    h2, w2 = half.shape[:2]
+    full = np.broadcast_to(half[:, None, :, None], (h2, 2, w2, 2, 4)).reshape(
+        2 * h2, 2 * w2, 4)[:h, :w]
+    minor, line = full[..., 0], full[..., 1]
+    return {"minor": minor, "line": line, "u": full[..., 2:],
+            "region": filtered_region(minor, line)}
 
 
 def filtered_region(minor, line) -> tuple | None:

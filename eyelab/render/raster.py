@@ -32,6 +32,7 @@ from eyelab.blur.field import VoxelStatus
 from eyelab.blur.reconstruct import (
     compensated,
     pixel_svd,
+    pixel_voxels,
     reconstruct,
     sigma_map,
     sigma_volume,
@@ -442,7 +443,9 @@ class RasterRenderer(Renderer):
         def sigma():
             vol = (rc["sigma"] if acc.count == st["passes"]
                    else sigma_volume(rc["svds"], acc.count))
-            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol)
+            if "voxels" not in st:            # the depth buffer's look-up, once per frame
+                st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
+            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
 
         sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
                               sigma, report, "reconstruction_sigma")
