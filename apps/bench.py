@@ -8,6 +8,11 @@ import json
 from eyelab.apps.common import add_quiet
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import write_json
+from eyelab.imaging.contract import View
+
+#: The image sizes a benchmark's --size takes: the view's own range (render.width; the
+#: height's is the same).
+_SIZE_RANGE = View.LIMITS["render.width"]
 
 #: The benchmarks: name -> (help, the flags it takes beyond -o/--quiet).
 BENCHES = {
@@ -59,7 +64,8 @@ _BENCH_FLAGS = {
     "repeats": lambda b, name: b.add_argument("--repeats", type=int, default=3,
                                               help="repeats, best taken (default 3)"),
     "size": lambda b, name: b.add_argument(
-        "--size", metavar="WxH", help="image size instead of the preset's (16-4096 each)"),
+        "--size", metavar="WxH", help="image size instead of the preset's (each in the "
+        f"range of render.width / render.height: {_SIZE_RANGE[0]}-{_SIZE_RANGE[1]})"),
     "plot": lambda b, name: b.add_argument("--plot", help="also write the error-vs-time "
                                            "plot (PNG) here"),
     "truth_spp": lambda b, name: b.add_argument(
@@ -218,15 +224,15 @@ def _read_json(flag, path):
 
 
 def _size(flag, text):
-    """(w, h) of "WxH", each 16-4096, or None."""
+    """(w, h) of "WxH", each in the view's range, or None."""
     if text is None:
         return None
     parts = text.lower().split("x")
     if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
         raise SpecError(flag, f"must be WxH, e.g. 320x240, got {text!r}")
     w, h = (int(p) for p in parts)
-    check_range_int(flag, w, 16, 4096)
-    check_range_int(flag, h, 16, 4096)
+    check_range_int(flag, w, *_SIZE_RANGE)
+    check_range_int(flag, h, *_SIZE_RANGE)
     return w, h
 
 

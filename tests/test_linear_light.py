@@ -74,6 +74,11 @@ def test_accumulated_mean_is_the_linear_average_to_half_a_code(samples):
     np.testing.assert_array_equal(got[~near_tie], np.round(exact[~near_tie]))
     lin = srgb_to_linear(passes[..., :3] / 255.0).mean(axis=0)
     np.testing.assert_allclose(acc.mean_linear()[::-1], lin, atol=1.0 / 65535)
+    # rows a:b counted from the top: the passes are GL-ordered (row 0 at the bottom)
+    top_first = lin[::-1]
+    for a, b in ((0, 32), (3, 17), (31, 32), (0, 1)):
+        np.testing.assert_allclose(acc.mean_linear(rows=(a, b)), top_first[a:b],
+                                   atol=1.0 / 65535)
 
 
 def test_one_pass_is_passed_through_exactly():
@@ -81,6 +86,8 @@ def test_one_pass_is_passed_through_exactly():
     acc = PassAccumulator(8, 8)
     acc.add(rgba)
     np.testing.assert_array_equal(acc.mean(), rgba[::-1, :, :3])
+    lin = srgb_to_linear(rgba[::-1, :, :3] / 255.0)
+    np.testing.assert_allclose(acc.mean_linear(rows=(2, 5)), lin[2:5], atol=1.0 / 65535)
 
 
 def test_a_minified_texture_is_its_mean_light_without_aliasing():

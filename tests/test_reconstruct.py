@@ -92,3 +92,44 @@ def test_directional_gaussian_spreads_a_line_along_its_direction(sigma, angle):
     expect = (sigma * np.cos(t)) ** 2
     assert prof.sum() == pytest.approx(1.0, rel=1e-3)
     assert abs(var - expect) <= 0.02 * expect + 0.25
+
+
+@pytest.mark.parametrize("layout", ["patch", "edge", "corner", "line"])
+def test_filtering_the_region_alone_gives_the_whole_images_values(layout):
+    """What a frame does (eyelab.render.raster): filter only filtered_region's padded box
+    and paste its inner box — the same pixels as filtering the whole image (to float32
+    summation order), and no pixel outside the box changes in the whole-image filter."""
+    from eyelab.blur.reconstruct import filtered_region, reconstruct
+
+    rng = np.random.default_rng(5)
+    h, w = 120, 160
+    img = rng.random((h, w, 3)).astype(np.float32)
+    minor, line = np.zeros((h, w)), np.zeros((h, w))
+    ang = rng.uniform(0, np.pi, (h, w))
+    u = np.stack([np.cos(ang), np.sin(ang)], -1)
+    if layout == "patch":
+        minor[40:70, 60:100] = rng.uniform(0.3, 4.0, (30, 40))
+    elif layout == "edge":                      # at the image's left and top edges
+        minor[:30, :25] = 3.5
+    elif layout == "corner":
+        minor[100:, 140:] = 1.2
+        line[100:, 140:] = 2.5
+    else:
+        line[60, 20:140] = 6.0
+    sig = {"minor": minor, "line": line, "u": u}
+    whole = reconstruct(img, sig)
+    (y0, y1, x0, x1), (py0, py1, px0, px1) = filtered_region(minor, line)
+    crop = reconstruct(img[py0:py1, px0:px1], {k: v[py0:py1, px0:px1] for k, v in sig.items()})
+    out = img.copy()
+    out[y0:y1, x0:x1] = crop[y0 - py0:y1 - py0, x0 - px0:x1 - px0]
+    assert np.abs(out - whole).max() < 1e-5
+    changed = np.abs(whole - img).max(-1) > 0
+    assert changed[y0:y1, x0:x1].sum() == changed.sum() > 0
+
+
+def test_nothing_to_filter_has_no_region():
+    from eyelab.blur.reconstruct import MIN_LINE_SIGMA, MIN_SIGMA, filtered_region
+
+    z = np.zeros((8, 8))
+    assert filtered_region(z, z) is None
+    assert filtered_region(z + 0.9 * MIN_SIGMA, z + 0.9 * MIN_LINE_SIGMA) is None

@@ -2,8 +2,10 @@
 ``eyelab bench render``), naked and through its lens, warm frames, each code version in its
 own process, the versions' processes interleaved so that they share the machine's noise
 (``eyelab bench render --against REF``). An earlier version is checked out with ``git
-worktree`` into a temporary folder and imported from there (``PYTHONPATH``); it must have
-``eyelab.jobs.api.as_spec`` / ``with_render`` and ``eyelab.jobs.render.render_spec``.
+worktree`` into a temporary folder and imported from there (``PYTHONPATH``; this version
+likewise from its own folder); it must have ``eyelab.jobs.api.as_spec`` / ``with_render``,
+``eyelab.jobs.render.render_spec`` and ``eyelab.imaging.registry.make_renderer``, or the
+run stops with a one-line error naming ``--against``.
 """
 
 from __future__ import annotations
@@ -50,41 +52,61 @@ print(json.dumps({"times_s": times,
 
 
 def _git(*args, cwd) -> str:
-    out = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True)
+    """git's output; a failure (or no git) is a SpecError naming ``--against``, with the
+    last line git wrote."""
+    try:
+        out = subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True)
+    except OSError as e:
+        raise SpecError("--against", f"cannot run git: {e.strerror or e}") from None
     if out.returncode != 0:
-        raise SpecError("--against", f"git {' '.join(args)}: {out.stderr.strip()}")
+        last = (out.stderr.strip().splitlines() or ["failed"])[-1]
+        raise SpecError("--against", f"git {args[0]}: {last}")
     return out.stdout.strip()
+
+
+def _checkout() -> Path:
+    """The folder eyelab is imported from (a git checkout's top, for ``--against``)."""
+    return Path(eyelab.__file__).resolve().parent.parent
 
 
 @contextmanager
 def worktree(ref: str):
     """A temporary ``git worktree`` of ``ref`` of the checkout eyelab is imported from;
-    yields (its folder, the commit). Refused (SpecError) outside a git checkout."""
-    here = Path(eyelab.__file__).resolve().parent.parent
+    yields (its folder, the commit). Refused (SpecError) outside a git checkout. Worktrees
+    left registered by an interrupted run are pruned first."""
+    here = _checkout()
     if not (here / ".git").exists():
         raise SpecError("--against", f"needs eyelab imported from a git checkout, not {here}")
     commit = _git("rev-parse", "--verify", f"{ref}^{{commit}}", cwd=here)
+    _git("worktree", "prune", cwd=here)
     with tempfile.TemporaryDirectory(prefix="eyelab-against-") as tmp:
         path = Path(tmp) / "tree"
         _git("worktree", "add", "--detach", str(path), commit, cwd=here)
         try:
             yield path, commit
-        finally:
-            _git("worktree", "remove", "--force", str(path), cwd=here)
+        finally:            # never masks what happened inside; prune sweeps up after
+            try:
+                _git("worktree", "remove", "--force", str(path), cwd=here)
+            except SpecError:
+                pass
 
 
-def _frames(root, size, repeats) -> dict:
-    """One process of the code at ``root`` (None: this one): FRAME_SCRIPT's result."""
+def _frames(root, size, repeats, ref=None) -> dict:
+    """One process of the code at ``root`` (put first on ``PYTHONPATH``): FRAME_SCRIPT's
+    result. A failure of an earlier version's process (``ref``) is a SpecError naming
+    ``--against`` with the process's last line."""
     env = dict(os.environ)
-    if root is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(root)] + [p for p in env.get(
-            "PYTHONPATH", "").split(os.pathsep) if p])
+    env["PYTHONPATH"] = os.pathsep.join([str(root)] + [p for p in env.get(
+        "PYTHONPATH", "").split(os.pathsep) if p])
     with tempfile.TemporaryDirectory() as cwd:
         out = subprocess.run([sys.executable, "-P", "-c", FRAME_SCRIPT,
                               json.dumps([size[0], size[1], repeats])],
                              cwd=cwd, env=env, capture_output=True, text=True)
     if out.returncode != 0:
-        raise RuntimeError(f"frame process failed: {out.stderr.strip()[-2000:]}")
+        last = (out.stderr.strip().splitlines() or ["no output"])[-1]
+        if ref is not None:
+            raise SpecError("--against", f"{ref}: cannot time its default frame: {last}")
+        raise RuntimeError(f"the default-frame process failed: {last}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -96,13 +118,14 @@ def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repea
     new, ...), ``repeats`` frames of each kind in each."""
     runs = {"new": []}
     with (worktree(against) if against else _null()) as tree:
-        roots = {"new": None}
+        roots = {"new": _checkout()}
         if tree is not None:
-            roots = {"old": tree[0], "new": None}
+            roots = {"old": tree[0], "new": _checkout()}
             runs["old"] = []
         for _ in range(rounds):
             for label, root in roots.items():
-                runs[label].append(_frames(root, size, repeats))
+                runs[label].append(_frames(root, size, repeats,
+                                           against if label == "old" else None))
                 if progress is not None:
                     progress.update(1)
     out = {"size": list(size), "repeats": repeats, "rounds": rounds}

@@ -205,7 +205,7 @@ def _preset(quick, size, truth_spp, ref_spp) -> tuple:
     """(width, height, raster S values, reference spp values, converged reference spp) of
     the preset with the overrides given, the spp values checked."""
     w, h = size or ((160, 120) if quick else (1024, 768))
-    raster_s = (1, 2, 4, 8, 16, 32) if quick else (1, 2, 4, 8, 16, 32, 64)
+    raster_s = tuple(sorted({1, 2, 4, 16, 32, DEFAULT_SAMPLES} | (set() if quick else {64})))
     ref_spp = tuple(ref_spp or ((1, 4, 16, 64) if quick else (1, 4, 16, 64, 256, 1024)))
     truth_spp = truth_spp or (256 if quick else 4096)
     check_range("truth_spp", truth_spp, 1, 65536)
@@ -268,7 +268,7 @@ def _measure_case(sname, cname, scene, eye, lens, view, lad: _Ladders) -> dict:
 
 #: S of the rows without the reconstruction filter: what the filter buys (copies of a large
 #: blur instead of the blur).
-UNFILTERED_S = (8, 16)
+UNFILTERED_S = (DEFAULT_SAMPLES, 2 * DEFAULT_SAMPLES)
 
 
 def _raster_rows(scene, eye, lens, view, truth, raster_s, **quality) -> list:

@@ -68,9 +68,15 @@ def equal_error_table(quality: dict) -> dict:
     if not isinstance(quality, dict) or quality.get("benchmark") != "quality" or not \
             quality.get("cases"):
         raise SpecError("--quality", "not a quality benchmark's JSON with cases")
-    q = merge_results([quality])
-    rows = [{"scene": c["scene"], "config": c["config"], **{k: _default_row(c)[k] for k in (
-        "samples", "ssim", "time_s", "speedup_at_equal_error")}} for c in q["cases"]]
+    try:
+        q = merge_results([quality])
+        rows = [{"scene": c["scene"], "config": c["config"], **{k: _default_row(c)[k] for k in (
+            "samples", "ssim", "time_s", "speedup_at_equal_error")}} for c in q["cases"]]
+    except (KeyError, IndexError, TypeError, ValueError, StopIteration,
+            ZeroDivisionError) as e:
+        raise SpecError("--quality", f"a quality result without the rows it needs (raster "
+                        f"rows at the default S and 32, reference rows with rmse and "
+                        f"time_s): {type(e).__name__} {e}") from None
     sp = [r["speedup_at_equal_error"] for r in rows]
     return {"preset": q["preset"], "size": q["size"], "rows": rows,
             "median": float(np.median(sp)), "min": float(np.min(sp))}
@@ -146,8 +152,9 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     if table is not None:
         out["equal_error"] = table
         lines.append(f"equal-error speed-up over the reference ({table['preset']} quality "
-                     f"bench, {table['size'][0]}x{table['size'][1]}, default quality): median "
-                     f"x{table['median']:.0f}, min x{table['min']:.0f}")
+                     f"bench, {table['size'][0]}x{table['size'][1]}, default quality, warm "
+                     f"frames): median x{_times(table['median'])}, min "
+                     f"x{_times(table['min'])}")
     for r_ in rows:
         lines.append(f"{r_['triangles']:>7} tris S={r_['samples']:<3} {r_['view']:>12}: "
                      f"{r_['frame_s'] * 1e3:7.1f} ms ({r_['fps']:.1f} fps), GL "
@@ -156,6 +163,11 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
     lines.append("skip speed-ups: " + ", ".join(f"{k} x{v:.2f}" for k, v in speedups.items()))
     out["summary"] = lines
     return out
+
+
+def _times(x: float) -> str:
+    """A ratio: one decimal below 10, none above."""
+    return f"{x:.1f}" if x < 10 else f"{x:.0f}"
 
 
 def _default_lines(d: dict) -> list:

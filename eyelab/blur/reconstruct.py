@@ -300,9 +300,7 @@ def _blend_rows(src, sig, levels, a, b, out) -> None:
     acc = (1 - t) * src[ys, xs] * (idx == 0)[:, None]
     h, w = sig.shape
     for i in range(1, len(levels)):
-        need = (idx == i) | (idx == i - 1)
-        if i == 1:
-            need &= t[:, 0] > 0
+        need = (idx == i) | ((idx == i - 1) & ((t[:, 0] > 0) if i == 1 else True))
         if not need.any():
             continue
         ny, nx = ys[need], xs[need]

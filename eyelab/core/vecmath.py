@@ -48,7 +48,7 @@ def svd2x2(m):
     scaled rotation [[e, -h], [h, e]] and a scaled reflection [[f, g], [g, -f]]: the
     singular values are q + r and |q - r| (q = |(e, h)|, r = |(f, g)|), u a rotation by
     (a2 + a1) / 2 (its second column negated where q < r: a reflection), vt a rotation
-    by -(a2 - a1) / 2, with a1 = atan2(g, f), a2 = atan2(h, e) (Blinn, "Consider the
+    by (a2 - a1) / 2, with a1 = atan2(g, f), a2 = atan2(h, e) (Blinn, "Consider the
     lowly 2x2 matrix", IEEE CG&A 1996)."""
     a, b, c, d = m[..., 0, 0], m[..., 0, 1], m[..., 1, 0], m[..., 1, 1]
     e, f, g, h = (a + d) / 2, (a - d) / 2, (c + b) / 2, (c - b) / 2

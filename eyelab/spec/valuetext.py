@@ -13,9 +13,9 @@ from eyelab.imaging.registry import QUALITIES
 def option_default(renderer: str, name: str) -> str:
     """The default of ``[render] name`` for ``renderer`` as the reference tables write it:
     true / false, a number, ``"text"`` in backticks, or [a, b, c]."""
-    value = next(f.default for f in fields(QUALITIES[renderer]) if f.name == name)
+    value = next((f.default for f in fields(QUALITIES[renderer]) if f.name == name), MISSING)
     if value is MISSING:
-        raise KeyError(f"{renderer} option {name!r} has no default")
+        raise KeyError(f"{renderer} has no option {name!r} with a default")
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
