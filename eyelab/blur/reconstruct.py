@@ -140,11 +140,11 @@ def sigma_map(zbuf: np.ndarray, cam, field, vol: dict, voxels: dict | None = Non
     """Per pixel of a window whose z-buffer is ``zbuf`` (h, w) (row 0 at the bottom, GL
     order): the voxel values of ``vol`` (:func:`sigma_volume`) at each pixel's scene point
     through ``field``'s camera and grid (nearest voxel, every 2nd pixel, repeated; the
-    look-up ``voxels`` of :func:`pixel_voxels`, found here if None), row 0 at the top:
-    "minor" (h, w) px, the isotropic Gaussian's sigma; "line" (h, w) px, the 1-D
-    Gaussian's along "u" (h, w, 2) (column, row) unit vectors — sqrt(major^2 -
-    minor^2); "region" the pixels the filters change and what they read
-    (:func:`filtered_region`; None: the image is unchanged). All float32.
+    look-up ``voxels`` of :func:`pixel_voxels`, found here if None), row 0 at the top, over
+    the padded box of :func:`filtered_region` ("region"; None, and nothing else, where
+    no pixel is filtered): "minor" px, the isotropic Gaussian's sigma; "line" px, the 1-D
+    Gaussian's along "u" (..., 2) (column, row) unit vectors — sqrt(major^2 - minor^2).
+    All float32; the crop's arrays are all a frame needs (:mod:`eyelab.render.raster`).
 
     A background pixel (no surface) receives the light that blur spreads beyond the
     silhouettes around it, so it takes the values of its nearest surface pixel if that
@@ -162,30 +162,35 @@ def sigma_map(zbuf: np.ndarray, cam, field, vol: dict, voxels: dict | None = Non
     small[spread] = cand[spread]
     major, minor = small[..., 0], small[..., 1]
     line = np.sqrt(np.maximum(major**2 - minor**2, 0.0))
-    half = np.stack([minor, line, small[..., 3], -small[..., 4]], -1)  # NDC y up -> rows down
-    h2, w2 = half.shape[:2]
-    full = np.broadcast_to(half[:, None, :, None], (h2, 2, w2, 2, 4)).reshape(
-        2 * h2, 2 * w2, 4)[:h, :w]
-    minor, line = full[..., 0], full[..., 1]
-    return {"minor": minor, "line": line, "u": full[..., 2:],
-            "region": filtered_region(minor, line)}
+    region = filtered_region(minor, line, scale=2, shape=(h, w))
+    if region is None:
+        return {"region": None}
+    _, (py0, py1, px0, px1) = region
+    # each evaluated pixel stands for its 2 x 2 block: repeated over the crop only
+    crop = np.stack([minor, line, small[..., 3], -small[..., 4]], -1)[  # NDC y up -> down
+        np.arange(py0, py1)[:, None] // 2, np.arange(px0, px1)[None, :] // 2]
+    return {"minor": crop[..., 0], "line": crop[..., 1], "u": crop[..., 2:],
+            "region": region}
 
 
-def filtered_region(minor, line) -> tuple | None:
-    """((y0, y1, x0, x1), (py0, py1, px0, px1)) of the (h, w) sigma maps: the rows and
-    columns of every pixel the filters change, and that box padded by how far the filters
-    read around a pixel — the largest sigma level's kernel radius (the level is at most
-    twice the largest sigma, or the first level) plus the 1-D Gaussian's 4 sigma, plus
-    bilinear taps — clipped to the image; None when no pixel is filtered. Filtering the
-    padded box alone gives the changed pixels the whole image's values."""
+def filtered_region(minor, line, *, scale: int = 1, shape=None) -> tuple | None:
+    """((y0, y1, x0, x1), (py0, py1, px0, px1)) of sigma maps ``minor`` / ``line``: the rows
+    and columns of every pixel the filters change, and that box padded by how far the
+    filters read around a pixel — the largest sigma level's kernel radius (the level is at
+    most twice the largest sigma, or the first level) plus the 1-D Gaussian's 4 sigma,
+    plus bilinear taps — clipped to the image; None when no pixel is filtered. Filtering
+    the padded box alone gives the changed pixels the whole image's values. With
+    ``scale`` the maps hold one value per ``scale`` x ``scale`` block of an image of
+    ``shape`` (h, w) pixels, and the boxes are in its pixels."""
     sel = (minor >= MIN_SIGMA) | (line >= MIN_LINE_SIGMA)
     rows, cols = np.flatnonzero(sel.any(1)), np.flatnonzero(sel.any(0))
     if not len(rows):
         return None
-    h, w = minor.shape
+    h, w = minor.shape if shape is None else shape
     level = max(2.0 * float(minor.max()), 0.35)
     pad = int(4.0 * level + 0.5) + 1 + int(np.ceil(4.0 * float(line.max()))) + 2
-    box = (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+    box = (int(rows[0]) * scale, min((int(rows[-1]) + 1) * scale, h),
+           int(cols[0]) * scale, min((int(cols[-1]) + 1) * scale, w))
     return box, (max(box[0] - pad, 0), min(box[1] + pad, h), max(box[2] - pad, 0),
                  min(box[3] + pad, w))
 

@@ -453,8 +453,7 @@ class RasterRenderer(Renderer):
         if sig["region"] is not None:      # filtered: only the box the filters change
             (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
             lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1]
-            out = reconstruct(lin, {k: sig[k][py0:py1, px0:px1] for k in ("minor", "line",
-                                                                             "u")})
+            out = reconstruct(lin, sig)            # sig's maps cover just that box
             h = acc.shape[0]               # encoded once, back to GL order
             rgba[h - y1:h - y0, x0:x1, :3] = encode_linear(
                 out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])
