@@ -13,9 +13,11 @@ Per frame (the orchestration lives here; the parts in their own modules):
    the through-lens field -> the environment image; per-vertex ray tracing
    (``eyelab.scene.pervertex``) gives every lens vertex its texture coordinates into it
    (one set per colour channel when the lens disperses);
-5. composite (``composite.LensCompositor``): the lens view inside the lens's outline, the
-   naked view around it, the rim; optional reconstruction filter
-   (``eyelab.blur.reconstruct``).
+5. reconstruction (``eyelab.blur.reconstruct``; on by default, ``RasterQuality.reconstruct``):
+   each stage's mean filtered by its pixels' blur-shaped Gaussians, over the box of
+   pixels it changes, the passes having displaced by variance-compensated fields;
+6. composite (``composite.LensCompositor``): the lens view (one draw, every channel)
+   inside the lens's outline, the naked view around it, the rim.
 
 Work a frame does not need is skipped and listed in the report; everything reusable is
 cached by content (eye, lens, view, scene geometry) in bounded LRU caches.
