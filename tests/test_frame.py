@@ -83,19 +83,19 @@ def test_one_sides_trace_serves_the_other_mirrored_and_uneven_angles_read():
     only_right = text[:text.index("TRCFMT=1;360;E;L;F")]
     both = read_dcs(text)[0]
     mirrored = read_dcs(only_right)[0]
-    _same(mirrored["left"], both["left"], 1e-9)
+    _assert_same_outline(mirrored["left"], both["left"], 1e-9)
     # the same trace with explicit angles (U, and the other reading's A): the same outline
     r = only_right[only_right.index("R="):]
     angles = "\n".join("A=" + ";".join(str(100 * k) for k in range(j, j + 10))
                        for j in range(0, 360, 10))
     for mode in ("U", "A"):
         uneven = read_dcs(f"TRCFMT=1;360;{mode};R;F\n{r}\n{angles}\n")[0]["right"]
-        _same(uneven, both["right"], 1e-12)
+        _assert_same_outline(uneven, both["right"], 1e-12)
     b = read_dcs(f"TRCFMT=1;360;E;B;F\n{r}\n")[0]
-    _same(b["left"], mirrored["left"], 1e-12)
+    _assert_same_outline(b["left"], mirrored["left"], 1e-12)
 
 
-def _same(a: Outline, b: Outline, atol: float) -> None:
+def _assert_same_outline(a: Outline, b: Outline, atol: float) -> None:
     """The two outlines are the same polygon (within ``atol`` m): same centre, and b's
     radius along each of a's vertex directions is a's."""
     np.testing.assert_allclose(a.centre, b.centre, atol=atol)

@@ -15,7 +15,7 @@ import os
 import subprocess
 import sys
 import tempfile
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext, suppress
 from pathlib import Path
 
 import eyelab
@@ -85,10 +85,8 @@ def worktree(ref: str):
         try:
             yield path, commit
         finally:            # never masks what happened inside; prune sweeps up after
-            try:
+            with suppress(SpecError):
                 _git("worktree", "remove", "--force", str(path), cwd=here)
-            except SpecError:
-                pass
 
 
 def _frames(root, size, repeats, ref=None) -> dict:
@@ -117,7 +115,7 @@ def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repea
     ratios old / new. ``rounds`` processes per version, interleaved (old, new, old,
     new, ...), ``repeats`` frames of each kind in each."""
     runs = {"new": []}
-    with (worktree(against) if against else _null()) as tree:
+    with (worktree(against) if against else nullcontext()) as tree:
         roots = {"new": _checkout()}
         if tree is not None:
             roots = {"old": tree[0], "new": _checkout()}
@@ -137,8 +135,3 @@ def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repea
         out["against"] = {"ref": against, "commit": tree[1]}
         out["speedup"] = {k: out["old"][k] / out["new"][k] for k in ("naked", "through_lens")}
     return out
-
-
-@contextmanager
-def _null():
-    yield None

@@ -262,8 +262,7 @@ def _measure_case(sname, cname, scene, eye, lens, view, lad: _Ladders) -> dict:
     if "imagebased" not in lad.omit and (lad.quick or lens is not None):
         case["imagebased"] = _imagebased_rows(scene, eye, lens, view, truth,
                                               IMAGEBASED_SAMPLES[0 if lad.quick else 1])
-    _compare_at_equal_time(case)
-    return case
+    return case                         # compared at equal time by summarise()
 
 
 #: S of the rows without the reconstruction filter: what the filter buys (copies of a large

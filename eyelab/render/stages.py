@@ -67,7 +67,7 @@ def lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:
     """Lens outline mesh, view grid mesh and their texture coordinates (§3)."""
     inter = EmbreeIntersector(scene)
     lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
-    gv, gf, _ = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
+    gv, gf = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
     tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls, pupil=cam.position)
     # the grid's coordinates through the lens extended beyond its rim (the outline mask
     # clips it), so that rim cells are filled

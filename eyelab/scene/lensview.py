@@ -64,8 +64,9 @@ def widened_lens(lens, factor: float = 1.15, max_diameter: float = 0.09):
 def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     """Grid mesh on the (widened) lens's back surface: where eye rays through every
     ``step_px``-th pixel (one cell of margin around the view) meet it; cells whose corners
-    all meet it. Returns (vertices (ny * nx, 3) m, faces (m, 3), (gx (nx,), gy (ny,)) the
-    grid's NDC coordinates: vertex j * nx + i lies on the ray through (gx[i], gy[j]))."""
+    all meet it. Returns (vertices (ny * nx, 3) m, faces (m, 3)); vertex j * nx + i lies on
+    the ray through NDC (gx[i], gy[j]) of the grid's nx x ny points, one cell beyond the
+    view on each side."""
     nx = max(2, int(math.ceil(width / step_px)) + 3)
     ny = max(2, int(math.ceil(height / step_px)) + 3)
     gx = np.linspace(-1 - 2 * step_px / width, 1 + 2 * step_px / width, nx)
@@ -84,7 +85,7 @@ def lens_view_mesh(lens, cam: Camera, width: int, height: int, step_px: int):
     # direction from the pupil defined (a lens smaller than a wide view)
     pts = np.where(ok[:, None], hit.points, np.asarray(cam.position, float)
                    + d * lens.pose.vertex_distance)
-    return pts, faces, (gx, gy)
+    return pts, faces
 
 
 #: How far out the outline mesh reaches: of the round blank's radius (its rim's rays
