@@ -80,17 +80,30 @@ def test_minkwitz_astigmatism_gradient_is_twice_the_power_gradient():
     assert ratio == pytest.approx(2.0, abs=0.1)
 
 
-def test_an_inset_corridor_stays_near_umbilic(pal):
-    """With a 2.5 mm inset the line of least cylinder moves by a u'/a' from the nominal
-    path (1.2 mm here) and keeps 0.1 D ("real lenses deviate within about 2 mm", docs/SCIENCE.md
-    §8)."""
-    _, lens, design, _ = pal
-    y0 = -design.corridor / 2
-    x_u = design.nasal * design.inset * 0.5                            # smoothstep(1/2)
-    xs = x_u + np.linspace(-2e-3, 2e-3, 401)
-    cyl = np.array([_surface_power(lens, x, y0)[1] for x in xs])
-    k = int(np.argmin(cyl))
-    assert cyl[k] < 0.15 and abs(xs[k] - x_u) < 2e-3
+@pytest.mark.parametrize("inset", [0.0, 0.0025, 0.005])
+def test_the_corridor_is_umbilic_with_its_inset(inset):
+    """Along the design's corridor x = u(y), down to 8 mm below its foot, the front
+    surface's principal curvatures (the FreeForm spline's exact derivatives) agree: the
+    corridor profiles keep the Hessian proportional to the metric, not only the second
+    derivatives equal (which left 0.1-0.24 D at the foot and below, and 0.9 D with the
+    inset's cross term before it was cancelled)."""
+    from eyelab.optics.progressive import _path_terms
+
+    rx = Prescription(-2.0, add=2.0)
+    lens, design, _ = progressive_lens(rx, 2.0, design=ProgressiveDesign(2.0, inset=inset))
+    ys = np.linspace(0.0, -design.corridor - 0.008, 45)
+    xs = _path_terms(ys, design)[1]
+    n = lens.material.n(587.56)
+    k1, k2, *_ = lens.front.principal_curvatures(xs, ys)
+    cyl = (n - 1) * np.abs(k1 - k2)
+    print(f"inset {inset * 1e3:.1f} mm: surface cylinder along the corridor <= {cyl.max():.4f} D")
+    assert cyl.max() < 0.01
+    # and it is where the least cylinder is: 1 mm to either side, mid-corridor (y -4.5 to
+    # -9 mm), the cylinder has risen by about 2 x 1 mm x dA/dy (Minkwitz), > 0.35 D
+    mid = slice(9, 19)
+    for dx in (-1e-3, 1e-3):
+        k1, k2, *_ = lens.front.principal_curvatures(xs[mid] + dx, ys[mid])
+        assert np.all((n - 1) * np.abs(k1 - k2) > cyl[mid] + 0.35)
 
 
 def test_design_parameters_are_checked():
@@ -214,4 +227,4 @@ def test_the_raster_blur_field_follows_the_gaze_through_the_pal():
                           for name, p in (("page", page), ("chart", chart))}
     assert blur[(0.0, 5.0)]["chart"] < 0.5 and blur[(0.0, 5.0)]["page"] > 8.0
     assert blur[(-5.0, -28.0)]["page"] < 3.0
-    assert blur[(25.0, -28.0)]["page"] > 5.0
+    assert blur[(25.0, -28.0)]["page"] > 3.5          # 4.4′ with the umbilic corridor

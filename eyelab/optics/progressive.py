@@ -25,6 +25,7 @@ computes it) is compared with distance Rx + add, and a(y) rescaled.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -82,30 +83,73 @@ def _smooth(t):
 
 
 def progressive_sag(c0: float, a_max: float, design: ProgressiveDesign, x, y):
-    """The front surface's sag (m) at lens points (x, y), m."""
-    s = _smooth(-np.asarray(y, float) / design.corridor)
+    """The front surface's sag (m) at lens points (x, y), m: the sphere S plus
+    g(y) + b(y) x' + a(y) q(x'), x' = x - u(y); g and b make the corridor x = u(y) an
+    umbilic of the whole surface (:func:`corridor_profiles`)."""
+    y = np.asarray(y, float)
+    s = _smooth(-y / design.corridor)
     a = a_max * s
     u = design.nasal * design.inset * s
     w = design.softness
     xp = np.asarray(x, float) - u
     q = xp * w * math.sqrt(math.pi / 2) * erf(xp / (w * math.sqrt(2))) \
         + w * w * (np.exp(-xp ** 2 / (2 * w * w)) - 1.0)
-    return Asphere(c0).sag(x, y) + _g(y, a_max, design) + a * q
+    yy = np.minimum(np.broadcast_to(y, xp.shape), 0.0)
+    end = -math.ceil(-float(np.min(yy, initial=0.0)) * 1e3 + 1.0) * 1e-3   # whole mm below
+    g, _, b = corridor_profiles(c0, a_max, design, end)(yy.ravel()).reshape(3, *yy.shape)
+    return Asphere(c0).sag(x, y) + g + b * xp + a * q
 
 
-def _g(y, a_max, design):
-    """g(y) with g'' = a(y), g(0) = g'(0) = 0: the double integral of the smoothstep
-    profile, closed form (the profile is a polynomial in t; constant beyond the foot)."""
-    y = np.asarray(y, float)
-    L = design.corridor
+def _path_terms(y, design):
+    """(s, u, u', u'') along the corridor at heights y (m): the smoothstep and the
+    corridor's x = u(y) with its first two derivatives in y."""
+    L, k = design.corridor, design.nasal * design.inset
     t = np.clip(-y / L, 0.0, 1.0)
-    # the double integral of 10t^3 - 15t^4 + 6t^5 in t: t^5/2 - t^6/2 + t^7/7
-    inner = L * L * (t ** 5 / 2 - t ** 6 / 2 + t ** 7 / 7)
-    beyond = np.maximum(-y - L, 0.0)
-    # below the foot: a = a_max: continue with slope g'(L) and curvature a_max
-    slope_at_foot = L * (10 / 4 - 15 / 5 + 6 / 6)          # integral of s over [0, 1], x L
-    out = inner + slope_at_foot * beyond + 0.5 * beyond ** 2
-    return a_max * out
+    inside = (t > 0.0) & (t < 1.0)
+    ds = np.where(inside, 30.0 * t * t * (1.0 - t) ** 2, 0.0)
+    d2s = np.where(inside, 60.0 * t * (1.0 - t) * (1.0 - 2.0 * t), 0.0)
+    return _smooth(t), k * _smooth(t), -k * ds / L, k * d2s / (L * L)
+
+
+@functools.lru_cache(maxsize=16)
+def corridor_profiles(c0: float, a_max: float, design: ProgressiveDesign, end: float = -0.04):
+    """g(y), g'(y), b(y) below the fitting cross (``end`` <= y <= 0, m) as one dense solution
+    (callable: y -> (3, ...) array) of the ODE that keeps the corridor umbilic.
+
+    The surface's Hessian H must be proportional to its metric G = I + grad z grad z^T
+    (the second fundamental form a multiple of the first: equal principal curvatures).
+    On x' = 0, with S the sphere's derivatives at (u, y): H_xx = S_xx + a,
+    H_xy = S_xy - u' a + b', H_yy = S_yy + u'^2 a - u'' b - 2 u' b' + g'', and the slopes
+    z_x = S_x + b, z_y = S_y - u' b + g'. H_xy / H_xx = G_xy / G_xx and
+    H_yy / H_xx = G_yy / G_xx give b' and g'' — an exact umbilic, not only to first order
+    in the slopes (for u = 0 and no sphere this is g'' = a, b = 0). Integrated downward
+    from g = g' = b = 0 at the fitting cross (DOP853, rtol 1e-12), through the corridor
+    and on below its foot, where the near zone's centre line stays umbilic too."""
+    from scipy.integrate import solve_ivp
+
+    sphere = Asphere(c0)
+
+    def rhs(y, state):
+        g, gp, b = state
+        s, u, up, upp = (float(v) for v in _path_terms(np.array(y), design))
+        d = sphere.derivatives(np.array([u]), np.array([y]))
+        a = a_max * s
+        zx = float(d.zx[0]) + b
+        zy = float(d.zy[0]) - up * b + gp
+        gxx, gxy, gyy = 1.0 + zx * zx, zx * zy, 1.0 + zy * zy
+        hxx = float(d.zxx[0]) + a
+        bp = hxx * gxy / gxx - float(d.zxy[0]) + up * a
+        gpp = hxx * gyy / gxx - float(d.zyy[0]) - up * up * a + upp * b + 2.0 * up * bp
+        return [gp, gpp, bp]
+
+    if c0 != 0.0:       # no further than the sphere reaches (beyond it the sag is NaN anyway)
+        end = max(end, -0.99 / abs(c0) + design.inset)
+    sol = solve_ivp(rhs, (0.0, end), [0.0, 0.0, 0.0], method="DOP853", rtol=1e-12,
+                    atol=1e-15, dense_output=True)
+    if sol.status != 0:                 # e.g. a NaN add scale from a missed line of sight
+        raise SpecError("surface.sag", f"the corridor's profiles for added curvature "
+                                       f"{a_max!r} /m: {sol.message}")
+    return sol.sol
 
 
 def progressive_lens(rx, add: float, *, material="cr39", design: ProgressiveDesign | None = None,

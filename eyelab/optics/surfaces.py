@@ -150,8 +150,10 @@ class Asphere(Surface):
             frr = frr + p * (p - 1) * a * r2 ** (i - 1)
         # Hessian of a radial function: f'' rr^T + (f'/r)(I - rr^T); written without 1/r.
         diff = frr - fr_over_r
-        with np.errstate(invalid="ignore", divide="ignore"):
-            inv_r2 = np.where(r2 > 0, 1.0 / np.where(r2 > 0, r2, 1.0), 0.0)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            # x x / r^2 etc. stay within [0, 1] even where r^2 is subnormal and 1 / r^2
+            # overflows (the products then are 0 x inf; diff is ~0 there anyway)
+            inv_r2 = np.where(r2 > 1e-200, 1.0 / np.where(r2 > 1e-200, r2, 1.0), 0.0)
         zxx = fr_over_r + diff * x * x * inv_r2
         zyy = fr_over_r + diff * y * y * inv_r2
         zxy = diff * x * y * inv_r2
