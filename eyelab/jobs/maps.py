@@ -200,6 +200,12 @@ def _progressive_lines(f: dict) -> list:
         lines.append(f"  Minkwitz ratio {mk['ratio']:.2f} (dC/dx "
                      f"{mk['cylinder_gradient_d_per_mm']:.2f} D/mm over 2 x dP/dy "
                      f"{mk['power_gradient_d_per_mm']:.2f} D/mm; 1 = Minkwitz's limit)")
+    um = f.get("corridor_umbilic", {})
+    if um:
+        at = um.get("minkwitz_at_path")
+        lines.append(f"  along the path: unwanted cylinder <= {um['path_cylinder_max_d']:.2f} D "
+                     f"(at y {um['at_y_mm']:+.1f} mm)" + ("" if at is None else
+                     f"; at the path dC/dx = {at['ratio']:.2f} x dP/dy (2 for an umbilic)"))
     lines.append(f"  minimum fitting height {f['minimum_fitting_height_mm']:.1f} mm (near zone top "
                  f"{-c['near_zone_top_mm']:.1f} mm below the fitting cross + 4 mm to read)")
     return lines

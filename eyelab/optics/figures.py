@@ -34,6 +34,7 @@ from eyelab.optics import asworn
 from eyelab.optics.analysis import analyze_points, power_error
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.trace import FATAL
+from eyelab.optics.umbilic import corridor_umbilic
 
 #: Clear-zone criteria (D): unwanted cylinder below 0.50 D — the criterion of Sheedy's
 #: measured comparisons of progressive designs (J. E. Sheedy, "Progressive addition
@@ -231,6 +232,12 @@ def zone_sections(lm: LensMap, cor: dict, which: str) -> dict:
             "reference_open": at_ref["open"]}
 
 
+def add_points(cor: dict, *fractions) -> tuple:
+    """The heights y (mm) where the path's add reaches each fraction of the add."""
+    sgn = np.sign(cor["add_d"])
+    return tuple(_crossing(cor["ys"], cor["add"] * sgn, f * abs(cor["add_d"])) for f in fractions)
+
+
 def minkwitz(lm: LensMap, cor: dict) -> dict:
     """Minkwitz's ratio along the corridor (G. Minkwitz, *Optica Acta* 10:223-227 (1963);
     measured on commercial lenses by J. E. Sheedy, C. Campbell, E. King-Smith &
@@ -241,8 +248,7 @@ def minkwitz(lm: LensMap, cor: dict) -> dict:
     dC/dx: on sections every 0.25 mm, from the corridor widths at 0.50 and 0.75 D,
     2 (0.75 - 0.50) / (w75 - w50) (each side of the path the width grows by dC / (dC/dx);
     free of any cylinder floor along the path), averaged."""
-    y25, y75 = (_crossing(cor["ys"], cor["add"] * np.sign(cor["add_d"]), f * abs(cor["add_d"]))
-                for f in (0.25, 0.75))
+    y25, y75 = add_points(cor, 0.25, 0.75)
     lateral = []
     for y in np.arange(y25, y75 - 1e-9, -0.25):
         w = [section(lm, float(y), float(corridor_path(lm, y)[0]), c)
@@ -291,7 +297,8 @@ def progressive_figures(lm: LensMap) -> dict:
         "near_zone": zone_sections(lm, cor, "near"),
         "peak_cylinder": {"d": float(c[j, i]), "lens_mm": [float(lm.x_mm[i]), float(lm.y_mm[j])],
                           "ratio_to_add": float(c[j, i]) / cor["add_d"]},
-        "minkwitz": minkwitz(lm, cor),
+        "minkwitz": minkwitz(lm, cor), "corridor_umbilic": corridor_umbilic(
+            lm, lambda y: corridor_path(lm, y), *add_points(cor, 0.25, 0.75)),
         "minimum_fitting_height_mm": -cor["near_top"] + READING_HEIGHT_MM})
     return out
 

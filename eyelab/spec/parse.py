@@ -46,9 +46,9 @@ EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupi
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
-             "softness_mm"}
+             "softness_mm", "optimise"}
 #: Keys only a progressive design takes.
-PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm")
+PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm", "optimise")
 SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
                 "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve", "file",
                 "spacing_mm", "first_row"}
@@ -341,6 +341,7 @@ def _progressive(t, rx, where, material, pose, diameter, side=None) -> Spectacle
     progressive`); the design's lengths from the spec, its side the eye's (``side``), else
     the Rx's, else right. A design that does not fit the lens is refused naming the key
     to change (:func:`_progressive_misfit`), never the engine's surface."""
+    from eyelab.optics.optimise import optimised_progressive
     from eyelab.optics.progressive import ProgressiveDesign, progressive_lens
 
     if rx.add <= 0:
@@ -362,14 +363,26 @@ def _progressive(t, rx, where, material, pose, diameter, side=None) -> Spectacle
         raise SpecError(where, f"the add of {rx.format()!r}, for a progressive design: "
                                f"{e.message}") from None
     _check_near_point(t, design, diameter)
+    preset = _optimise(t.get("optimise", "none"))
     try:
-        lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design,
-                                      pose=pose, diameter=diameter)
+        if preset == "none":
+            lens, _, _ = progressive_lens(rx, rx.add, material=material, design=design,
+                                          pose=pose, diameter=diameter)
+        else:
+            lens, _, _ = optimised_progressive(rx, rx.add, preset, material=material,
+                                               design=design, pose=pose, diameter=diameter)
     except SpecError as e:
         if not e.field.startswith("surface."):
             raise
         raise _progressive_misfit(t, rx, material, pose, design, diameter) from None
     return lens
+
+
+def _optimise(v) -> str:
+    """``lens.optimise``: "none" (the analytic design) or a preset's name."""
+    from eyelab.optics.optimise import OPTIMISE_CHOICES
+
+    return choice("lens.optimise", v, OPTIMISE_CHOICES)
 
 
 def _near_field(t) -> str:

@@ -37,6 +37,7 @@ from eyelab.optics.eye import LIMITS as EYE_LIMITS
 from eyelab.optics.fresnel import COATINGS
 from eyelab.optics.lens import LIMITS as LENS_LIMITS
 from eyelab.optics.materials import ALIASES, CATALOGUE, RGB_WAVELENGTHS_NM
+from eyelab.optics.optimise import OPTIMISE_CHOICES
 from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
 from eyelab.optics.surfaces import REVOLVE_AXES
 from eyelab.optics.system import EXAMPLES, full_f_number, get_system
@@ -276,6 +277,11 @@ KEYS = [
     Key("lens", "softness_mm", "number", "mm", "8", "progressive: lateral half-width over "
         "which the add fades beside the corridor (small: a hard design)",
         base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
+    Key("lens", "optimise", "choice", "", '`"none"`', "progressive: optimise the front as "
+        'worn with a preset (`"soft"`, `"hard"`; `eyelab/optics/optimise.py`) or keep the '
+        "analytic design",
+        choices=OPTIMISE_CHOICES, base={"lens": {"rx": "-2.00 DS add +2.00",
+                                                 "design": "progressive"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of a lens made "
         "from `rx`: tables [lens.front] and [lens.back] (both, with `center_thickness_mm`; "
         "with a points surface `rx` may stay, as what power errors compare with); a "
