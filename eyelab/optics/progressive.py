@@ -127,19 +127,27 @@ def corridor_profiles(c0: float, a_max: float, design: ProgressiveDesign, end: f
     and on below its foot, where the near zone's centre line stays umbilic too."""
     from scipy.integrate import solve_ivp
 
-    sphere = Asphere(c0)
+    L, k = design.corridor, design.nasal * design.inset
 
     def rhs(y, state):
+        # scalar closed forms (the solver calls this thousands of times): the smoothstep
+        # and its derivatives in t; the sphere's slopes c x / q and Hessian
+        # c / q + c^3 x x^T / q^3, q = sqrt(1 - c^2 r^2)
         g, gp, b = state
-        s, u, up, upp = (float(v) for v in _path_terms(np.array(y), design))
-        d = sphere.derivatives(np.array([u]), np.array([y]))
+        t = min(max(-y / L, 0.0), 1.0)
+        s = t ** 3 * (10.0 - 15.0 * t + 6.0 * t * t)
+        up = -k * 30.0 * t * t * (1.0 - t) ** 2 / L
+        upp = k * 60.0 * t * (1.0 - t) * (1.0 - 2.0 * t) / (L * L)
+        u = k * s
+        q = math.sqrt(1.0 - c0 * c0 * (u * u + y * y))
+        c3 = c0 ** 3 / q ** 3
         a = a_max * s
-        zx = float(d.zx[0]) + b
-        zy = float(d.zy[0]) - up * b + gp
+        zx = c0 * u / q + b
+        zy = c0 * y / q - up * b + gp
         gxx, gxy, gyy = 1.0 + zx * zx, zx * zy, 1.0 + zy * zy
-        hxx = float(d.zxx[0]) + a
-        bp = hxx * gxy / gxx - float(d.zxy[0]) + up * a
-        gpp = hxx * gyy / gxx - float(d.zyy[0]) - up * up * a + upp * b + 2.0 * up * bp
+        hxx = c0 / q + c3 * u * u + a
+        bp = hxx * gxy / gxx - c3 * u * y + up * a
+        gpp = hxx * gyy / gxx - (c0 / q + c3 * y * y) - up * up * a + upp * b + 2.0 * up * bp
         return [gp, gpp, bp]
 
     if c0 != 0.0:       # no further than the sphere reaches (beyond it the sag is NaN anyway)
