@@ -29,6 +29,8 @@ BENCHES = {
     "inspect": ("the inspector's response to changes", ("quick",)),
     "batch": ("eyelab batch against one process per image", ("quick",)),
     "imagebased": ("Heidrich's image-based model per angle threshold", ("quick", "repeats")),
+    "design": ("the progressive design, analytic vs optimised as worn: optimiser time and "
+               "figures of merit", ()),
 }
 
 
@@ -201,6 +203,12 @@ def _bench_stability(args):
     return run_stability_bench(cases=1_000_000 if args.full else 100_000)
 
 
+def _bench_design(args):
+    from eyelab.bench.design import run_design_bench
+
+    return run_design_bench()
+
+
 def _bench_blurfield(args):
     from eyelab.bench.blurfield import run_blurfield_bench
 
@@ -212,7 +220,7 @@ _BENCH_RUNS = {"optics": _bench_optics, "blurfield": _bench_blurfield,
                "render": _bench_render, "quality": _bench_quality,
                "stability": _bench_stability, "memory": _bench_memory,
                "inspect": _bench_inspect, "batch": _bench_batch,
-               "imagebased": _bench_imagebased}
+               "imagebased": _bench_imagebased, "design": _bench_design}
 
 
 def _read_json(flag, path):

@@ -52,10 +52,10 @@ from eyelab.core.errors import SpecError
 #: Design presets: periphery weights of the mean-power and cylinder residuals (the zones'
 #: are 1), the distance zone's half-width (mm) and the near zone's (mm).
 PRESETS = {
-    "soft": {"mean_periphery": 0.05, "cylinder_periphery": 0.35, "distance_half_width_mm": 14.0,
-             "near_half_width_mm": 4.0},
-    "hard": {"mean_periphery": 0.02, "cylinder_periphery": 0.10, "distance_half_width_mm": 22.0,
-             "near_half_width_mm": 6.0},
+    "soft": {"mean_periphery": 0.05, "cylinder_periphery": 0.10, "distance_half_width_mm": 14.0,
+             "near_half_width_mm": 5.0},
+    "hard": {"mean_periphery": 0.02, "cylinder_periphery": 0.07, "distance_half_width_mm": 22.0,
+             "near_half_width_mm": 8.0},
 }
 #: The spec's ``lens.optimise`` values: the analytic design, or a preset's optimisation.
 OPTIMISE_CHOICES = ("none", *PRESETS)
@@ -79,8 +79,8 @@ class Settings:
     the merit by less than tolerance (relative)."""
 
     preset: str = "soft"
-    half_angle_deg: float = 36.0
-    n: int = 25
+    half_angle_deg: float = 40.0
+    n: int = 29
     knots: int = 17
     max_iterations: int = 40
     tolerance: float = 1e-4
@@ -167,7 +167,7 @@ def weights(x_mm, y_mm, design, preset: str) -> tuple:
     up = 1.0 / (1.0 + np.exp(-(y - 1.0) / 1.0))
     dist = up * np.exp(-(x / p["distance_half_width_mm"]) ** 4)
     half = 1.0 + (p["near_half_width_mm"] - 1.0) * add_share(y, design)
-    corr = (1.0 - up) * np.exp(-0.5 * ((x - _path_x(y, design)) / half) ** 2)
+    corr = (1.0 - up) * np.exp(-(((x - _path_x(y, design)) / half) ** 4))
     zone = np.maximum(dist, corr)
     ref = np.ones_like(x)
     for px, py in (design.distance_point, design.near_point):
