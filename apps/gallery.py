@@ -34,6 +34,7 @@ def main(argv=None) -> int:
 
 #: Gazes (right, up; deg) through a progressive lens: distance zone, near zone, lower side.
 PAL_GAZES = (("distance zone: 5 deg up", (0.0, 5.0)),
+             ("corridor: 16 deg down", (-2.0, -16.0)),
              ("near zone: 28 deg down", (-5.0, -28.0)),
              ("lower side: 28 down, 25 right", (25.0, -28.0)))
 
@@ -61,7 +62,8 @@ def pal_views(spec_path, out) -> str:
         for label, gaze in PAL_GAZES:
             view = rs.with_changes(gaze_deg=list(gaze)).view
             panels.append((label, r.render(scene, spec.eye, spec.lens, view).srgb))
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4), constrained_layout=True)
+    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.4),
+                             constrained_layout=True)
     for ax, (label, img) in zip(axes, panels, strict=True):
         ax.imshow(np.asarray(img))
         ax.set_title(label)

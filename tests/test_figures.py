@@ -26,7 +26,7 @@ from eyelab.optics.figures import (
 from eyelab.spec import load_spec
 
 ROOT = Path(__file__).resolve().parents[1]
-PAL = ROOT / "docs" / "gallery" / "pal.toml"
+PAL = ROOT / "docs" / "gallery" / "pal_analytic.toml"
 
 
 def logistic_lens(add, s, y0, inset, step=0.05):
@@ -118,7 +118,7 @@ def pal():
 
 
 def test_the_built_in_progressive_lens_has_sensible_figures(pal):
-    """docs/gallery/pal.toml (-2.00 D, add +2.00, 14 mm corridor, 2.5 mm inset): the add
+    """docs/gallery/pal_analytic.toml (-2.00 D, add +2.00, 14 mm corridor, 2.5 mm inset): the add
     as worn within 0.25 D of the nominal; the reference points' powers those of the Rx;
     the 10-90 % corridor length within 1.5 mm of the design's own (its smoothstep add
     rises from 10 % to 90 % over 0.54 x 14 mm = 7.6 mm) and the full add (within 0.25 D)
