@@ -248,6 +248,9 @@ class Renderer(abc.ABC):
 
     name: str = "renderer"
     Quality: type = type(None)
+    #: Whether the renderer bends its pupil rays by the eye's higher-order aberrations
+    #: itself (then only the diffraction kernel is applied: :mod:`eyelab.imaging.eyepsf`).
+    traces_eye_aberrations: bool = False
 
     def __init__(self, quality=None):
         self.quality = self.Quality() if quality is None else quality
@@ -272,6 +275,10 @@ class Renderer(abc.ABC):
                 raise SpecError("render.camera", f"a camera lens renders with "
                                 f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not {self.name!r}")
             return self._render_camera(scene, eye, view, quality, progressive)
+        if getattr(eye, "aberrations", None) is not None:     # eyelab/imaging/eyepsf.py
+            from eyelab.imaging.eyepsf import render_aberrated
+
+            return render_aberrated(self, scene, eye, lens, view, quality, progressive)
         return self._render(scene, eye, lens, view, quality, progressive)
 
     def _render_camera(self, scene, camera, view: View, quality, progressive: bool

@@ -136,6 +136,10 @@ class Eye:
     rotation_centre : float
         Distance (m) of the centre of rotation behind the cornea (docs/SCIENCE.md §2:
         13-14 mm).
+    aberrations : Aberrations or None
+        The eye's higher-order wave aberrations (:mod:`eyelab.optics.aberrations`): with
+        them renders show those and the pupil's diffraction; None (the default): the
+        geometric thin toric eye alone.
     chromatic : bool
         The eye's own longitudinal chromatic aberration (:func:`ocular_lca`): at a
         wavelength other than :data:`EYE_REFERENCE_NM` every meridian's power is higher by
@@ -152,6 +156,7 @@ class Eye:
     pupil_diameter: float = 4.0e-3
     rotation_centre: float = 13.5e-3
     chromatic: bool = True
+    aberrations: object = None
 
     def __post_init__(self):
         check_in("eye.power_min_d", self.power_min, LIMITS)
@@ -164,6 +169,16 @@ class Eye:
         check_in("eye.rotation_centre_mm", self.rotation_centre * 1e3, LIMITS)
         if not isinstance(self.chromatic, bool):
             raise SpecError("eye.chromatic", f"must be true or false, got {self.chromatic!r}")
+        if self.aberrations is not None:
+            from eyelab.optics.aberrations import Aberrations
+
+            if not isinstance(self.aberrations, Aberrations):
+                raise SpecError("eye.aberrations", "must be an Aberrations or None")
+            if self.pupil_diameter * 1e3 > self.aberrations.pupil_mm + 1e-9:
+                raise SpecError("eye.pupil_diameter_mm", f"{self.pupil_diameter * 1e3:g} mm "
+                                f"exceeds the {self.aberrations.pupil_mm:g} mm the aberrations "
+                                f"were measured over (eye.aberrations.pupil_mm): a wavefront "
+                                f"is not known beyond its pupil")
 
     # ---------------------------------------------------------------- builders
     @classmethod

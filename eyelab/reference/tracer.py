@@ -10,7 +10,10 @@ For each pixel (a direction from the pupil centre, the eye camera of the raster 
    with that accommodation (slope form: a ray through pupil point rho leaves with the slope
    -(P - n2/z_r) rho relative to the chief ray, as every ray of the pixel's retinal point
    does), through the lens exactly (a ray that misses the lens goes on straight), into the
-   scene; their radiances are averaged in linear light.
+   scene; their radiances are averaged in linear light. An eye with higher-order
+   aberrations (``Eye.aberrations``) bends each ray further by grad W at its pupil point
+   (geometric optics); the pupil's diffraction is then a kernel on the image
+   (:mod:`eyelab.imaging.eyepsf`).
 
 Shading is the raster renderer's: unlit vertex colours or textures, in linear light:
 texels are decoded from sRGB and then filtered bilinearly (the raster renderer's sRGB
@@ -58,6 +61,7 @@ class ReferenceRenderer(Renderer):
 
     name = "reference"
     Quality = ReferenceQuality
+    traces_eye_aberrations = True       # grad W per pupil ray; diffraction as a kernel
 
     @staticmethod
     def pixel_ndc(view: View):
@@ -154,6 +158,9 @@ class ReferenceRenderer(Renderer):
         else:
             gx = (pxx - e)[:, None] * rho_x + pxy[:, None] * rho_y       # incoming slope G rho
             gy = pxy[:, None] * rho_x + (pyy - e)[:, None] * rho_y
+        if eye.aberrations is not None:   # the higher orders bend each pupil ray by grad W
+            hx, hy = eye.aberrations.slopes(rho_x, rho_y, eye.pupil_diameter * 1e3)
+            gx, gy = gx + hx, gy + hy
         origins = pupil + rho_x[..., None] * x_e[:, None] + rho_y[..., None] * y_e[:, None]
         # each sample's ray leaves a point of the pixel (box filter, as the raster's jittered
         # passes): R2 offsets, shifted per pixel (Cranley-Patterson rotation)

@@ -144,7 +144,12 @@ class RasterRenderer(Renderer):
             raise ValueError(f"images must be 'every' or 'doubling', got {images!r}")
         steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
         shown = set(steps) if images == "every" else set(progressive_checkpoints(quality.samples))
-        yield from self._run(scene, eye, lens, view, quality, steps, shown)
+        if getattr(eye, "aberrations", None) is None:
+            yield from self._run(scene, eye, lens, view, quality, steps, shown)
+        else:                                           # eyelab/imaging/eyepsf.py
+            from eyelab.imaging.eyepsf import aberrated_frames
+
+            yield from aberrated_frames(self, scene, eye, lens, view, quality, steps, shown)
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
              shown=None):

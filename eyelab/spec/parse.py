@@ -28,6 +28,7 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.pointsfile import FIRST_ROWS, check_covers, read_points
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
+from eyelab.spec.aberrationparse import eye_aberrations
 from eyelab.spec.eyerx import dioptres, eye_rx_ranges
 from eyelab.spec.schema import (
     EYE_VERTEX_MM,
@@ -42,7 +43,7 @@ from eyelab.spec.tables import check_keys, check_rules, choice, number, rx_value
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
             "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm",
-            "chromatic", "accommodation_d"}
+            "chromatic", "accommodation_d", "aberrations"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
@@ -79,6 +80,8 @@ def parse_eye(t: dict) -> Eye:
         number(t, "vertex_distance_mm", "eye")          # a bad value first
     check_rules(t, "eye")
     kw = _eye_options(t)
+    t, kw["aberrations"] = eye_aberrations(t, number(t, "vertex_distance_mm", "eye",
+                                                      EYE_VERTEX_MM))
     if "rx" in t:
         return _eye_from_rx(t, kw)
     for key, attr in (("power_min_d", "power_min"), ("astigmatism_d", "astigmatism"),

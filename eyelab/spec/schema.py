@@ -43,6 +43,7 @@ from eyelab.optics.surfaces import REVOLVE_AXES
 from eyelab.optics.system import EXAMPLES, full_f_number, get_system
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS
+from eyelab.spec.aberrationkeys import ABERRATION_KEYS, ABERRATION_LIMITS, ABERRATION_TABLE
 from eyelab.spec.eyerx import eye_rx_text
 from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
 from eyelab.spec.surfacefile import POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
@@ -103,7 +104,7 @@ EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d"
                                                   "astigmatism_axis_deg")}}
 #: Every field's range but the renderers' own options (:func:`range_of` has those).
 LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS, **View.LIMITS,
-          **POINTS_LIMITS, **SPEC_LIMITS}
+          **POINTS_LIMITS, **ABERRATION_LIMITS, **SPEC_LIMITS}
 
 
 def declared(field_name: str) -> str:
@@ -279,9 +280,8 @@ KEYS = [
         base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
     Key("lens", "optimise", "choice", "", '`"none"`', "progressive: optimise the front as "
         'worn with a preset (`"soft"`, `"hard"`; `eyelab/optics/optimise.py`) or keep the '
-        "analytic design",
-        choices=OPTIMISE_CHOICES, base={"lens": {"rx": "-2.00 DS add +2.00",
-                                                 "design": "progressive"}}),
+        "analytic design", choices=OPTIMISE_CHOICES,
+        base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of a lens made "
         "from `rx`: tables [lens.front] and [lens.back] (both, with `center_thickness_mm`; "
         "with a points surface `rx` may stay, as what power errors compare with); a "
@@ -482,10 +482,11 @@ KEYS = [
     Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
         "goes (the pupil is at the origin, looking along −z)",
         base={"render": {"scene": {"path": "room"}}}),
-] + [Key(*args, **kw) for args, kw in POINTS_KEYS]       # [lens.front] type = "points"
+] + [Key(*a, **kw) for a, kw in POINTS_KEYS + ABERRATION_KEYS]  # points; eye.aberrations
 
 #: Headings of the generated tables, in order.
-TABLES = {"eye": "`[eye]`", "lens": "`[lens]` (omit for the naked eye)",
+TABLES = {"eye": "`[eye]`", "eye.aberrations": ABERRATION_TABLE,
+          "lens": "`[lens]` (omit for the naked eye)",
           "lens.front": "`[lens.front]`, `[lens.back]` (surfaces; the toric keys below "
           "apply to either)", "lens.back": None,
           "analysis": "`[analysis]`",

@@ -1,0 +1,136 @@
+"""The eye's own higher-order aberrations, as measured by an aberrometer, and what the
+renderers take from them.
+
+An :class:`Aberrations` holds the measured Zernike expansion's orders n >= 3 (OSA/ANSI,
+micrometres, at ``pupil_mm`` and ``wavelength_nm``; :mod:`eyelab.optics.zernike`): the
+second order is the eye's refraction (its Rx, Thibos et al. 2004), the first a prism
+(no blur) and the piston nothing. Their optical path difference is taken as the same at
+every wavelength (the higher orders change little across the visible; the defocus's
+change with wavelength is the eye's chromatic model, :func:`eyelab.optics.eye.ocular_lca`).
+For a render's pupil (at most the measured one) the expansion is re-expanded over the
+smaller disc (:func:`eyelab.optics.zernike.rescale`): spherical aberration then also
+leaks into the second order — the pupil-dependent refraction it causes — which stays in
+the kernel, not in the Rx.
+
+What the renderers use (eyelab/imaging/eyepsf.py):
+
+* :meth:`Aberrations.kernel` — the wave-optics PSF of these aberrations and the pupil's
+  diffraction, without the low-order blur (the raster renders that exactly and spatially
+  varying, then convolves its image with this kernel per colour channel);
+* :meth:`Aberrations.slopes` — grad W at pupil points (the reference renderer bends each
+  pupil ray by it: geometric) with :func:`diffraction_kernel`, the diffraction-limited PSF
+  of the pupil (wave).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from eyelab.core.errors import SpecError
+from eyelab.optics import zernike as zk
+from eyelab.optics.psf import psf
+
+#: The reporting wavelength of ANSI Z80.28 (nm): the default of ``wavelength_nm``.
+REPORT_WAVELENGTH_NM = 555.0
+#: Energy a kernel keeps inside its square (the rest is the far tails).
+KERNEL_ENERGY = 0.995
+#: The largest kernel a side (px).
+MAX_KERNEL = 255
+
+
+@dataclass(frozen=True)
+class Aberrations:
+    """The eye's higher-order wave aberration: ``coefficients_um`` (tuple, OSA/ANSI order
+    from j = 0, the standard's frame: x to the examiner's right; orders < 3 zero),
+    measured over ``pupil_mm`` at ``wavelength_nm``; ``stiles_crawford`` apodises the
+    pupil (:data:`eyelab.optics.psf.STILES_CRAWFORD_RHO`)."""
+
+    coefficients_um: tuple
+    pupil_mm: float
+    wavelength_nm: float = REPORT_WAVELENGTH_NM
+    stiles_crawford: bool = False
+
+    def __post_init__(self):
+        c = np.asarray(self.coefficients_um, float)
+        if c.ndim != 1 or not np.all(np.isfinite(c)):
+            raise SpecError("eye.aberrations.coefficients_um", "must be finite numbers")
+        if len(c) > zk.j_from_nm(zk.MAX_ORDER, zk.MAX_ORDER) + 1:
+            raise SpecError("eye.aberrations.coefficients_um", f"at most order "
+                            f"{zk.MAX_ORDER} ({zk.j_from_nm(zk.MAX_ORDER, zk.MAX_ORDER) + 1} "
+                            f"terms), got {len(c)}")
+        if np.any(c[:6] != 0):
+            raise SpecError("eye.aberrations.coefficients_um", "orders 0-2 belong to the "
+                            "refraction (eye.rx), not to the higher orders")
+
+    def wearer(self, pupil_mm: float) -> np.ndarray:
+        """The coefficients (um) over a render pupil of ``pupil_mm`` (<= the measured one),
+        in eyelab's wearer frame (x to the wearer's right)."""
+        c = np.asarray(self.coefficients_um, float)
+        if abs(pupil_mm - self.pupil_mm) > 1e-9:
+            c = zk.rescale(c, self.pupil_mm, pupil_mm)
+        return zk.to_wearer(c)
+
+    def rms_um(self, pupil_mm: float) -> float:
+        """RMS wavefront error (um) of the higher orders over ``pupil_mm``."""
+        return zk.rms(self.wearer(pupil_mm))
+
+    def slopes(self, x_m, y_m, pupil_mm: float) -> tuple:
+        """(dW/dx, dW/dy) (dimensionless) at pupil points (m, wearer frame) of a render
+        pupil of ``pupil_mm``: central differences of the expansion (step 1e-6 of the
+        radius; exact to ~1e-12 for these polynomials)."""
+        c = self.wearer(pupil_mm)
+        r = pupil_mm * 1e-3 / 2
+        x, y = np.asarray(x_m, float) / r, np.asarray(y_m, float) / r
+        h = 1e-6
+        gx = (zk.wavefront(c, x + h, y) - zk.wavefront(c, x - h, y)) / (2 * h)
+        gy = (zk.wavefront(c, x, y + h) - zk.wavefront(c, x, y - h)) / (2 * h)
+        return gx * 1e-6 / r, gy * 1e-6 / r
+
+    def kernel(self, wavelength_nm: float, pupil_mm: float, pitch_rad: float,
+               *, waves: bool = True) -> np.ndarray:
+        """The image-oriented PSF kernel (odd square, sums to 1) at ``pitch_rad`` per pixel:
+        the higher orders over the render pupil and its diffraction (``waves``), or the
+        diffraction alone (``waves=False``: the reference traces the higher orders)."""
+        c = self.wearer(pupil_mm) if waves else np.zeros(1)
+        return _kernel(c, pupil_mm, wavelength_nm, pitch_rad, self.stiles_crawford)
+
+
+def diffraction_kernel(pupil_mm: float, wavelength_nm: float, pitch_rad: float,
+                       stiles_crawford: bool = False) -> np.ndarray:
+    """The diffraction-limited PSF of the pupil as an image kernel (sums to 1)."""
+    return _kernel(np.zeros(1), pupil_mm, wavelength_nm, pitch_rad, stiles_crawford)
+
+
+def _kernel(c, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford) -> np.ndarray:
+    """A kernel wide enough for :data:`KERNEL_ENERGY` of the PSF: the geometric reach
+    max |grad W| plus 3 Airy radii, grown until the energy is in (at most MAX_KERNEL)."""
+    lam = wavelength_nm * 1e-9
+    d = pupil_mm * 1e-3
+    g = np.linspace(-1, 1, 65)
+    x, y = np.meshgrid(g, g)
+    w = zk.wavefront(c, x, y) * 1e-6
+    gy, gx = np.gradient(w, g[1] - g[0])
+    reach = float(np.max(np.hypot(gx, gy)[x * x + y * y <= 1])) / (d / 2)
+    half = math.ceil((reach + 3 * 1.22 * lam / d) / pitch_rad) + 1
+    while True:
+        size = min(2 * half + 1, MAX_KERNEL)
+        out = psf(c, pupil_mm, wavelength_nm, pitch_rad, size, stiles_crawford=stiles_crawford)
+        k = out["psf"]
+        if k.sum() >= KERNEL_ENERGY or size == MAX_KERNEL:
+            return k / k.sum()
+        half *= 2
+
+
+def second_order(mxx: float, mxy: float, myy: float, pupil_mm: float) -> tuple:
+    """(c_2^0, c_2^2, c_2^-2) (um, wearer frame) of the wave W = p^T M p / 2 (p in m over
+    the pupil, M in D: the eye's power plus the arriving wave's curvature less n2 / z_r —
+    0 when the point is in focus): c20 = R^2 (Mxx + Myy) / (8 sqrt 3), c22 = R^2 (Mxx -
+    Myy) / (4 sqrt 6), c2-2 = R^2 Mxy / (2 sqrt 6), R the pupil radius (m), times 1e6 —
+    for a sphere M = (Mxx + Myy) / 2 this is Thibos et al.'s c20 = -M_refraction r^2 /
+    (4 sqrt 3) with M = -M_refraction."""
+    r2 = (pupil_mm * 1e-3 / 2) ** 2 * 1e6
+    return (r2 * (mxx + myy) / (8 * math.sqrt(3)), r2 * (mxx - myy) / (4 * math.sqrt(6)),
+            r2 * mxy / (2 * math.sqrt(6)))

@@ -1,0 +1,115 @@
+"""The eye's wave-optics PSF (eyelab/optics/psf.py) and its Zernike bookkeeping
+(eyelab/optics/zernike.py) against independent truths: hcipy's Fraunhofer propagation of
+the same pupil function (its own Zernike modes and its own anti-aliased aperture), the Airy
+pattern's first zero, Maréchal's approximation, Thibos et al.'s refraction formulas both
+ways, and Schwiegerling's pupil-scaling closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from eyelab.optics import zernike as zk
+from eyelab.optics.prescription import Prescription
+from eyelab.optics.psf import psf
+
+LAM_NM, PUPIL_MM = 555.0, 3.0
+LAM, D = LAM_NM * 1e-9, PUPIL_MM * 1e-3
+
+CASES = [[(4, 0, 0.10)], [(3, 1, 0.10)], [(3, -1, 0.08)], [(2, 0, 0.15), (4, 0, 0.08)],
+         [(2, 0, 0.10), (4, 0, 0.08), (3, 1, 0.07)], [(3, 3, 0.10), (2, -2, 0.05)],
+         [(5, 1, 0.05), (6, 0, 0.04), (4, -2, 0.06)]]
+
+
+def _coefficients(terms, count=28):
+    c = np.zeros(count)
+    for n, m, v in terms:
+        c[zk.j_from_nm(n, m)] = v
+    return c
+
+
+@pytest.mark.parametrize("terms", CASES)
+def test_the_psf_equals_hcipys_for_the_same_pupil_function(terms):
+    """L1 difference of the normalised PSFs over +-12 lambda/D (at lambda / 4D a pixel) on
+    one grid, hcipy's pupil sampled 512 x 512 with an 8x supersampled aperture."""
+    hc = pytest.importorskip("hcipy")
+    pg = hc.make_pupil_grid(512, D * 1.02)
+    aperture = hc.evaluate_supersampled(hc.make_circular_aperture(D), pg, 8)
+    pitch, n = LAM / (4 * D), 97
+    fg = hc.make_uniform_grid([n, n], [n * pitch, n * pitch])
+    phase = sum(2 * np.pi * v * 1e-6 / LAM * hc.zernike(nn, m, D, pg) for nn, m, v in terms)
+    field = hc.Wavefront(aperture * np.exp(1j * phase), LAM)
+    theirs = hc.FraunhoferPropagator(pg, fg, focal_length=1.0)(field).power.shaped
+    ours = psf(_coefficients(terms), PUPIL_MM, LAM_NM, pitch, n)["psf"][::-1]   # rows: y up
+    theirs, ours = theirs / theirs.sum(), ours / ours.sum()
+    assert np.abs(ours - theirs).sum() < 0.01
+
+
+def test_a_diffraction_limited_eye_shows_the_airy_pattern():
+    """First zero at 1.22 lambda / D within 1 % (parabolic refinement of the minimum on a
+    lambda / 20D grid), and Strehl 1."""
+    pitch = LAM / (20 * D)
+    r = psf(np.zeros(1), PUPIL_MM, LAM_NM, pitch, 61)
+    row = r["psf"][30, 30:]
+    i = int(np.argmin(row[15:35])) + 15
+    a, b, c = row[i - 1], row[i], row[i + 1]
+    zero = (i + 0.5 * (a - c) / (a - 2 * b + c)) * pitch
+    assert zero / (LAM / D) == pytest.approx(1.2197, rel=0.01)
+    assert r["strehl"] == pytest.approx(1.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("j,rms_waves", [(12, 0.04), (7, 0.05), (24, 0.03)])
+def test_the_strehl_ratio_of_a_small_aberration_is_marechals(j, rms_waves):
+    c = np.zeros(28)
+    c[j] = rms_waves * LAM_NM * 1e-3
+    r = psf(c, PUPIL_MM, LAM_NM, LAM / (4 * D), 31)
+    assert r["rms_um"] == pytest.approx(c[j])
+    assert r["strehl"] == pytest.approx(math.exp(-(2 * math.pi * rms_waves) ** 2), rel=0.01)
+
+
+@pytest.mark.parametrize("rx", ["-3.00 / -1.25 x 30", "+2.50 / -0.75 x 105", "-0.25 DS",
+                                "+0.00 / -2.00 x 180", "-8.00 / -3.00 x 67"])
+def test_the_rx_and_the_second_order_round_trip(rx):
+    p = Prescription.parse(rx)
+    c = zk.rx_to_second_order(p, 6.0, 0.012)
+    back = zk.second_order_to_rx(*c, 6.0, 0.012)
+    np.testing.assert_allclose(back.power_matrix(), p.power_matrix(), atol=1e-9)
+    # the ocular refraction of Thibos et al.: M = -4 sqrt(3) c20 / r^2
+    m_eye = zk.second_order_to_power_vector(*c, 6.0)[0]
+    (fa, _), (fb, _) = p.principal_meridians()
+    ka, kb = (f / (1 - 0.012 * f) for f in (fa, fb))
+    assert m_eye == pytest.approx((ka + kb) / 2, abs=1e-12)
+
+
+def test_a_smaller_pupil_keeps_defocus_dioptres_and_scales_spherical_aberration():
+    """Schwiegerling 2002: pure defocus keeps its dioptres (c20' = c20 e^2); spherical
+    aberration scales as c40' = c40 e^4 and leaks c20' = sqrt(15) c40 (e^4 - e^2) into
+    the defocus; coma c31' = c31 e^3 with c11' = 2 sqrt(2) c31 (e^3 - e)."""
+    e = 4.0 / 6.0
+    c = np.zeros(15)
+    c[4] = 0.7
+    out = zk.rescale(c, 6.0, 4.0)
+    assert zk.second_order_to_power_vector(out[4], 0, 0, 4.0)[0] == pytest.approx(
+        zk.second_order_to_power_vector(c[4], 0, 0, 6.0)[0], abs=1e-12)
+    c = np.zeros(15)
+    c[12] = 0.3
+    out = zk.rescale(c, 6.0, 4.0)
+    assert out[12] == pytest.approx(0.3 * e ** 4, abs=1e-12)
+    assert out[4] == pytest.approx(math.sqrt(15) * 0.3 * (e ** 4 - e ** 2), abs=1e-12)
+    c = np.zeros(15)
+    c[8] = 0.2
+    out = zk.rescale(c, 6.0, 4.0)
+    assert out[8] == pytest.approx(0.2 * e ** 3, abs=1e-12)
+    assert out[2] == pytest.approx(2 * math.sqrt(2) * 0.2 * (e ** 3 - e), abs=1e-12)
+    with pytest.raises(Exception, match="pupil_mm"):
+        zk.rescale(c, 4.0, 6.0)
+
+
+def test_the_mirror_to_the_wearers_frame_flips_the_odd_terms_in_x():
+    rng = np.random.default_rng(3)
+    c = rng.normal(size=28) * 0.1
+    x, y = rng.uniform(-0.6, 0.6, (2, 50))
+    np.testing.assert_allclose(zk.wavefront(zk.to_wearer(c), x, y), zk.wavefront(c, -x, y),
+                               atol=1e-12)
