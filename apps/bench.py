@@ -31,6 +31,8 @@ BENCHES = {
     "imagebased": ("Heidrich's image-based model per angle threshold", ("quick", "repeats")),
     "design": ("the progressive design, analytic vs optimised as worn: optimiser time and "
                "figures of merit", ()),
+    "psf": ("the eye's wave-optics PSF: its cost; the frame with higher-order aberrations",
+            ("repeats",)),
 }
 
 
@@ -203,6 +205,12 @@ def _bench_stability(args):
     return run_stability_bench(cases=1_000_000 if args.full else 100_000)
 
 
+def _bench_psf(args):
+    from eyelab.bench.psf import run_psf_bench
+
+    return run_psf_bench(repeats=args.repeats)
+
+
 def _bench_design(args):
     from eyelab.bench.design import run_design_bench
 
@@ -220,7 +228,8 @@ _BENCH_RUNS = {"optics": _bench_optics, "blurfield": _bench_blurfield,
                "render": _bench_render, "quality": _bench_quality,
                "stability": _bench_stability, "memory": _bench_memory,
                "inspect": _bench_inspect, "batch": _bench_batch,
-               "imagebased": _bench_imagebased, "design": _bench_design}
+               "imagebased": _bench_imagebased, "design": _bench_design,
+               "psf": _bench_psf}
 
 
 def _read_json(flag, path):

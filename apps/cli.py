@@ -50,11 +50,12 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
                     "report is written beside it, .json)")
     _render_overrides(dm)
-    from eyelab.apps import batch, inspector, surface
+    from eyelab.apps import batch, inspector, psf, surface
 
     inspector.add_parser(sub)
     batch.add_parser(sub)
     surface.add_parser(sub)
+    psf.add_parser(sub)
     mp = sub.add_parser("maps", help="as-worn maps of the spec's lens: mean power error and "
                         "cylinder over gaze directions (PNG contour maps, JSON)")
     mp.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
@@ -153,26 +154,7 @@ def _main(args) -> int:
 
         set_enabled(False)
     try:
-        if args.command == "analyze":
-            return _analyze(args)
-        if args.command == "bench":
-            return bench.run(args)
-        if args.command in ("render", "demo"):
-            return _render(args)
-        if args.command == "maps":
-            return _maps(args)
-        if args.command == "inspect":
-            from eyelab.apps.inspector import run
-
-            return run(args)
-        if args.command == "batch":
-            from eyelab.apps.batch import run
-
-            return run(args)
-        if args.command == "surface":
-            from eyelab.apps.surface import run
-
-            return run(args)
+        return _COMMANDS[args.command](args)
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
         return 2
@@ -185,6 +167,22 @@ def _main(args) -> int:
         print(f"eyelab: error: cannot write {where}{e.strerror or e}", file=sys.stderr)
         return 1
     return 1
+
+
+def _app(module: str):
+    """The ``run(args)`` of a front end in ``eyelab.apps``, imported when called."""
+    def run(args):
+        import importlib
+
+        return importlib.import_module(f"eyelab.apps.{module}").run(args)
+    return run
+
+
+#: Each subcommand's run.
+_COMMANDS = {"analyze": lambda a: _analyze(a), "bench": lambda a: bench.run(a),
+             "render": lambda a: _render(a), "demo": lambda a: _render(a),
+             "maps": lambda a: _maps(a), "inspect": _app("inspector"), "batch": _app("batch"),
+             "surface": _app("surface"), "psf": _app("psf")}
 
 
 def _analyze(args) -> int:

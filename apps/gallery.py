@@ -17,7 +17,10 @@ def main(argv=None) -> int:
     ap.add_argument("out", help="output folder")
     ap.add_argument("--size", type=int, nargs=2, default=(800, 600), metavar=("W", "H"))
     ap.add_argument("--pal-views", metavar="SPEC", help="instead: write pal_views.png, the "
-                    "room seen through the spec's progressive lens at three gazes")
+                    "room seen through the spec's progressive lens at four gazes")
+    ap.add_argument("--aberration-views", action="store_true", help="instead: write "
+                    "aberrations.png, a chart seen by eyes with higher-order aberrations, "
+                    "naked and through their lens")
     args = ap.parse_args(argv)
     from eyelab.render import use_offscreen
 
@@ -25,11 +28,70 @@ def main(argv=None) -> int:
     if args.pal_views:
         print(pal_views(args.pal_views, args.out))
         return 0
+    if args.aberration_views:
+        print(aberration_views(args.out))
+        return 0
     from eyelab.render.gallery import write_gallery
 
     for path in write_gallery(args.out, window_size=tuple(args.size)):
         print(path)
     return 0
+
+
+#: The eyes of aberrations.png: (label, OSA coefficients at 6 mm by (n, m), pupil mm).
+ABERRATION_EYES = (
+    ("0.3 um spherical aberration", {(4, 0): 0.3}, 5.0),
+    ("0.3 um vertical coma", {(3, -1): 0.3}, 5.0),
+    ("keratoconus-like: coma -1.2, trefoil 0.4,\nspherical -0.3 um", {
+        (3, -1): -1.2, (3, -3): 0.4, (4, 0): -0.3}, 5.0),
+    ("no higher orders, 2 mm pupil:\ndiffraction", {}, 2.0))
+
+
+def aberration_views(out) -> str:
+    """An ETDRS chart at 6 m (2 deg field) seen by a -1.00 D myope of 60 with each of
+    :data:`ABERRATION_EYES`, naked (top) and through a lens for the Rx (bottom), as
+    ``OUT/aberrations.png``."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from eyelab.imaging.contract import View
+    from eyelab.imaging.options import RasterQuality
+    from eyelab.optics.aberrations import Aberrations
+    from eyelab.optics.eye import Eye
+    from eyelab.optics.lens import SpectacleLens
+    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.zernike import j_from_nm
+    from eyelab.render.raster import RasterRenderer
+    from eyelab.scene.library import chart_scene
+
+    scene = chart_scene(6.0)
+    view = View(width=320, height=240, fov_y_deg=2.0, near=0.1, far=20.0)
+    rx = Prescription(-1.0)
+    lens = SpectacleLens.from_rx(rx)
+    fig, axes = plt.subplots(2, len(ABERRATION_EYES), figsize=(3.4 * len(ABERRATION_EYES), 5.6),
+                             constrained_layout=True)
+    with RasterRenderer(RasterQuality()) as r:
+        for col, (label, terms, pupil) in enumerate(ABERRATION_EYES):
+            c = np.zeros(28)
+            for (n, m), v in terms.items():
+                c[j_from_nm(n, m)] = v
+            eye = Eye.from_rx(rx, accommodation_max=1.0, pupil_diameter=pupil * 1e-3,
+                              aberrations=Aberrations(tuple(c), 6.0))
+            for row, ln in enumerate((None, lens)):
+                ax = axes[row, col]
+                ax.imshow(r.render(scene, eye, ln, view).srgb)
+                ax.set_axis_off()
+                ax.set_title(label if row == 0 else "through the -1.00 D lens", fontsize=9)
+    path = Path(out) / "aberrations.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return str(path)
 
 
 #: Gazes (right, up; deg) through a progressive lens: distance zone, near zone, lower side.

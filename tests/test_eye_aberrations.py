@@ -142,3 +142,33 @@ def test_the_spec_reads_coefficients_from_a_file(tmp_path):
     eye = load_spec(tmp_path / "eye.toml").eye
     assert eye.aberrations.coefficients_um[7] == 0.05
     assert eye.aberrations.coefficients_um[12] == 0.12
+
+
+def test_the_psf_command_writes_the_psf_and_its_report(tmp_path, capsys):
+    """`eyelab psf`: three channels' PSFs of the built-in spec's first point through its
+    lens; the JSON's Strehl is the peak ratio the PSF module reports and its coefficients
+    give back the same PSF; analyze reports the wave's RMS and Strehl; bad flags are one
+    line each, nothing written."""
+    import json
+
+    from eyelab.apps.cli import main
+    from eyelab.optics.psf import ARCMIN
+
+    out, js = tmp_path / "p.npy", tmp_path / "p.json"
+    assert main(["psf", "-o", str(out), "--json", str(js), "--size", "65"]) == 0
+    img, rep = np.load(out), json.loads(js.read_text())
+    assert img.shape == (3, 65, 65) and rep["pitch_arcmin"] == 0.25
+    ch = rep["channels"][1]
+    again = psf(np.array(ch["coefficients_um"]), rep["pupil_mm"], ch["wavelength_nm"],
+                0.25 * ARCMIN, 65)
+    np.testing.assert_allclose(again["psf"], img[1], atol=1e-12)
+    assert again["strehl"] == pytest.approx(ch["strehl"])
+    for argv, field in ((["psf", "-o", str(tmp_path / "q.npy"), "--point", "9"], "--point"),
+                        (["psf", "-o", str(tmp_path / "q.txt")], "--output"),
+                        (["psf", "-o", str(tmp_path / "q.npy"), "--size", "64"], "--size")):
+        assert main(argv) == 2
+        assert field in capsys.readouterr().err
+        assert not (tmp_path / "q.npy").exists()
+    assert main(["analyze", "--json"]) == 0
+    wave = json.loads(capsys.readouterr().out)["points"][0]["wave"]
+    assert 0 < wave["strehl"] <= 1 and wave["rms_higher_orders_um"] == 0.0

@@ -146,9 +146,18 @@ def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), sample
         "one_wavelength": skips["lens_in_view"] / skips["one_wavelength"],
         "one_wavelength_no_lens": skips["no_lens"] / skips["one_wavelength_no_lens"],
         "caches_reused": skips["cold_frame_new_eye"] / skips["warm_frame"]}
+    from eyelab.bench.psf import aberration_frames
+
+    aberr = aberration_frames(width, height, repeats)
     out = {"benchmark": "render", "size": [width, height], "default_frame": default,
-           "rows": rows, "skip_times_s": skips, "skip_speedups": speedups}
+           "rows": rows, "skip_times_s": skips, "skip_speedups": speedups,
+           "eye_aberrations": aberr}
     lines = _default_lines(default)
+    lines.append(f"eye with higher-order aberrations ({aberr['aberrations']}), default spec "
+                 f"{width}x{height}, warm: naked {aberr['with']['naked'] * 1e3:.0f} ms (without "
+                 f"{aberr['without']['naked'] * 1e3:.0f} ms), through the lens "
+                 f"{aberr['with']['through_lens'] * 1e3:.0f} ms (without "
+                 f"{aberr['without']['through_lens'] * 1e3:.0f} ms)")
     if table is not None:
         out["equal_error"] = table
         lines.append(f"equal-error speed-up over the reference ({table['preset']} quality "

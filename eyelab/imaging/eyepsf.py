@@ -32,6 +32,7 @@ kernel is there slightly too small) with reflected edges.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 
@@ -153,42 +154,52 @@ def wave_scatter(sharp: np.ndarray, mean_d: np.ndarray, j0w: float, mxy: float, 
     h, w = sharp.shape[:2]
     out = np.zeros((h, w, 3), np.float32)
     for c, wl in enumerate(channel_wavelengths()):
-        m = mean_d[c]
-        levels = _levels(m, pupil)
+        levels = _levels(mean_d[c], pupil)
+        kernels = []
+        for lev in levels:
+            c20, c22, c2m2 = second_order(lev + j0w, mxy, lev - j0w, pupil)
+            coef = np.zeros(max(len(hoa), 6))
+            coef[:len(hoa)] = hoa
+            coef[3:6] += (c2m2, c20, c22)
+            kernels.append(_wave_kernel(tuple(np.round(coef, 12)), pupil, wl, pitch,
+                                        ab.stiles_crawford))
+        pad = max(k.shape[0] for k in kernels) // 2
+        src = np.pad(np.asarray(sharp[..., c], np.float64), pad, mode="reflect")
+        m = np.pad(mean_d[c], pad, mode="reflect")
         if len(levels) == 1:
             idx, frac = np.zeros(m.shape, int), np.zeros(m.shape)
         else:
             pos = np.interp(m, levels, np.arange(len(levels)))
             idx = np.minimum(pos.astype(int), len(levels) - 2)
             frac = pos - idx
-        for li, lev in enumerate(levels):
+        acc = np.zeros_like(src)
+        for li, k in enumerate(kernels):
             wgt = np.where(idx == li, 1.0 - frac, 0.0) + np.where(idx == li - 1, frac, 0.0)
-            if not np.any(wgt > 0):
+            rows, cols = np.flatnonzero(wgt.any(axis=1)), np.flatnonzero(wgt.any(axis=0))
+            if len(rows) == 0:
                 continue
-            c20, c22, c2m2 = second_order(lev + j0w, mxy, lev - j0w, pupil)
-            coef = np.zeros(max(len(hoa), 6))
-            coef[:len(hoa)] = hoa
-            coef[3] += c2m2
-            coef[4] += c20
-            coef[5] += c22
-            k = _wave_kernel(coef, pupil, wl, pitch, ab.stiles_crawford)
-            r = k.shape[0] // 2
-            src = np.pad(sharp[..., c] * wgt, r, mode="reflect")
-            out[..., c] += fftconvolve(src, k, mode="same")[r:r + h, r:r + w]
+            r = k.shape[0] // 2             # each level's light only where it falls
+            y0, y1 = max(rows[0] - r, 0), min(rows[-1] + r + 1, src.shape[0])
+            x0, x1 = max(cols[0] - r, 0), min(cols[-1] + r + 1, src.shape[1])
+            acc[y0:y1, x0:x1] += fftconvolve(src[y0:y1, x0:x1] * wgt[y0:y1, x0:x1], k,
+                                             mode="same")
+        out[..., c] = acc[pad:pad + h, pad:pad + w]
     return np.clip(out, 0.0, None)
 
 
-def _wave_kernel(coef, pupil, wl, pitch, stiles_crawford):
-    from eyelab.optics.aberrations import _kernel
+@functools.lru_cache(maxsize=512)
+def _wave_kernel(coef: tuple, pupil, wl, pitch, stiles_crawford):
+    """A level's kernel, kept between frames (the inspector's, a batch's)."""
+    from eyelab.optics.aberrations import psf_kernel
 
-    return _kernel(coef, pupil, wl, pitch, stiles_crawford)
+    k = psf_kernel(np.array(coef), pupil, wl, pitch, stiles_crawford)
+    k.flags.writeable = False
+    return k
 
 
 def apply_eye_psf(result, eye, view, *, waves: bool = True):
     """``result`` (a :class:`~eyelab.imaging.contract.RenderResult`) with the eye's kernels
     applied to its linear image, the sRGB re-encoded and the report noting it."""
-    from eyelab.imaging.contract import RenderResult
-
     lin = result.linear
     kernels = eye_kernels(eye, view, waves=waves)
     t0 = time.perf_counter()
@@ -207,7 +218,7 @@ def apply_eye_psf(result, eye, view, *, waves: bool = True):
     t["eye_psf"] = time.perf_counter() - t0
     if "total" in t:
         t["total"] += t["eye_psf"]
-    return RenderResult(result.report, linear=out, layers=result.layers,
+    return type(result)(result.report, linear=out, layers=result.layers,
                         progressive=result.progressive)
 
 
@@ -237,8 +248,6 @@ def aberrated_frames(renderer, scene, eye, lens, view, quality, *args):
 
 def naked_wave(sharp, scene, eye, view, quality):
     """:func:`wave_scatter` of a sharp :class:`RenderResult`, the report noting it."""
-    from eyelab.imaging.contract import RenderResult
-
     t0 = time.perf_counter()
     mean_d, j0w, mxy = pixel_wave_errors(scene, eye, view, quality)
     out = wave_scatter(sharp.linear, mean_d, j0w, mxy, eye, view)
@@ -256,4 +265,4 @@ def naked_wave(sharp, scene, eye, view, quality):
     t["eye_psf"] = time.perf_counter() - t0
     if "total" in t:
         t["total"] += t["eye_psf"]
-    return RenderResult(rep, linear=out, layers=sharp.layers, progressive=sharp.progressive)
+    return type(sharp)(rep, linear=out, layers=sharp.layers, progressive=sharp.progressive)

@@ -118,6 +118,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
             "omega_deg": float(np.degrees(res.omega[i])),
             "matrix_um": (res.retina_matrix[i] * 1e6).tolist(),
         }
+        entry["wave"] = _wave(eye, res, i, spec.wavelength_nm)
         out_points.append(entry)
     k1, k2 = eye.refraction()
     return {
@@ -139,6 +140,18 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
         else spec.accommodation,
         "points": out_points,
     }
+
+
+def _wave(eye, res, i, wavelength_nm) -> dict:
+    """Point ``i``'s wave aberration over the eye's pupil: its RMS (um; orders >= 2, the
+    eye's defocus and astigmatism for the point included) and that of the eye's higher
+    orders, and the Strehl ratio (diffraction included; None past the PSF's grid)."""
+    from eyelab.optics import zernike as zk
+    from eyelab.optics.aberrations import point_strehl, point_wave
+
+    c = point_wave(eye, res, i, wavelength_nm)
+    return {"rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
+            "strehl": point_strehl(eye, c, wavelength_nm), "pupil_mm": eye.pupil_diameter * 1e3}
 
 
 def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
@@ -292,4 +305,10 @@ def _format_eye(rep: dict) -> list:
                      f"{b['major_um']:.2f} x {b['minor_um']:.2f} um semi-axes "
                      f"({b['major_arcmin']:.2f}' x {b['minor_arcmin']:.2f}'), major axis "
                      f"{b['major_axis_deg']:.1f} deg")
+        if "wave" in p:
+            w = p["wave"]
+            strehl = "n/a" if w["strehl"] is None else f"{w['strehl']:.3f}"
+            lines.append(f"  wave aberration over the {w['pupil_mm']:g} mm pupil: RMS "
+                         f"{w['rms_um']:.3f} um (higher orders {w['rms_higher_orders_um']:.3f}"
+                         f" um), Strehl ratio {strehl}")
     return lines

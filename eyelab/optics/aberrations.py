@@ -95,16 +95,16 @@ class Aberrations:
         the higher orders over the render pupil and its diffraction (``waves``), or the
         diffraction alone (``waves=False``: the reference traces the higher orders)."""
         c = self.wearer(pupil_mm) if waves else np.zeros(1)
-        return _kernel(c, pupil_mm, wavelength_nm, pitch_rad, self.stiles_crawford)
+        return psf_kernel(c, pupil_mm, wavelength_nm, pitch_rad, self.stiles_crawford)
 
 
 def diffraction_kernel(pupil_mm: float, wavelength_nm: float, pitch_rad: float,
                        stiles_crawford: bool = False) -> np.ndarray:
     """The diffraction-limited PSF of the pupil as an image kernel (sums to 1)."""
-    return _kernel(np.zeros(1), pupil_mm, wavelength_nm, pitch_rad, stiles_crawford)
+    return psf_kernel(np.zeros(1), pupil_mm, wavelength_nm, pitch_rad, stiles_crawford)
 
 
-def _kernel(c, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford) -> np.ndarray:
+def psf_kernel(c, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford) -> np.ndarray:
     """A kernel wide enough for :data:`KERNEL_ENERGY` of the PSF: the geometric reach
     max |grad W| plus 3 Airy radii, grown until the energy is in (at most MAX_KERNEL)."""
     lam = wavelength_nm * 1e-9
@@ -134,3 +134,37 @@ def second_order(mxx: float, mxy: float, myy: float, pupil_mm: float) -> tuple:
     r2 = (pupil_mm * 1e-3 / 2) ** 2 * 1e6
     return (r2 * (mxx + myy) / (8 * math.sqrt(3)), r2 * (mxx - myy) / (4 * math.sqrt(6)),
             r2 * mxy / (2 * math.sqrt(6)))
+
+
+def point_wave(eye, res, i: int, wavelength_nm: float) -> np.ndarray:
+    """The eye's wave aberration (um, OSA order from j = 0, wearer frame, over its pupil)
+    for point ``i`` of a :class:`~eyelab.optics.analysis.PointAnalysis` traced at
+    ``wavelength_nm``: the second order of M = P_eye(acc, lambda) + K - n2/z_r (the
+    eye's power with the point's accommodation plus the arriving wave's curvature, in the
+    eye's (x, y) frame: :func:`second_order`) and the higher orders of ``eye.aberrations``
+    (none without them)."""
+    k11, k12, k22 = res.wave_eye.in_basis(res.eye_x)
+    pxx, pxy, pyy = eye.power_matrix(float(res.accommodation[i]), wavelength_nm)
+    e = eye.emmetropic_power
+    pupil = eye.pupil_diameter * 1e3
+    c20, c22, c2m2 = second_order(float(pxx + k11[i] - e), float(pxy + k12[i]),
+                                  float(pyy + k22[i] - e), pupil)
+    hoa = np.zeros(6) if eye.aberrations is None else eye.aberrations.wearer(pupil)
+    out = np.zeros(max(len(hoa), 6))
+    out[:len(hoa)] = hoa
+    out[3] += c2m2
+    out[4] += c20
+    out[5] += c22
+    return out
+
+
+def point_strehl(eye, coefficients_um, wavelength_nm: float) -> float | None:
+    """The Strehl ratio of the wave ``coefficients_um`` over the eye's pupil (sampled at
+    Nyquist); None when its slope needs a larger FFT than the PSF allows."""
+    pupil = eye.pupil_diameter * 1e3
+    pitch = wavelength_nm * 1e-9 / (2 * pupil * 1e-3)
+    st = eye.aberrations is not None and eye.aberrations.stiles_crawford
+    try:
+        return psf(coefficients_um, pupil, wavelength_nm, pitch, 3, stiles_crawford=st)["strehl"]
+    except SpecError:
+        return None

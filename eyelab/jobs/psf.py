@@ -1,0 +1,72 @@
+"""``eyelab psf``: the eye's point-spread function at a point of the spec, per colour
+channel, in wave optics (:mod:`eyelab.optics.psf`): the point's defocus and astigmatism
+through the lens (real chief ray and generalised-Coddington wavefront, as ``analyze``
+traces it, at each channel's wavelength) plus the eye's higher-order aberrations and the
+pupil's diffraction."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eyelab.core.errors import SpecError
+
+#: Default sampling: arcmin per pixel and pixels a side.
+PITCH_ARCMIN = 0.25
+SIZE = 129
+#: Modulation reported at these spatial frequencies (cycles / degree).
+MTF_FREQUENCIES_CPD = (5, 10, 15, 20, 30, 45, 60)
+
+
+def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: float = PITCH_ARCMIN,
+              size: int = SIZE) -> tuple:
+    """(psf (3, size, size) float64, image-oriented rows, each summing to the energy inside
+    the square; report dict) for ``spec``'s point ``point``."""
+    from eyelab.imaging.eyepsf import channel_wavelengths
+    from eyelab.optics import zernike as zk
+    from eyelab.optics.aberrations import point_wave
+    from eyelab.optics.analysis import analyze_points
+    from eyelab.optics.paths import ObjectPoints
+    from eyelab.optics.psf import ARCMIN, mtf, psf
+    from eyelab.optics.trace import FATAL
+
+    if spec.binocular is not None:
+        raise SpecError("--eye", "a two-eye spec: analyze one eye's spec (its [eye] and [lens])")
+    n = len(spec.points)
+    if not 0 <= point < n:
+        raise SpecError("--point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")
+    if not 0.01 <= pitch_arcmin <= 10:
+        raise SpecError("--pitch-arcmin", f"must be in [0.01, 10], got {pitch_arcmin:g}")
+    if not (3 <= size <= 1025 and size % 2 == 1):
+        raise SpecError("--size", f"must be odd, in [3, 1025], got {size}")
+    eye, lens = spec.eye, None if no_lens else spec.lens
+    pts = spec.points
+    one = ObjectPoints(pts.direction[point:point + 1], pts.distance[point:point + 1])
+    pupil = eye.pupil_diameter * 1e3
+    sc = eye.aberrations is not None and eye.aberrations.stiles_crawford
+    images, channels = [], []
+    for wl in channel_wavelengths():
+        res = analyze_points(eye, lens, one, wavelength_nm=wl, fixation=spec.fixation,
+                             accommodation=spec.accommodation, vertex_sphere=spec.vertex_sphere)
+        if res.status[0] & np.uint8(FATAL):
+            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
+        c = point_wave(eye, res, 0, wl)
+        out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc)
+        images.append(out["psf"])
+        channels.append({
+            "wavelength_nm": wl, "strehl": out["strehl"],
+            "rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
+            "energy_inside": float(out["psf"].sum()),
+            "mtf": {str(f): (float(v) if np.isfinite(v) else None) for f, v in zip(
+                MTF_FREQUENCIES_CPD, mtf(out["psf"], out["pitch_rad"], MTF_FREQUENCIES_CPD),
+                strict=True)},    # None: beyond the sampling's Nyquist frequency
+            "coefficients_um": [float(v) for v in c],
+            "fft": out["fft"], "pupil_samples": out["pupil_samples"]})
+    rep = {"point": point, "through_lens": lens is not None, "pupil_mm": pupil,
+           "pitch_arcmin": pitch_arcmin, "size_px": size,
+           "axes": "rows top to bottom (y down), columns left to right, as the wearer sees",
+           "coefficients": "OSA/ANSI order from j = 0, um, over the render pupil, eyelab's "
+                           "wearer frame (x to the wearer's right): the point's defocus and "
+                           "astigmatism plus the eye's higher orders",
+           "stiles_crawford": sc, "channels": channels,
+           "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}
+    return np.stack(images), rep
