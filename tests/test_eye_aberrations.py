@@ -172,3 +172,21 @@ def test_the_psf_command_writes_the_psf_and_its_report(tmp_path, capsys):
     assert main(["analyze", "--json"]) == 0
     wave = json.loads(capsys.readouterr().out)["points"][0]["wave"]
     assert 0 < wave["strehl"] <= 1 and wave["rms_higher_orders_um"] == 0.0
+
+
+def test_a_fixed_focus_is_applied_once(scene):
+    """The naked eye in wave optics with the view's fixed focus at the accommodation Eq. 13
+    picks for the chart anyway: the same image as without it (the sharp image is drawn
+    without the fixed focus; the real eye's focus enters the wave once)."""
+    import dataclasses
+
+    c = np.zeros(13)
+    c[12] = 0.1
+    eye = Eye.from_rx("+0.50 DS", accommodation_max=3.0, pupil_diameter=PUPIL * 1e-3,
+                      chromatic=False, aberrations=Aberrations(tuple(c), 6.0))
+    acc = float(eye.accommodation_for(-1.0 / DIST))
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        free = r.render(scene, eye, None, VIEW).linear
+        fixed = r.render(scene, eye, None, dataclasses.replace(VIEW, focus_d=acc)).linear
+    assert acc > 0.5
+    np.testing.assert_allclose(fixed, free, atol=2e-3)

@@ -113,3 +113,16 @@ def test_the_mirror_to_the_wearers_frame_flips_the_odd_terms_in_x():
     x, y = rng.uniform(-0.6, 0.6, (2, 50))
     np.testing.assert_allclose(zk.wavefront(zk.to_wearer(c), x, y), zk.wavefront(c, -x, y),
                                atol=1e-12)
+
+
+def test_the_mtf_of_a_diffraction_limited_pupil_is_the_closed_form():
+    """|OTF| of a circular pupil: (2/pi)(acos v - v sqrt(1 - v^2)), v = f / (D / lambda),
+    within 0.01 from 5 to 60 c/deg; NaN beyond the grid's Nyquist frequency."""
+    from eyelab.optics.psf import ARCMIN, mtf
+
+    r = psf(np.zeros(1), PUPIL_MM, LAM_NM, 0.25 * ARCMIN, 129)
+    f = np.array([5.0, 10, 20, 30, 45, 60])
+    v = f / (D / LAM * math.pi / 180)
+    want = 2 / math.pi * (np.arccos(v) - v * np.sqrt(1 - v * v))
+    np.testing.assert_allclose(mtf(r["psf"], r["pitch_rad"], f), want, atol=0.01)
+    assert np.isnan(mtf(r["psf"], r["pitch_rad"], [200.0])[0])

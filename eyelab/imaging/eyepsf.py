@@ -228,8 +228,17 @@ def render_aberrated(renderer, scene, eye, lens, view, quality, progressive):
     if lens is not None:
         res = renderer._render(scene, eye, lens, view, quality, progressive)
         return apply_eye_psf(res, eye, view, waves=not renderer.traces_eye_aberrations)
-    sharp = renderer._render(scene, sharp_eye(eye), None, view, quality, progressive)
+    sharp = renderer._render(scene, sharp_eye(eye), None, sharp_view(view), quality,
+                             progressive)
     return naked_wave(sharp, scene, eye, view, quality)
+
+
+def sharp_view(view):
+    """``view`` without a fixed focus: the sharp eye focuses each point itself (a fixed
+    focus is the real eye's, applied by :func:`pixel_wave_errors`)."""
+    import dataclasses
+
+    return view if view.focus_d is None else dataclasses.replace(view, focus_d=None)
 
 
 def aberrated_frames(renderer, scene, eye, lens, view, quality, *args):
@@ -242,7 +251,7 @@ def aberrated_frames(renderer, scene, eye, lens, view, quality, *args):
         for res in run(scene, eye, lens, view, quality, *args):
             yield None if res is None else apply_eye_psf(res, eye, view, waves=waves)
         return
-    for res in run(scene, sharp_eye(eye), None, view, quality, *args):
+    for res in run(scene, sharp_eye(eye), None, sharp_view(view), quality, *args):
         yield None if res is None else naked_wave(res, scene, eye, view, quality)
 
 

@@ -50,7 +50,8 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         if res.status[0] & np.uint8(FATAL):
             raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
-        out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc)
+        out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
+                  field="--pitch-arcmin")
         images.append(out["psf"])
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],

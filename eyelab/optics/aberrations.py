@@ -24,6 +24,7 @@ What the renderers use (eyelab/imaging/eyepsf.py):
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -68,10 +69,7 @@ class Aberrations:
     def wearer(self, pupil_mm: float) -> np.ndarray:
         """The coefficients (um) over a render pupil of ``pupil_mm`` (<= the measured one),
         in eyelab's wearer frame (x to the wearer's right)."""
-        c = np.asarray(self.coefficients_um, float)
-        if abs(pupil_mm - self.pupil_mm) > 1e-9:
-            c = zk.rescale(c, self.pupil_mm, pupil_mm)
-        return zk.to_wearer(c)
+        return _wearer(self.coefficients_um, self.pupil_mm, round(float(pupil_mm), 12)).copy()
 
     def rms_um(self, pupil_mm: float) -> float:
         """RMS wavefront error (um) of the higher orders over ``pupil_mm``."""
@@ -96,6 +94,15 @@ class Aberrations:
         diffraction alone (``waves=False``: the reference traces the higher orders)."""
         c = self.wearer(pupil_mm) if waves else np.zeros(1)
         return psf_kernel(c, pupil_mm, wavelength_nm, pitch_rad, self.stiles_crawford)
+
+
+@functools.lru_cache(maxsize=64)
+def _wearer(coefficients: tuple, measured_mm: float, pupil_mm: float) -> np.ndarray:
+    """:meth:`Aberrations.wearer`, kept (the reference renderer asks for every ray block)."""
+    c = np.asarray(coefficients, float)
+    if abs(pupil_mm - measured_mm) > 1e-9:
+        c = zk.rescale(c, measured_mm, pupil_mm)
+    return zk.to_wearer(c)
 
 
 def diffraction_kernel(pupil_mm: float, wavelength_nm: float, pitch_rad: float,

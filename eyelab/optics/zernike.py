@@ -140,7 +140,7 @@ def second_order_to_rx(c20: float, c22: float, c2m2: float, pupil_mm: float,
     eye_rx = Prescription.from_power_vector(*second_order_to_power_vector(c20, c22, c2m2,
                                                                          pupil_mm))
     (k_a, _), (k_b, _) = eye_rx.principal_meridians()
-    f_a, f_b = (k / (1 + vertex_distance * k) for k in (k_a, k_b))
+    f_a, f_b = (float(k / (1 + vertex_distance * k)) for k in (k_a, k_b))
     return Prescription(f_a, f_b - f_a, eye_rx.axis)
 
 

@@ -36,6 +36,8 @@ def _from_table(tab: dict) -> np.ndarray:
             j = zk.j_from_nm(n, mm)
         except SpecError as e:
             raise SpecError(field, f"{name}: {e.message}") from None
+        if j in out:
+            raise SpecError(field, f"{name}: Z({n},{mm}) is given twice")
         out[j] = v
     c = np.zeros(max(out, default=0) + 1)
     for j, v in out.items():
@@ -106,18 +108,28 @@ def eye_aberrations(t: dict, vertex_distance_mm: float) -> tuple:
             raise SpecError(f"{WHERE}.coefficients_um", "its second order is a refraction and "
                             "eye.rx gives one too: give the refraction once (drop eye.rx, or "
                             "the second-order terms Z2_-2, Z2_0, Z2_2)")
-        t = {**t, "rx": _rx(second, pupil, wl, vertex_distance_mm * 1e-3)}
+        t = {**t, "rx": _rx(second, pupil, wl, vertex_distance_mm * 1e-3,
+                            t.get("chromatic", True) is not False)}
     return t, Aberrations(tuple(float(v) for v in c), pupil, wl, sc)
 
 
-def _rx(second, pupil_mm: float, wavelength_nm: float, vertex_distance: float):
+def _rx(second, pupil_mm: float, wavelength_nm: float, vertex_distance: float,
+        chromatic: bool):
     """The spectacle Rx the second order (c2-2, c20, c22; OSA frame) gives, at the eye's
     reference wavelength: M(ref) = M(measured) - R(measured), R the chromatic difference
-    of refraction (:func:`eyelab.optics.eye.ocular_lca`)."""
+    of refraction (:func:`eyelab.optics.eye.ocular_lca`) — for a chromatic eye; an
+    achromatic one (``eye.chromatic = false``) has the measured refraction everywhere. A
+    refraction out of the Rx's range names the coefficients."""
     from eyelab.optics.eye import ocular_lca
     from eyelab.optics.prescription import Prescription
     m, j0, j45 = zk.second_order_to_power_vector(second[1], second[2], second[0], pupil_mm)
-    m -= float(ocular_lca(wavelength_nm))
+    if chromatic:
+        m -= float(ocular_lca(wavelength_nm))
     c20, c22, c2m2 = zk.power_vector_to_second_order(m, j0, j45, pupil_mm)
-    rx = zk.second_order_to_rx(c20, c22, c2m2, pupil_mm, vertex_distance)
-    return Prescription(round(rx.sphere, 12), round(rx.cylinder, 12), rx.axis)
+    try:
+        rx = zk.second_order_to_rx(c20, c22, c2m2, pupil_mm, vertex_distance)
+        return Prescription(round(rx.sphere, 12), round(rx.cylinder, 12), rx.axis)
+    except (SpecError, ZeroDivisionError) as e:
+        why = e.message if isinstance(e, SpecError) else "the far point is at the lens"
+        raise SpecError(f"{WHERE}.coefficients_um", f"the second order's refraction (M "
+                        f"{m:+.2f} D at the eye) is no spectacle Rx: {why}") from None
