@@ -26,8 +26,13 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    ap = _Parser(prog="eyelab", description="What a person sees through "
-                                 "spectacle lenses: point analysis, benchmarks.")
+    import eyelab
+
+    ap = _Parser(prog="eyelab", description="What a person sees through spectacle lenses: "
+                 "renders and demos (raster, reference, image-based), the interactive "
+                 "inspector, batch jobs, point analysis, as-worn maps and figures of merit, "
+                 "lens surfaces as lab files, the eye's point-spread function, benchmarks.")
+    ap.add_argument("--version", action="version", version=f"eyelab {eyelab.__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
     an = sub.add_parser("analyze", help="chief rays, wavefronts and retinal blur for object "
                         "points of a spec file (default: the built-in scene)")
@@ -81,7 +86,8 @@ def _render_overrides(parser) -> None:
     parser.add_argument("--renderer", choices=RENDERERS,
                         help="override render.renderer")
     parser.add_argument("--samples", type=int, help="override render.samples (passes S of "
-                        "the raster renderer, rays per pixel of the reference)")
+                        "the raster renderer, rays per pixel of the reference, lens sample "
+                        "points of the image-based model)")
     parser.add_argument("--width", type=int, help="override render.width (pixels)")
     parser.add_argument("--height", type=int, help="override render.height (pixels)")
     parser.add_argument("--scene", help="override render.scene: a built-in scene's name or "

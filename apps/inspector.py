@@ -79,7 +79,8 @@ def run(args) -> int:
                 from eyelab.core.fileio import write_png
 
                 write_png(args.window_shot, win.plotter.screenshot(return_img=True)[..., :3])
-            print(f"wrote {png} and {spec} ({model.status().splitlines()[0]})")
+            also = f" and the window to {args.window_shot}" if args.window_shot else ""
+            print(f"wrote {png} and {spec}{also} ({model.status().splitlines()[0]})")
             return 0
         win.show()
         return 0

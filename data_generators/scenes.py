@@ -19,6 +19,13 @@ from eyelab.core.fileio import atomic_path
 from eyelab.scene.library import SCENES
 
 
+def _plain(text: str) -> str:
+    """Docstring text for ``--help``: Sphinx roles and double backquotes dropped."""
+    import re
+
+    return re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", "")
+
+
 def scene_to_trimesh(scene):
     """A ``trimesh.Scene`` with one geometry per mesh (textured or vertex-coloured)."""
     import trimesh
@@ -52,7 +59,7 @@ def write_scenes(out_dir, names=None) -> list:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m eyelab.data_generators.scenes",
-                                 description=__doc__.split("\n\n")[0])
+                                 description=_plain(__doc__.split("\n\n")[0]))
     ap.add_argument("out", help="output folder")
     ap.add_argument("--names", nargs="+", choices=sorted(SCENES), help="scenes to write")
     args = ap.parse_args(argv)
