@@ -81,6 +81,8 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from eyelab.core.fileio import png_writer
+
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
     for ax, key, label in ((axes[0], "mean_error_d", "mean power error (D)"),
                            (axes[1], "cylinder_d", "cylinder (D)")):
@@ -109,8 +111,11 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
         ax.set_aspect("equal")
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=100, format="png")
+    fig.set_dpi(100)
+    fig.canvas.draw()                    # the figure's pixels, written by eyelab's PNG writer
+    rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()   # (sRGB chunk, no tool tag)
     plt.close(fig)
+    png_writer(rgb)(path)
 
 
 def maps_summary(maps: AsWornMaps) -> list:

@@ -130,10 +130,14 @@ def _blocks(fine: np.ndarray, k: int, size: int) -> np.ndarray:
     i_lo = i_lo if c + i_lo * k - k // 2 >= 0 else i_lo + 1
     i_hi = (n - 1 - c - k // 2) // k            # the last block ending before n
     m = i_hi - i_lo + 1
+    half = size // 2
+    if m <= 0:              # the whole fine grid is inside the centre pixel
+        out = np.zeros((size, size))
+        out[half, half] = fine.sum()
+        return out
     start = c + i_lo * k - k // 2
     cut = fine[start:start + m * k, start:start + m * k]
     coarse = cut.reshape(m, k, m, k).sum(axis=(1, 3))
-    half = size // 2
     out = np.zeros((size, size))
     a, b = max(i_lo, -half), min(i_hi, half)    # coarse indices kept
     out[a + half:b + half + 1, a + half:b + half + 1] = coarse[a - i_lo:b - i_lo + 1,
