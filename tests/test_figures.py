@@ -144,6 +144,11 @@ def test_the_built_in_progressive_lens_has_sensible_figures(pal):
     w50, w75 = (c["widths"][k]["min_width_mm"] for k in ("0.50", "0.75"))
     assert 0.5 < w50 < w75 < 5.0
     assert 0.8 < f["minkwitz"]["ratio"] < 1.25
+    # the corridor umbilic as worn too: little cylinder along the eye's path, and at the
+    # path the cylinder rises at Minkwitz's 2 x dP/dy
+    um = f["corridor_umbilic"]
+    assert um["path_cylinder_max_d"] < 0.15
+    assert um["minkwitz_at_path"]["ratio"] == pytest.approx(2.0, abs=0.1)
     assert 3.0 < f["peak_cylinder"]["ratio_to_add"] < 8.0
     assert f["minimum_fitting_height_mm"] == pytest.approx(4.0 - c["near_zone_top_mm"])
     assert f["near_zone"]["width_at_reference_mm"] > 5.0
