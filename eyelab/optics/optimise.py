@@ -320,23 +320,30 @@ _DESIGNS = None
 def optimised_progressive(rx, add: float, preset: str, **kw) -> tuple:
     """The progressive lens of :func:`eyelab.optics.progressive.progressive_lens` (same
     arguments), optimised as worn with the ``preset``'s weights: (lens, design, report).
-    Kept in a process-wide LRU cache by content key (the optimiser takes seconds; specs
-    are parsed again by the inspector, the demo and batch jobs)."""
+    Kept in a process-wide LRU cache keyed by the analytic lens's content (built first: a
+    tenth of a second) and the preset, so every spec that makes the same lens — whatever
+    its wording — shares one optimisation (the optimiser takes seconds; specs are parsed
+    again by the inspector, the demo and batch jobs)."""
     global _DESIGNS
     from eyelab.core.cache import LRUCache, content_key
     from eyelab.optics.progressive import progressive_lens
 
     if _DESIGNS is None:
         _DESIGNS = LRUCache(8, "optimised designs")
-    key = content_key(rx=rx.format(), add=add, preset=preset,
-                      **{k: repr(v) for k, v in sorted(kw.items())})
+    lens, design, report = progressive_lens(rx, add, **kw)
+    wl = kw.get("wavelength_nm", 587.56)
+    key = content_key(front=lens.front.content_key, back=repr(lens.back),
+                      thickness=lens.center_thickness, diameter=lens.diameter,
+                      material=repr(lens.material), pose=repr(lens.pose),
+                      rx=[lens.rx.sphere, lens.rx.cylinder, lens.rx.axis, lens.rx.add],
+                      design=repr(design), preset=preset, wavelength_nm=wl)
 
     def make():
-        lens, design, report = progressive_lens(rx, add, **kw)
         opt, rep = optimise_progressive(lens, design, settings=Settings(preset=preset),
-                                        wavelength_nm=kw.get("wavelength_nm", 587.56))
-        report["optimised"] = {k: v for k, v in rep.items()
-                               if k not in ("history", "coefficients")}
-        return opt, design, report
+                                        wavelength_nm=wl)
+        return opt, rep
 
-    return _DESIGNS.get_or_create(key, make)[0]
+    opt, rep = _DESIGNS.get_or_create(key, make)[0]
+    report = dict(report, optimised={k: v for k, v in rep.items()
+                                     if k not in ("history", "coefficients")})
+    return opt, design, report
