@@ -109,6 +109,13 @@ class View:
         """(height, width) of the image."""
         return self.height, self.width
 
+    def pixel_ndc(self) -> np.ndarray:
+        """(n, 2) NDC of the pixel centres, row by row from the top."""
+        x = -1.0 + (2 * np.arange(self.width) + 1.0) / self.width
+        y = 1.0 - (2 * np.arange(self.height) + 1.0) / self.height
+        gx, gy = np.meshgrid(x, y)
+        return np.column_stack([gx.ravel(), gy.ravel()])
+
     def camera(self, rotation_centre: float = 0.0135) -> Camera:
         """The eye camera: centre of projection at the pupil centre, looking along the line
         of sight (along -z in primary gaze; turned about the eye's centre of rotation,

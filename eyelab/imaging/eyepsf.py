@@ -32,7 +32,6 @@ kernel is there slightly too small) with reflected edges.
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 
@@ -100,11 +99,9 @@ def pixel_wave_errors(scene, eye, view, quality) -> tuple:
     from eyelab.scene.focus import pixel_accommodation
     from eyelab.scene.raycast import EmbreeIntersector
 
-    x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
-    y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
-    gx, gy = np.meshgrid(x, y)
+    ndc = view.pixel_ndc()
     cam = view.camera(eye.rotation_centre)
-    d = cam.ray_directions(gx.ravel(), gy.ravel())
+    d = cam.ray_directions(ndc[:, 0], ndc[:, 1])
     inter = EmbreeIntersector(scene)
     rule = getattr(quality, "accommodation", "eq13")
     acc, _ = pixel_accommodation(d, scene, inter, eye, None, view, cam, "thin",
@@ -145,7 +142,7 @@ def wave_scatter(sharp: np.ndarray, mean_d: np.ndarray, j0w: float, mxy: float, 
     eye's (Mxx - Myy) / 2 = ``j0w`` and ``mxy``) plus the higher orders."""
     from scipy.signal import fftconvolve
 
-    from eyelab.optics.aberrations import second_order
+    from eyelab.optics.aberrations import psf_kernel, second_order
 
     ab = eye.aberrations
     pupil = eye.pupil_diameter * 1e3
@@ -161,8 +158,7 @@ def wave_scatter(sharp: np.ndarray, mean_d: np.ndarray, j0w: float, mxy: float, 
             coef = np.zeros(max(len(hoa), 6))
             coef[:len(hoa)] = hoa
             coef[3:6] += (c2m2, c20, c22)
-            kernels.append(_wave_kernel(tuple(np.round(coef, 12)), pupil, wl, pitch,
-                                        ab.stiles_crawford))
+            kernels.append(psf_kernel(coef, pupil, wl, pitch, ab.stiles_crawford))
         pad = max(k.shape[0] for k in kernels) // 2
         src = np.pad(np.asarray(sharp[..., c], np.float64), pad, mode="reflect")
         m = np.pad(mean_d[c], pad, mode="reflect")
@@ -185,16 +181,6 @@ def wave_scatter(sharp: np.ndarray, mean_d: np.ndarray, j0w: float, mxy: float, 
                                              mode="same")
         out[..., c] = acc[pad:pad + h, pad:pad + w]
     return np.clip(out, 0.0, None)
-
-
-@functools.lru_cache(maxsize=512)
-def _wave_kernel(coef: tuple, pupil, wl, pitch, stiles_crawford):
-    """A level's kernel, kept between frames (the inspector's, a batch's)."""
-    from eyelab.optics.aberrations import psf_kernel
-
-    k = psf_kernel(np.array(coef), pupil, wl, pitch, stiles_crawford)
-    k.flags.writeable = False
-    return k
 
 
 def apply_eye_psf(result, eye, view, *, waves: bool = True):

@@ -32,7 +32,7 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 from eyelab.optics import zernike as zk
-from eyelab.optics.psf import psf
+from eyelab.optics.psf import max_slope, psf
 
 #: The reporting wavelength of ANSI Z80.28 (nm): the default of ``wavelength_nm``.
 REPORT_WAVELENGTH_NM = 555.0
@@ -112,22 +112,28 @@ def diffraction_kernel(pupil_mm: float, wavelength_nm: float, pitch_rad: float,
 
 
 def psf_kernel(c, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford) -> np.ndarray:
-    """A kernel wide enough for :data:`KERNEL_ENERGY` of the PSF: the geometric reach
-    max |grad W| plus 3 Airy radii, grown until the energy is in (at most MAX_KERNEL)."""
+    """A kernel (read-only, odd square, sums to 1) wide enough for :data:`KERNEL_ENERGY` of
+    the PSF of ``c``: the geometric reach max |grad W| plus 3 Airy radii, grown until the
+    energy is in (at most MAX_KERNEL). Kept between frames (the inspector's, a batch's)
+    in a bounded cache keyed by the values."""
+    c = tuple(float(v) for v in np.round(np.asarray(c, float), 12))
+    return _psf_kernel(c, float(pupil_mm), float(wavelength_nm), float(pitch_rad),
+                       bool(stiles_crawford))
+
+
+@functools.lru_cache(maxsize=96)
+def _psf_kernel(c: tuple, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford):
     lam = wavelength_nm * 1e-9
     d = pupil_mm * 1e-3
-    g = np.linspace(-1, 1, 65)
-    x, y = np.meshgrid(g, g)
-    w = zk.wavefront(c, x, y) * 1e-6
-    gy, gx = np.gradient(w, g[1] - g[0])
-    reach = float(np.max(np.hypot(gx, gy)[x * x + y * y <= 1])) / (d / 2)
-    half = math.ceil((reach + 3 * 1.22 * lam / d) / pitch_rad) + 1
+    half = math.ceil((max_slope(c, d / 2) + 3 * 1.22 * lam / d) / pitch_rad) + 1
     while True:
         size = min(2 * half + 1, MAX_KERNEL)
         out = psf(c, pupil_mm, wavelength_nm, pitch_rad, size, stiles_crawford=stiles_crawford)
         k = out["psf"]
         if k.sum() >= KERNEL_ENERGY or size == MAX_KERNEL:
-            return k / k.sum()
+            k = k / k.sum()
+            k.flags.writeable = False
+            return k
         half *= 2
 
 

@@ -211,41 +211,43 @@ def status_text(code) -> str:
     return Status.describe(int(code))
 
 
-def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None) -> dict:
-    """The power a lens delivers along each line of sight — the vertex-sphere wave's
-    curvature matrix less the object's vergence at the chief ray's vertex-sphere point —
-    minus the
-    prescription ``rx`` for that line: its distance part plus ``add_fraction`` (n,) of its
-    add (default: the object's vergence over 2.5 D, at most 1 — all of the add at 0.4 m),
-    as minus-cylinder sphere / cylinder x axis in the wave's (eye x, y) frame (the
-    as-worn power error of lens design).
-
-    Returns arrays (n,): sphere_d, cylinder_d (<= 0), axis_wearer_deg ([0, 180), counter-
-    clockwise from the wearer's right seen from behind), mean_d (sphere + cylinder/2);
-    NaN where a row has no light path."""
+def power_error_matrix(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None
+                       ) -> tuple:
+    """(E11, E12, E22) (n,) D: the power a lens delivers along each line of sight — the
+    vertex-sphere wave's curvature matrix less the object's vergence at the chief ray's
+    vertex-sphere point — minus the prescription ``rx`` for that line (its distance part
+    plus ``add_fraction`` (n,) of its add; default: the object's vergence over 2.5 D, at
+    most 1 — all of the add at 0.4 m), in the wave's (eye x, y) frame; NaN where a row has
+    no light path."""
     k11, k12, k22 = res.wave_vertex_sphere.in_basis(res.eye_x)
     pos = objects.positions()
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
         d = np.linalg.norm(pos - res.vertex_sphere["points_m"], axis=1)
         obj = np.where(objects.finite, -1.0 / d, 0.0)
     f = rx.distance().power_matrix()
     if add_fraction is None:
         add_fraction = np.clip(-obj / 2.5, 0.0, 1.0)
     add = rx.add * np.asarray(add_fraction, float)
-    e11 = k11 - obj - f[0, 0] - add
-    e12 = k12 - f[0, 1]
-    e22 = k22 - obj - f[1, 1] - add
+    bad = (res.status & np.uint8(FATAL)) != 0
+    return tuple(np.where(bad, np.nan, e) for e in (k11 - obj - f[0, 0] - add, k12 - f[0, 1],
+                                                    k22 - obj - f[1, 1] - add))
+
+
+def power_error(res: PointAnalysis, rx, objects: ObjectPoints, add_fraction=None) -> dict:
+    """:func:`power_error_matrix` as minus-cylinder sphere / cylinder x axis in the wave's
+    (eye x, y) frame (the as-worn power error of lens design).
+
+    Returns arrays (n,): sphere_d, cylinder_d (<= 0), axis_wearer_deg ([0, 180), counter-
+    clockwise from the wearer's right seen from behind), mean_d (sphere + cylinder/2);
+    NaN where a row has no light path."""
+    e11, e12, e22 = power_error_matrix(res, rx, objects, add_fraction)
     mean = 0.5 * (e11 + e22)
     half = np.sqrt((0.5 * (e11 - e22)) ** 2 + e12 ** 2)
     sphere, cyl = mean + half, -2.0 * half
     # the axis: the direction of the larger eigenvalue (where the power is the sphere)
     axis = np.degrees(0.5 * np.arctan2(2 * e12, e11 - e22)) % 180.0
-    bad = (res.status & np.uint8(FATAL)) != 0
-    out = {"sphere_d": sphere, "cylinder_d": cyl, "axis_wearer_deg": axis,
-           "mean_d": sphere + cyl / 2}
-    for v in out.values():
-        v[bad] = np.nan
-    return out
+    return {"sphere_d": sphere, "cylinder_d": cyl, "axis_wearer_deg": axis,
+            "mean_d": sphere + cyl / 2}
 
 
 def chief_prism(res: PointAnalysis) -> tuple:

@@ -228,23 +228,15 @@ class _Problem:
         """(E11, E12, E22, front hit x, y (m)) per gaze, the as-worn power error (D) in the
         wave's (eye x, y) frame; NaN where a line of sight has no path."""
         from eyelab.optics import asworn
-        from eyelab.optics.analysis import analyze_points
-        from eyelab.optics.trace import FATAL
+        from eyelab.optics.analysis import analyze_points, power_error_matrix
 
         objects, ok = asworn.objects_on_lines_of_sight(self.eye, lens, self.lines,
                                                        self.vergence, self.wl)
         res = analyze_points(self.eye, lens, objects, wavelength_nm=self.wl,
                              fixation="rotating")
         self.evaluations += 1
-        k11, k12, k22 = res.wave_vertex_sphere.in_basis(res.eye_x)
-        d = np.linalg.norm(objects.positions() - res.vertex_sphere["points_m"], axis=1) \
-            if np.any(objects.finite) else None
-        obj = np.zeros(len(k11)) if d is None else np.where(objects.finite, -1.0 / d, 0.0)
-        f = lens.rx.distance().power_matrix()
-        add = lens.rx.add * self.share
-        bad = ~ok | ((res.status & np.uint8(FATAL)) != 0)
-        e = [np.where(bad, np.nan, v) for v in (k11 - obj - f[0, 0] - add, k12 - f[0, 1],
-                                                 k22 - obj - f[1, 1] - add)]
+        e = [np.where(ok, v, np.nan) for v in power_error_matrix(res, lens.rx, objects,
+                                                                  self.share)]
         front, _ = lens.placed_surfaces()
         local = (res.chief.entry - np.asarray(front.translation)) @ np.asarray(front.rotation)
         return (*e, local[:, 0], local[:, 1])

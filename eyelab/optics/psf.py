@@ -47,8 +47,9 @@ MIN_PUPIL_SAMPLES = 128
 ARCMIN = math.pi / (180 * 60)
 
 
-def _slope(coefficients_um, radius_m: float) -> float:
-    """max |grad W| over the pupil (dimensionless: W in m per m of pupil)."""
+def max_slope(coefficients_um, radius_m: float) -> float:
+    """max |grad W| over the pupil of radius ``radius_m`` (dimensionless: W in m per m of
+    pupil), on a 129 x 129 grid."""
     g = np.linspace(-1, 1, 129)
     x, y = np.meshgrid(g, g)
     w = zk.wavefront(coefficients_um, x, y) * 1e-6
@@ -68,7 +69,7 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
         raise SpecError("psf.size", f"must be odd and >= 3, got {size}")
     lam = wavelength_nm * 1e-9
     d = pupil_mm * 1e-3
-    slope = _slope(coefficients_um, d / 2)
+    slope = max_slope(coefficients_um, d / 2)
     dx_max = lam / (2 * slope) if slope > 0 else d / MIN_PUPIL_SAMPLES
     dx_max = min(dx_max, d / MIN_PUPIL_SAMPLES)
     k = max(1, math.ceil(2 * d * pitch_rad / lam))

@@ -45,7 +45,7 @@ import numpy as np
 from eyelab.core.parallel import map_row_chunks
 from eyelab.core.sampling import disc_seeds, pixel_jitter
 from eyelab.core.vecmath import UP, cross, unit
-from eyelab.imaging.contract import Renderer, View, channel_wavelengths, finish, new_report
+from eyelab.imaging.contract import Renderer, channel_wavelengths, finish, new_report
 from eyelab.imaging.options import ReferenceQuality
 from eyelab.optics.trace import FATAL
 from eyelab.scene.focus import (  # noqa: F401 (fons_accommodation: part of this API)
@@ -64,14 +64,6 @@ class ReferenceRenderer(Renderer):
     traces_eye_aberrations = True       # grad W per pupil ray; diffraction as a kernel
 
     @staticmethod
-    def pixel_ndc(view: View):
-        """(n, 2) NDC of the pixel centres, row 0 at the top."""
-        x = -1.0 + (2 * np.arange(view.width) + 1.0) / view.width
-        y = 1.0 - (2 * np.arange(view.height) + 1.0) / view.height
-        gx, gy = np.meshgrid(x, y)
-        return np.column_stack([gx.ravel(), gy.ravel()])
-
-    @staticmethod
     def pupil_samples(q: ReferenceQuality):
         """(k, 2) pupil points in the unit disc: Vogel's spiral of ``samples`` points, or
         the Fons pattern (:func:`fons_pattern`)."""
@@ -87,7 +79,7 @@ class ReferenceRenderer(Renderer):
     def _render(self, scene, eye, lens, view, q, progressive):
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
-        ndc = self.pixel_ndc(view)
+        ndc = view.pixel_ndc()
         cam = view.camera(eye.rotation_centre)
         dirs = cam.ray_directions(ndc[:, 0], ndc[:, 1])
         n = len(dirs)
