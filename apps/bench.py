@@ -7,7 +7,7 @@ import json
 
 from eyelab.apps.common import add_quiet
 from eyelab.core.errors import SpecError
-from eyelab.core.fileio import write_json
+from eyelab.core.fileio import write_report
 from eyelab.imaging.contract import View
 
 #: The image sizes a benchmark's --size takes: the view's own range (render.width; the
@@ -119,7 +119,7 @@ def run(args) -> int:
         check_output("--plot", args.plot)
         check_distinct(**{"--output": output, "--plot": args.plot})
     res = _BENCH_RUNS[args.what](args)
-    write_json(output, res)
+    write_report(output, res)
     for line in res["summary"]:
         print(line)
     print(f"wrote {output}")

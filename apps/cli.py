@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 
 from eyelab.apps import bench
-from eyelab.apps.common import add_max_memory, add_quiet, apply_max_memory
+from eyelab.apps.common import add_max_memory, add_quiet, apply_max_memory, warn
 from eyelab.core.errors import SpecError
-from eyelab.core.fileio import write_json
+from eyelab.core.fileio import report_text, write_report
 
 
 class _Parser(argparse.ArgumentParser):
@@ -208,10 +207,10 @@ def _analyze(args) -> int:
     if args.fixation:
         spec = replace(spec, fixation=args.fixation)
     rep = analyze_spec(spec, no_lens=args.no_lens)
-    text = json.dumps(rep, indent=2)
+    text = report_text(rep).rstrip("\n") if args.json else format_report(rep)
     if args.output:
-        write_json(args.output, rep)
-    print(text if args.json else format_report(rep))
+        write_report(args.output, rep)
+    print(text)
     return 0
 
 
@@ -277,17 +276,16 @@ def _render(args) -> int:
 
 
 def _warn(warnings) -> None:
-    for warning in dict.fromkeys(warnings):
-        print(f"eyelab: warning: {warning}", file=sys.stderr)
+    warn(warnings)
 
 
 def _write_outputs(args, image, report) -> None:
     """The image and (with ``--report``) its report, written as one set."""
-    from eyelab.core.fileio import atomic_group, json_writer, png_writer
+    from eyelab.core.fileio import atomic_group, png_writer, report_writer
 
     writers = {args.output: png_writer(image)}
     if args.report:
-        writers[args.report] = json_writer(report)
+        writers[args.report] = report_writer(report)
     atomic_group(writers)
 
 
@@ -329,18 +327,22 @@ def _write_binocular(args, spec) -> None:
 
 
 def _write_demo(args, spec) -> None:
-    from eyelab.core.fileio import atomic_group, json_writer, png_writer
+    from eyelab.core.fileio import atomic_group, png_writer, report_writer
     from eyelab.jobs.render import demo
 
     image, rep = demo(spec)
     atomic_group({args.output: png_writer(image),
-                  args.output[:-4] + ".json": json_writer(rep)})
-    print(f"wrote {args.output} and {args.output[:-4]}.json: " + ", ".join(rep["panels"]))
+                  args.output[:-4] + ".json": report_writer(rep)})
+    # the panels as the image lays them out: a line per row (binocular: an eye a row)
+    rows = rep.get("rows", {"": list(rep["panels"])})
+    lines = [f"{name}: " * bool(name) + " | ".join(cols) for name, cols in rows.items()]
+    print(f"wrote {args.output} and {args.output[:-4]}.json:"
+          + (f" {lines[0]}" if len(lines) == 1 else "".join(f"\n  {line}" for line in lines)))
     _warn(w for r in rep["panels"].values() for w in r["warnings"])
 
 
 def _maps(args) -> int:
-    from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
+    from eyelab.core.fileio import atomic_group, check_distinct, check_output, report_writer
     from eyelab.jobs.maps import cli_maps as as_worn_maps
     from eyelab.jobs.maps import figures_summary, maps_figures, maps_summary, plot_maps
     from eyelab.spec import load_spec, one_eye
@@ -363,7 +365,7 @@ def _maps(args) -> int:
     title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
     writers = {args.output: lambda tmp: plot_maps(maps, tmp, title)}
     if args.json:
-        writers[args.json] = json_writer(dict(maps.to_json(), figures=figures))
+        writers[args.json] = report_writer(dict(maps.to_json(), figures=figures))
     atomic_group(writers)
     print("\n".join(maps_summary(maps) + figures_summary(figures)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))

@@ -21,3 +21,11 @@ def add_max_memory(parser) -> None:
     parser.add_argument("--max-memory", type=float, metavar="GIB",
                         help="refuse renders whose estimated memory exceeds this many GiB "
                         "(default: $EYELAB_MAX_MEMORY_GB, else half the machine's memory)")
+
+
+def warn(warnings) -> None:
+    """Each distinct warning on one line of stderr, ``eyelab: warning: ...``."""
+    import sys
+
+    for warning in dict.fromkeys(warnings):
+        print(f"eyelab: warning: {warning}", file=sys.stderr)

@@ -284,14 +284,14 @@ def test_the_job_limit_counts_sweep_and_cases(tmp_path):
     ('[sweep]\n"eye.rx" = ["-1 DS", "-2 DS", "banana"]\n', 'jobspec.sweep."eye.rx"[2] (eye.rx)'),
     ('[base]\neye = {pupil_diameter_mm = 42}\n[sweep]\n"eye.rx" = ["-1 DS"]\n',
      "jobspec.base (eye.pupil_diameter_mm)"),
-    ('[base]\nbinocular = {pd_mm = 64}\n', "jobspec.base (binocular)"),
+    ('[base]\nbinocular = {pd_mm = 640}\n', "jobspec.base (binocular.pd_mm)"),
     ('[base]\nrender = {width = 4096, height = 3072, samples = 64}\n',
      "jobspec.base (render.width)"),
     ('[[cases]]\n"eye.age" = 30\n[[cases]]\n"render.samples" = 0\n',
      "jobspec.cases[1] (render.samples)"),
 ])
 def test_what_would_fail_every_job_is_refused_up_front(tmp_path, capsys, jobspec, field):
-    """A misspelt sweep key, a bad sweep value, a bad base value, a two-eye base, a base
+    """A misspelt sweep key, a bad sweep value, a bad base value, a bad two-eye base, a base
     over the memory limit, a bad case: one line naming where the value came from and the
     spec field, exit 2, no folder, no sidecar, no summary."""
     from eyelab.apps.cli import main

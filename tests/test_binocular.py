@@ -314,7 +314,7 @@ def test_cli_render_binocular(tmp_path, capsys, output, width):
     import json
 
     report = json.loads(rep.read_text())
-    assert set(report) == {"binocular", "right", "left"}
+    assert list(report) == ["units", "binocular", "right", "left"]     # the units first
     assert report["binocular"]["output"] == output
     assert report["binocular"]["prism_at_fixation"]["binocular"]["horizontal"]
     out = capsys.readouterr().out

@@ -97,3 +97,53 @@ def test_kill_9_during_render_demo_and_bench_leaves_whole_files(tmp_path):
     for cmd in cmds.values():
         subprocess.run(cmd, env=env, check=True, capture_output=True, timeout=300)
     assert not list(tmp_path.glob(TMP_PREFIX + "*"))
+
+
+def _chunks(data: bytes) -> dict:
+    """The PNG's chunks {tag: [payloads]}, read independently of the writer."""
+    import struct
+
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    out, i = {}, 8
+    while i < len(data):
+        n, = struct.unpack(">I", data[i:i + 4])
+        out.setdefault(data[i + 4:i + 8].decode(), []).append(data[i + 8:i + 8 + n])
+        i += 12 + n
+    return out
+
+
+def test_pngs_say_how_to_read_them(tmp_path):
+    """8-bit: sRGB (an ``sRGB`` chunk, no text chunks such as a "Software" tag), RGB
+    without alpha; 16-bit: linear light (``gAMA`` 1.0 and the sRGB primaries), which
+    Pillow reads as linear (gamma 1.0) and whose samples are the linear codes."""
+    import io
+    import zlib
+
+    from PIL import Image
+
+    from eyelab.core.fileio import linear_to_png16, write_png
+
+    rng = np.random.default_rng(3)
+    srgb = rng.integers(0, 256, (6, 7, 3)).astype(np.uint8)
+    write_png(tmp_path / "a.png", srgb)
+    data = (tmp_path / "a.png").read_bytes()
+    c = _chunks(data)
+    assert c["sRGB"] == [b"\x00"] and not {"tEXt", "iTXt", "zTXt"} & set(c)
+    with Image.open(io.BytesIO(data)) as im:
+        assert im.mode == "RGB" and "srgb" in im.info
+        np.testing.assert_array_equal(np.asarray(im), srgb)
+    linear = rng.random((6, 7, 3))
+    write_png(tmp_path / "l.png", linear_to_png16(linear))
+    data = (tmp_path / "l.png").read_bytes()
+    c = _chunks(data)
+    assert "sRGB" not in c and c["IHDR"][0][8:10] == bytes([16, 2])      # 16-bit RGB
+    with Image.open(io.BytesIO(data)) as im:
+        assert im.info["gamma"] == 1.0
+        assert im.info["chromaticity"] == pytest.approx(
+            (0.3127, 0.329, 0.64, 0.33, 0.3, 0.6, 0.15, 0.06))
+        high = np.asarray(im)                  # Pillow keeps 16-bit RGB's high bytes
+    raw = np.frombuffer(zlib.decompress(b"".join(c["IDAT"])), np.uint8).reshape(6, -1)
+    assert (raw[:, 0] == 0).all()              # filter 0: the rows as written
+    codes = raw[:, 1:].copy().view(">u2").reshape(6, 7, 3)
+    np.testing.assert_allclose(codes / 65535.0, linear, atol=0.5 / 65535)
+    np.testing.assert_array_equal(high, (codes >> 8).astype(np.uint8))

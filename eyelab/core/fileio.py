@@ -212,9 +212,14 @@ def png_writer(image: np.ndarray):
     return write
 
 
+def json_text(obj) -> str:
+    """``obj`` as indented JSON text, ending in a new line (numpy values converted)."""
+    return json.dumps(obj, indent=2, default=json_default) + "\n"
+
+
 def json_writer(obj):
     """A writer (``write(path)``) of ``obj`` as JSON (numpy values converted)."""
-    text = json.dumps(obj, indent=2, default=json_default) + "\n"
+    text = json_text(obj)
 
     def write(path):
         Path(path).write_text(text)
@@ -232,3 +237,34 @@ def write_json(path, obj) -> None:
     """Atomic JSON write (numpy values converted)."""
     with atomic_path(path) as tmp:
         json_writer(obj)(tmp)
+
+
+#: The unit convention of every JSON report eyelab writes, its first key ("units"): the
+#: spec's units, each key naming its unit by suffix.
+REPORT_UNITS = ("the spec's units: dioptres (prism in prism dioptres), mm for lens, eye, pupil "
+                "and PD lengths, um for retinal blur and wavefronts, m for scene distances, "
+                "degrees for angles, nm for wavelengths, arcmin for angular blur, s for times; "
+                "a key with a unit names it by suffix (_d, _mm, _um, _m, _deg, _rad, _nm, "
+                "_arcmin, _s, _px, _cpd)")
+
+
+def with_units(report: dict) -> dict:
+    """``report`` (a dict) with ``"units": REPORT_UNITS`` as its first key (a ``"units"``
+    it had is replaced): what every JSON report eyelab writes starts with."""
+    return {"units": REPORT_UNITS, **{k: v for k, v in report.items() if k != "units"}}
+
+
+def report_text(report: dict) -> str:
+    """The JSON text of a report (:func:`with_units`; numpy values converted)."""
+    return json_text(with_units(report))
+
+
+def report_writer(report: dict):
+    """A writer (``write(path)``, for :func:`atomic_group`) of a report as JSON, its units
+    first (:func:`with_units`)."""
+    return json_writer(with_units(report))
+
+
+def write_report(path, report: dict) -> None:
+    """Atomic JSON write of a report, its units first (:func:`with_units`)."""
+    write_json(path, with_units(report))

@@ -129,7 +129,10 @@ class View:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The view for a report, its lengths named with their unit (the spec's keys)."""
+        d = dataclasses.asdict(self)
+        d["near_m"], d["far_m"] = d.pop("near"), d.pop("far")
+        return d
 
 
 class RenderResult:
@@ -201,12 +204,12 @@ class RenderResult:
         """Write the image to ``path`` (PNG: 8-bit sRGB, or with ``linear`` 16-bit linear
         light) and, with ``report`` (a path), the render report as JSON — written whole or
         not at all, both renamed into place together."""
-        from eyelab.core.fileio import atomic_group, json_writer, linear_to_png16, png_writer
+        from eyelab.core.fileio import atomic_group, linear_to_png16, png_writer, report_writer
 
         image = linear_to_png16(self.linear) if linear else self.srgb
         writers = {path: png_writer(image)}
         if report is not None:
-            writers[report] = json_writer(self.report)
+            writers[report] = report_writer(self.report)
         atomic_group(writers)
 
 

@@ -82,47 +82,78 @@ def anaglyph(right: np.ndarray, left: np.ndarray) -> np.ndarray:
     return np.clip(out, 0.0, 1.0).astype(np.float32)
 
 
-def render_binocular(renderer, scene, bino: Binocular, view, quality=None, *,
-                     no_lens: bool = False, progressive: bool = False) -> BinocularResult:
-    """Render what each eye sees of the head-frame ``scene`` with ``renderer`` (any
-    :class:`~eyelab.imaging.contract.Renderer`): each eye turned toward the fixated point
-    (``view.gaze_deg`` is the cyclopean gaze), both with one accommodative response
-    (``view.focus_d``, or the less-blurred-eye rule for the fixated point when it is
-    None, at the eye's reference wavelength). The report lists the per-eye gaze,
-    accommodation, figures at the fixated point and the binocular prism there."""
+@dataclass
+class BinocularPose:
+    """Both eyes posed for one cyclopean view: the wearer (lenses removed for ``no_lens``),
+    the fixated point, each eye's gaze and the one accommodative response, and each eye's
+    render inputs (``inputs[side]``: its scene in the eye's frame, eye, lens, view)."""
+
+    wearer: Binocular
+    fixation: object
+    gazes: dict
+    analysis: dict
+    accommodation_d: float
+    inputs: dict
+    no_lens: bool
+    fixed_focus: bool
+
+
+def pose_binocular(scene, bino: Binocular, view, *, no_lens: bool = False) -> BinocularPose:
+    """Each eye turned toward the fixated point (``view.gaze_deg`` is the cyclopean gaze),
+    both with one accommodative response (``view.focus_d``, or the less-blurred-eye rule
+    for the fixated point when it is None, at the eye's reference wavelength), each eye's
+    response at most its amplitude."""
     b = bino.without_lenses() if no_lens else bino
     fix = b.fixation(view.gaze_deg)
     gazes = {s: b.gaze(s, view.gaze_deg) for s in SIDES}
     an = analyze_binocular(b, fix, wavelength_nm=EYE_REFERENCE_NM, fixation="rotating",
                            accommodation=view.focus_d)
     acc = float(an["accommodation_d"][0])
-    results, per_eye = {}, {}
+    inputs = {}
     for side in SIDES:
-        eye, lens = b.eye(side), b.lens(side)
+        eye = b.eye(side)
         v = view.replace(gaze_deg=gazes[side], focus_d=min(acc, eye.accommodation_max))
-        res = renderer.render(b.scene_for(side, scene), eye, lens, v, quality,
-                              progressive=progressive)
-        results[side] = res
-        r = an[side]
+        inputs[side] = (b.scene_for(side, scene), eye, b.lens(side), v)
+    return BinocularPose(b, fix, gazes, an, acc, inputs, no_lens, view.focus_d is not None)
+
+
+def binocular_report(pose: BinocularPose) -> dict:
+    """The two-eye part of a report: the per-eye gaze, accommodation, figures at the
+    fixated point and the binocular prism there."""
+    b, an, fix = pose.wearer, pose.analysis, pose.fixation
+    per_eye = {}
+    for side in SIDES:
+        lens, r = b.lens(side), an[side]
         maj, mnr, _ = r.blur_axes()
-        info = {"pupil_mm": [float(x) for x in b.pupil(side) * 1e3],
-                "gaze_deg": list(gazes[side]),
-                "accommodation_d": float(r.accommodation[0]),
-                "blur_at_fixation_arcmin": [float(r.to_arcmin(maj[0])),
-                                            float(r.to_arcmin(mnr[0]))],
-                "rx": None if lens is None or lens.rx is None else lens.rx.format()}
-        per_eye[side] = info
-    prism = prism_rows(b, an, 0)
-    report = {"binocular": {
+        per_eye[side] = {
+            "pupil_mm": [float(x) for x in b.pupil(side) * 1e3],
+            "gaze_deg": list(pose.gazes[side]),
+            "accommodation_d": float(r.accommodation[0]),
+            "blur_at_fixation_arcmin": [float(r.to_arcmin(maj[0])),
+                                        float(r.to_arcmin(mnr[0]))],
+            "rx": None if lens is None or lens.rx is None else lens.rx.format()}
+    return {
         "output": b.output, "monocular_pd_mm": [v * 1e3 for v in b.monocular_pd],
-        "frame_pd_mm": None if b.frame_pd is None or no_lens else b.frame_pd * 1e3,
+        "frame_pd_mm": None if b.frame_pd is None or pose.no_lens else b.frame_pd * 1e3,
         "fixation_distance_m": b.fixation_distance if math.isfinite(b.fixation_distance)
         else "inf",
         "fixation_point_m": [float(x) for x in fix.positions()[0]] if fix.finite[0] else None,
-        "accommodation_d": acc,
-        "accommodation_rule": "fixed (eye.accommodation_d)" if view.focus_d is not None
+        "accommodation_d": pose.accommodation_d,
+        "accommodation_rule": "fixed (eye.accommodation_d)" if pose.fixed_focus
         else f"less-blurred eye: the {an['driving_eye'][0]} eye's response",
         "eyes": per_eye,
-        "prism_at_fixation": prism},
-        "right": results["right"].report, "left": results["left"].report}
+        "prism_at_fixation": prism_rows(b, an, 0)}
+
+
+def render_binocular(renderer, scene, bino: Binocular, view, quality=None, *,
+                     no_lens: bool = False, progressive: bool = False) -> BinocularResult:
+    """Render what each eye sees of the head-frame ``scene`` with ``renderer`` (any
+    :class:`~eyelab.imaging.contract.Renderer`), the eyes posed by
+    :func:`pose_binocular`. The report lists the per-eye gaze, accommodation, figures at
+    the fixated point and the binocular prism there (:func:`binocular_report`)."""
+    pose = pose_binocular(scene, bino, view, no_lens=no_lens)
+    results = {side: renderer.render(*pose.inputs[side], quality, progressive=progressive)
+               for side in SIDES}
+    report = {"binocular": binocular_report(pose),
+              "right": results["right"].report, "left": results["left"].report}
     return BinocularResult(results["right"], results["left"], report)

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from eyelab.core.fileio import with_units
 from eyelab.optics.analysis import (
     analyze_points,
     chief_prism,
@@ -42,22 +43,40 @@ def _principal(wave, x_axis, i, lens=None):
 
 
 def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
-    """Run the chain for every point of ``spec``; returns a JSON-serialisable dict.
-
-    Units in keys: ``_mm``, ``_um``, ``_arcmin``, ``_deg``, ``_d`` (dioptres).
+    """Run the chain for every point of ``spec``; returns a JSON-serialisable dict, its
+    first key ``"units"`` (:data:`eyelab.core.fileio.REPORT_UNITS`: each key names its
+    unit by suffix, ``_mm``, ``_um``, ``_arcmin``, ``_deg``, ``_d`` (dioptres), ...).
     Directions and vergences are given in the eye's (x, y) frame of §4.4.1: x horizontal
     (the wearer's right for a straight-ahead gaze), y up, angles counter-clockwise seen
     from behind the wearer. A binocular spec gives :func:`analyze_binocular_spec`'s report.
     """
     if spec.binocular is not None:
-        return analyze_binocular_spec(spec, no_lens=no_lens)
+        return with_units(analyze_binocular_spec(spec, no_lens=no_lens))
     lens = None if no_lens else spec.lens
     res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
                          fixation=spec.fixation, accommodation=spec.accommodation,
                          vertex_sphere=spec.vertex_sphere)
     report = {"source": spec.source}
     report.update(_eye_report(spec.eye, lens, res, spec.points, spec))
-    return report
+    return with_units(report)
+
+
+def eye_table(eye) -> dict:
+    """The ``[eye]`` spec keys that make ``eye`` (an :class:`~eyelab.optics.eye.Eye`), in
+    the spec's units (D, deg, mm): how reports write an eye. ``aberrations`` (the
+    ``[eye.aberrations]`` keys) only where the eye has them."""
+    import dataclasses
+
+    out = {"power_min_d": eye.power_min, "astigmatism_d": eye.astigmatism,
+           "astigmatism_axis_deg": eye.astigmatism_axis_deg,
+           "accommodation_max_d": eye.accommodation_max,
+           "pupil_diameter_mm": eye.pupil_diameter * 1e3,
+           "retina_distance_mm": eye.retina_distance * 1e3, "n_vitreous": eye.n_vitreous,
+           "rotation_centre_mm": eye.rotation_centre * 1e3, "chromatic": eye.chromatic}
+    if eye.aberrations is not None:
+        a = dataclasses.asdict(eye.aberrations)
+        out["aberrations"] = dict(a, coefficients_um=list(a["coefficients_um"]))
+    return out
 
 
 def _object(points, i) -> dict:
@@ -122,12 +141,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
         out_points.append(entry)
     k1, k2 = eye.refraction()
     return {
-        "eye": {"power_min_d": eye.power_min, "astigmatism_d": eye.astigmatism,
-                "astigmatism_axis_deg": eye.astigmatism_axis_deg,
-                "accommodation_max_d": eye.accommodation_max,
-                "pupil_diameter_mm": eye.pupil_diameter * 1e3,
-                "retina_distance_mm": eye.retina_distance * 1e3,
-                "far_point_vergence_d": [k1, k2]},
+        "eye": dict(eye_table(eye), far_point_vergence_d=[k1, k2]),
         "lens": None if lens is None else _lens_info(lens, spec.wavelength_nm),
         "vertex_sphere": None if res.vertex_sphere is None else {
             "centre": res.vertex_sphere["centre"],

@@ -18,6 +18,13 @@ Job spec (TOML)::
     "eye.rx" = "-6.00 DS"
     "lens" = false                # false removes a table (here: the naked eye)
 
+A spec with two eyes (``[binocular]``, or per-eye tables ``[eye.right]``, ``[lens.left]``,
+...) is swept the same way, each side's keys by their dotted names (``"eye.left.rx"``,
+``"lens.right.decentration_mm"``, ``"binocular.frame_pd_mm"``, ``"binocular.output"``);
+its job renders both eyes (:func:`eyelab.imaging.stereo.render_binocular`) and writes the
+image ``eyelab render`` writes for its ``binocular.output`` (side by side: twice as wide),
+its sidecar the binocular report (``binocular``, ``right``, ``left``).
+
 A job is done when its sidecar exists, names the job's content key (a digest of the job's
 resolved spec and eyelab's version) and records the SHA-256 of each image present; the
 images are written first and the sidecar last, each atomically (a temporary beside the
@@ -42,13 +49,13 @@ from pathlib import Path
 
 from eyelab.core.cache import LRUCache
 from eyelab.core.errors import SpecError
-from eyelab.core.fileio import linear_to_png16, write_json, write_png
+from eyelab.core.fileio import linear_to_png16, write_png, write_report
 from eyelab.core.parallel import LendingPool, process_owned, release_owned, scoped_environ
 from eyelab.jobs.jobspec import FORMATS, MAX_JOBS, Job, JobSpec, load_job_spec, validate_jobs
 
 __all__ = ["FORMATS", "MAX_JOBS", "Job", "JobSpec", "JobResources", "load_job_spec",
-           "validate_jobs", "job_done", "run_job", "run_batch", "sweep_temporaries",
-           "write_summary"]
+           "validate_jobs", "job_done", "render_images", "run_job", "run_batch",
+           "sweep_temporaries", "write_summary"]
 
 
 # ------------------------------------------------------------------------ one job
@@ -114,7 +121,7 @@ def run_job(job: Job, out_dir, formats, *, resources: JobResources | None = None
     scenes to use (the caller's, left open); None: the job's own, closed when it ends."""
     from eyelab import __version__
     from eyelab.imaging.memory import check_memory, memory_limit
-    from eyelab.spec import one_eye, parse_spec
+    from eyelab.spec import parse_spec
 
     out_dir = Path(out_dir)
     if job_done(job, out_dir, formats):     # finished already (a rescheduled Dask task)
@@ -123,35 +130,65 @@ def run_job(job: Job, out_dir, formats, *, resources: JobResources | None = None
     meta = {"key": job.key, "index": job.index, "params": job.params, "spec": job.data,
             "eyelab_version": __version__, "images": {}, "sha256": {}}
     try:
-        spec = one_eye(parse_spec(job.data, f"job {job.index}"), "eyelab batch")
-        rs = spec.render
-        check_memory(rs, memory_limit())
+        spec = parse_spec(job.data, f"job {job.index}")
+        check_memory(spec.render, memory_limit())   # one image (two eyes: each in turn)
         lender = JobResources() if resources is None else contextlib.nullcontext(resources)
-        with lender as pool, pool.renderer(rs.renderer, rs.quality) as renderer:
-            res = renderer.render(pool.scene(rs.scene), spec.eye, spec.lens, rs.view)
+        with lender as pool:
+            images, report = render_images(spec, pool, formats)
     except SpecError as e:
         meta.update(status="invalid", error=str(e), time_s=time.perf_counter() - t0)
     except Exception as e:          # an unreadable mesh, a failure: listed, retried next run
         meta.update(status="failed", error=f"{type(e).__name__}: {e}",
                     time_s=time.perf_counter() - t0)
     else:
-        for fmt in formats:
+        for fmt, image in images.items():
             name = f"{job.stem}.png" if fmt == "png" else f"{job.stem}.linear16.png"
             path = out_dir / name
-            # sRGB 8-bit, or linear light 16-bit: deterministic bytes (core.fileio)
-            write_png(path, res.srgb if fmt == "png" else linear_to_png16(res.linear))
+            write_png(path, image)
             meta["images"][fmt] = name
             meta["sha256"][fmt] = _sha(path)
-        meta.update(status="ok", time_s=time.perf_counter() - t0, report=res.report)
-    write_json(out_dir / f"{job.stem}.json", meta)
+        meta.update(status="ok", time_s=time.perf_counter() - t0, report=report)
+    write_report(out_dir / f"{job.stem}.json", meta)
     return _row(meta)
+
+
+def render_images(spec, pool: JobResources, formats) -> tuple:
+    """({format: image}, report) of a parsed job ``spec`` rendered with ``pool``'s renderer
+    and scene, as ``eyelab render`` renders it: what its eye sees through its lens (or its
+    camera lens sees), or with two eyes both eyes
+    (:func:`~eyelab.imaging.stereo.render_binocular`) composed as its
+    ``binocular.output``. Images: "png" (h, w', 3) uint8 sRGB, "png16" (h, w', 3) uint16
+    linear light (deterministic bytes, :func:`~eyelab.core.fileio.linear_to_png16`);
+    w' = ``render.width``, twice it for two eyes side by side or crossed."""
+    rs = spec.render
+    with pool.renderer(rs.renderer, rs.quality) as renderer:
+        scene = pool.scene(rs.scene)
+        if spec.binocular is None:
+            observer, lens = (spec.eye, spec.lens) if rs.camera is None else (rs.camera, None)
+            res = renderer.render(scene, observer, lens, rs.view)
+            srgb, linear = (lambda: res.srgb), (lambda: res.linear)
+        else:
+            from eyelab.imaging.stereo import render_binocular
+
+            res = render_binocular(renderer, scene, spec.binocular, rs.view, rs.quality)
+            output = spec.binocular.output
+            srgb, linear = (lambda: res.srgb(output)), (lambda: res.linear(output))
+    return ({fmt: srgb() if fmt == "png" else linear_to_png16(linear()) for fmt in formats},
+            res.report)
+
+
+def _render_s(report: dict) -> float:
+    """Seconds a job's renders took: its report's, or both eyes' together."""
+    if "binocular" in report:
+        return sum(_render_s(report[side]) for side in ("right", "left"))
+    return report.get("timings_s", {}).get("total", 0.0)
 
 
 def _row(meta: dict) -> dict:
     rep = meta.get("report") or {}
     return {"index": meta["index"], "key": meta["key"], "status": meta["status"],
             "error": meta.get("error", ""), "time_s": round(meta.get("time_s", 0.0), 4),
-            "render_s": round(rep.get("timings_s", {}).get("total", 0.0), 4),
+            "render_s": round(_render_s(rep), 4),
             "image": meta["images"].get("png") or next(iter(meta["images"].values()), ""),
             **{f"param:{k}": json.dumps(v) if not isinstance(v, str) else v
                for k, v in meta["params"].items()}}

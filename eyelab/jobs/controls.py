@@ -64,25 +64,43 @@ def snap(value, step):
     return round(float(value) / step) * step
 
 
-def edit_spec_data(data: dict, name: str, v, model) -> None:
-    """Apply one control's value to the spec table ``data`` (in place)."""
+def _edit_rx(eye: dict, name: str, v) -> None:
+    """One part (sphere, cylinder, axis) of an eye table's Rx set to ``v`` (snapped)."""
+    rx = Prescription.parse(eye["rx"], field="eye.rx") if "rx" in eye else Prescription()
+    rx = dataclasses.replace(rx, **{name: snap(v, 1.0 if name == "axis" else 0.25)})
+    for k in EXPLICIT_EYE:
+        eye.pop(k, None)
+    eye["rx"] = rx.format()
+
+
+#: Eye controls that write one key: (the key it replaces, the key, its value from the
+#: slider's).
+EYE_KEY_EDITS = {
+    "pupil_mm": ("luminance_cd_m2", "pupil_diameter_mm", lambda v: round(float(v), 2)),
+    "age": ("accommodation_max_d", "age", lambda v: int(round(float(v)))),
+}
+
+
+def edit_spec_data(data: dict, name: str, v, sides=None) -> None:
+    """Apply one control's value to the spec table ``data`` (in place). ``sides``: the
+    eyes a two-eye spec's eye controls edit (their ``[eye.right]`` / ``[eye.left]``
+    tables; ``lens_rx`` then a {side: Rx} dict); None for one eye (``[eye]``)."""
     eye = data.setdefault("eye", {})
     render = data.setdefault("render", {})
+    tables = [eye] if sides is None else [eye.setdefault(s, {}) for s in sides]
     if name in ("sphere", "cylinder", "axis"):
-        rx = model.eye_rx() if "rx" in eye else Prescription()
-        rx = dataclasses.replace(rx, **{name: snap(v, 1.0 if name == "axis" else 0.25)})
-        for k in EXPLICIT_EYE:
-            eye.pop(k, None)
-        eye["rx"] = rx.format()
+        for t in tables:
+            _edit_rx(t, name, v)
     elif name == "lens_rx":
-        data.setdefault("lens", {})["rx"] = str(v)
-    elif name == "pupil_mm":
-        eye.pop("luminance_cd_m2", None)
-        eye["pupil_diameter_mm"] = round(float(v), 2)
-    elif name == "age":
-        eye.pop("accommodation_max_d", None)
-        eye["age"] = int(round(float(v)))
-    elif name == "focus_d":           # the eye's accommodation, one state for every job
+        lens = data.setdefault("lens", {})
+        for side, rx in ({None: v} if sides is None else v).items():
+            (lens if side is None else lens.setdefault(side, {}))["rx"] = str(rx)
+    elif name in EYE_KEY_EDITS:
+        drop, key, value = EYE_KEY_EDITS[name]
+        for t in tables:
+            t.pop(drop, None)
+            t[key] = value(v)
+    elif name == "focus_d":           # the eyes' accommodation, one state for both
         if float(v) < 0:
             eye.pop("accommodation_d", None)
         else:

@@ -165,12 +165,12 @@ class GazeMapsMixin:
         if self.lens is None:
             return None
         if self._maps_key is None:
-            self._maps_key = maps_key(self.spec.eye, self.lens, self.spec.wavelength_nm)
+            self._maps_key = maps_key(self.eye, self.lens, self.spec.wavelength_nm)
         return self._maps_key
 
     def _want_maps(self) -> None:
         if self.maps_wanted:
-            self.gaze_maps.want(self.maps_key(), self.spec.eye, self.lens,
+            self.gaze_maps.want(self.maps_key(), self.eye, self.lens,
                                 self.spec.wavelength_nm)
 
     def maps(self):

@@ -18,8 +18,6 @@ the first frame after a lens change has been shown, and kept per lens.
 from __future__ import annotations
 
 import copy
-import dataclasses
-import time
 from pathlib import Path
 
 import numpy as np
@@ -30,18 +28,19 @@ from eyelab.jobs.controls import (
     CONTROLS,
     CVD_CYCLE,
     PREVIEW_AFTER,
-    PREVIEW_FIELD,
     TOGGLES,
     edit_spec_data,
     snap,
 )
+from eyelab.jobs.frameloop import FrameLoopMixin
 from eyelab.jobs.gazemaps import GazeMaps, GazeMapsMixin
+from eyelab.jobs.twoeyes import EDIT_CYCLE, edited_sides, sided_data
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.prescription import Prescription
-from eyelab.spec import dump_spec, one_eye, parse_spec, read_spec_data
+from eyelab.spec import dump_spec, parse_spec, read_spec_data
 
 
-class InspectorModel(GazeMapsMixin):
+class InspectorModel(FrameLoopMixin, GazeMapsMixin):
     """The inspected spec and its frames.
 
     Parameters
@@ -49,7 +48,8 @@ class InspectorModel(GazeMapsMixin):
     path : a spec file, or None for the built-in default
     size : (width, height) px of the simulated view, overriding the spec's
     samples : the target S, overriding the spec's
-    scene : a built-in scene name or mesh file, overriding the spec's
+    scene : a built-in scene name or mesh file, or a ``[render] scene`` table (a mesh
+        file's ``path`` and placement), overriding the spec's
     every : passes run per :meth:`tick` once the first frame is shown
     """
 
@@ -64,6 +64,7 @@ class InspectorModel(GazeMapsMixin):
         self.every = max(1, int(every))
         self._overrides = {"size": size, "samples": samples, "scene": scene}
         self.renderer = RasterRenderer()
+        self._left_renderer = None     # two eyes: the left eye's own (its GL state, caches)
         self._scenes = {}
         self._pending = {}
         self._frames = None
@@ -95,13 +96,21 @@ class InspectorModel(GazeMapsMixin):
             data["render"]["width"], data["render"]["height"] = (int(v) for v in size)
         if samples is not None:
             data["render"]["samples"] = int(samples)
-        if self._overrides["scene"] is not None:
-            data["render"]["scene"] = str(Path(self._overrides["scene"]).resolve())
-        if "lens" in data and "rx" not in data["lens"] and "front" not in data["lens"] \
+        scene = self._overrides["scene"]
+        if isinstance(scene, dict):          # a mesh file and its placement
+            data["render"]["scene"] = {**scene, "path": str(Path(scene["path"]).resolve())}
+        elif scene is not None:
+            data["render"]["scene"] = str(Path(scene).resolve())
+        spec = parse_spec(data, self.source, self.base)
+        if spec.binocular is not None:      # each eye's keys in its own table
+            data = sided_data(data)
+        elif "lens" in data and "rx" not in data["lens"] and "front" not in data["lens"] \
                 and "rx" in data.get("eye", {}):
             # the lens keeps its own prescription while the eye's controls move
             data["lens"]["rx"] = data["eye"]["rx"]
-        self.spec = one_eye(parse_spec(data, self.source, self.base), "the inspector")
+        self.spec = parse_spec(data, self.source, self.base)
+        self.edit = "both" if self.two_eyes else None
+        self.output = None if self.spec.binocular is None else self.spec.binocular.output
         self.loaded = copy.deepcopy(data)
         self.data = data
         self.lens_on = "lens" in data
@@ -131,19 +140,55 @@ class InspectorModel(GazeMapsMixin):
     def samples(self) -> int:
         return self.spec.render.quality.samples
 
-    def eye_rx(self) -> Prescription:
-        """The eye's refraction as an Rx (plano when the spec gives explicit powers)."""
-        rx = self.data.get("eye", {}).get("rx")
-        return Prescription() if rx is None else Prescription.parse(rx, field="eye.rx")
+    @property
+    def two_eyes(self) -> bool:
+        return self.spec.binocular is not None
+
+    @property
+    def side(self) -> str | None:
+        """The eye the controls show (two eyes: the edited one, the right when both)."""
+        return None if not self.two_eyes else ("right" if self.edit == "both" else self.edit)
+
+    @property
+    def eye(self):
+        """The eye the controls show (:attr:`side`'s of two)."""
+        return self.spec.eye if not self.two_eyes else self.spec.binocular.eye(self.side)
+
+    def _eye_table(self, side=None) -> dict:
+        eye = self.data.get("eye", {})
+        return eye if not self.two_eyes else eye.get(side or self.side, {})
+
+    def eye_rx(self, side=None) -> Prescription:
+        """The eye's refraction as an Rx (plano when the spec gives explicit powers); of
+        ``side`` (default the shown eye) for two eyes."""
+        rx = self._eye_table(side).get("rx")
+        field = "eye.rx" if not self.two_eyes else f"eye.{side or self.side}.rx"
+        return Prescription() if rx is None else Prescription.parse(rx, field=field)
+
+    def cycle_edit(self) -> str | None:
+        """Two eyes: the controls edit the next of both / right / left; returns it."""
+        if self.two_eyes:
+            self.edit = EDIT_CYCLE[(EDIT_CYCLE.index(self.edit) + 1) % len(EDIT_CYCLE)]
+            self.last_change = f"editing: {self.edit} eye{'s' if self.edit == 'both' else ''}"
+        return self.edit
+
+    def toggle_anaglyph(self) -> str | None:
+        """Two eyes: the view as a red/cyan anaglyph, or back to the spec's output."""
+        if self.two_eyes:
+            spec_out = self.spec.binocular.output
+            self.output = (spec_out if self.output == "anaglyph" and spec_out != "anaglyph"
+                           else "side-by-side" if self.output == "anaglyph" else "anaglyph")
+            self.last_change = f"output {self.output}: display only"
+        return self.output
 
     def value(self, name: str):
         """The current value of a control or toggle."""
-        eye, render = self.data.get("eye", {}), self.data.get("render", {})
+        eye, render = self._eye_table(), self.data.get("render", {})
         if name in ("sphere", "cylinder", "axis"):
             rx = self.eye_rx()
             return {"sphere": rx.sphere, "cylinder": rx.cylinder, "axis": rx.axis}[name]
         if name == "pupil_mm":
-            return self.spec.eye.pupil_diameter * 1e3
+            return self.eye.pupil_diameter * 1e3
         if name == "age":
             return float(eye.get("age", 45.0))
         if name == "focus_d":
@@ -193,7 +238,8 @@ class InspectorModel(GazeMapsMixin):
                 elif name == "cvd_severity":
                     sev = min(max(float(v), 0.0), 1.0)
                 else:
-                    edit_spec_data(data, name, v, self)
+                    edit_spec_data(data, name, v, None if not self.two_eyes else
+                                   edited_sides(self.edit))
             spec = parse_spec(data, self.source, self.base)
         except SpecError as e:
             self.message = str(e)
@@ -235,8 +281,10 @@ class InspectorModel(GazeMapsMixin):
         if "lens" not in self.data or "front" in self.data["lens"]:
             self.message = "no lens designed from an Rx to change"
             return self.message
-        rx = self.data.get("eye", {}).get("rx", "plano")
-        return self.apply({"lens_rx": rx})
+        if not self.two_eyes:
+            return self.apply({"lens_rx": self.data.get("eye", {}).get("rx", "plano")})
+        return self.apply({"lens_rx": {s: self._eye_table(s).get("rx", "plano")
+                                       for s in edited_sides(self.edit)}})
 
     def dump(self) -> str:
         """The spec that reproduces the current state (TOML)."""
@@ -259,106 +307,47 @@ class InspectorModel(GazeMapsMixin):
             self._scenes[name] = build_scene(name)
         return self._scenes[name]
 
+    def renderers(self) -> list:
+        """The raster renderer of each eye: one eye's, or the right's and the left's (two
+        interleaved progressive renders may not share one renderer's GL windows)."""
+        if not self.two_eyes:
+            return [self.renderer]
+        if self._left_renderer is None:
+            from eyelab.render.raster import RasterRenderer
+
+            self._left_renderer = RasterRenderer()
+        return [self.renderer, self._left_renderer]
+
     @property
     def lens(self):
-        return self.spec.lens if self.lens_on else None
-
-    def restart(self, why: str, *, preview: bool = True) -> None:
-        """Start the progressive frames of the current state (set-up runs at the next
-        :meth:`tick`); with ``preview``, one pass on a coarse field comes first."""
-        if self._frames is not None:
-            self._frames.close()
-        self._frames = self._sequence(preview)
-        self.last_change = why
-        self._t_change = time.perf_counter()
-        self.timings = {}
-        self._maps_key = None            # the maps' key, found once the first frame is shown
-        self._shown = False              # whether this state's first frame has been shown
-
-    def _sequence(self, preview: bool):
-        """The preview frame (if asked); the full set-up on a worker thread (fields and
-        refinement need no GL: the window stays responsive, showing the preview); then the
-        full progressive frames. Yields RenderResults, or None while waiting or between
-        shown images."""
-        import threading
-
-        self._prepared = None
-        q = self.spec.render.quality
-        args = (self.scene(), self.spec.eye, self.lens, self.view)
-        if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
-            coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
-                                         field_shape=PREVIEW_FIELD)
-            for res in self.renderer.frames(*args, coarse):
-                res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
-                yield res
-            failed = []
-
-            def work():
-                try:
-                    self._prepared = self.renderer.prepare(*args, q)
-                except Exception as e:          # re-raised on the GL thread below
-                    failed.append(e)
-
-            worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
-            worker.start()
-            try:
-                while worker.is_alive():
-                    worker.join(timeout=0.02)
-                    yield None
-            finally:
-                worker.join()
-            if failed:
-                raise failed[0]
-        yield from self.renderer.frames(*args, q, every=self.every, images="doubling")
-
-    @property
-    def done(self) -> bool:
-        return self._frames is None
-
-    def tick(self) -> bool:
-        """Apply the queued changes, then advance the frames by one step (the first frame
-        after a change, or ``every`` more passes). Returns whether the image changed."""
-        if self._pending:
-            changes, self._pending = self._pending, {}
-            self.apply(changes)
-            if self.last_change.endswith("display only"):
-                return True
-        if self._shown:        # the maps start once the first frame is out, never before
-            self._want_maps()
-        if self._frames is None:
-            return False
-        try:
-            res = next(self._frames)
-        except StopIteration:
-            self._frames = None
-            return False
-        if res is None:            # passes ran; the next image comes at 2, 4, 8, ... S
-            return False
-        self.result = res
-        self._shown = True
-        done = self.result.report["samples"]["done_passes"]
-        elapsed = time.perf_counter() - self._t_change
-        self.timings.setdefault("first_frame_s", elapsed)
-        self.timings["to_now_s"] = elapsed
-        if done:
-            self.timings[f"to_S{done}_s"] = elapsed
-        if done >= self.samples:
-            self._frames.close()
-            self._frames = None
-        return True
-
-    def run_to_target(self) -> None:
-        """Tick until the target S is reached."""
-        while not self.done or self._pending:
-            self.tick()
+        """The shown eye's lens (None when off)."""
+        if not self.lens_on:
+            return None
+        return self.spec.lens if not self.two_eyes else self.spec.binocular.lens(self.side)
 
     def display(self) -> np.ndarray:
         """(h, w, 3) uint8 sRGB of the current frame as the observer sees it (CVD)."""
         if self.result is None:
-            return np.zeros((self.view.height, self.view.width, 3), np.uint8)
-        if self.cvd is None:
+            w, h = self.display_size
+            return np.zeros((h, w, 3), np.uint8)
+        if self.two_eyes:
+            if self.cvd is None:
+                return self.result.srgb(self.output)
+            from eyelab.jobs.twoeyes import display_linear
+
+            linear = display_linear(self.result, self.output)
+        elif self.cvd is None:
             return self.result.srgb
-        return encode_srgb(cvd_linear(self.result.linear, self.cvd, self.cvd_severity))
+        else:
+            linear = self.result.linear
+        return encode_srgb(cvd_linear(linear, self.cvd, self.cvd_severity))
+
+    @property
+    def display_size(self) -> tuple:
+        """(width, height) px of :meth:`display`'s image: two eyes side by side are twice
+        the view's width."""
+        w, h = self.size
+        return (2 * w if self.output in ("side-by-side", "crossed") else w), h
 
     def recomputed(self) -> str:
         """What the last change recomputed (the report's cache misses) or 'passes only'."""
@@ -368,28 +357,43 @@ class InspectorModel(GazeMapsMixin):
         from collections import Counter
 
         prepared = getattr(self, "_prepared", None)
-        names = self.result.report["cache"]["misses"] + (
+        reports = [self.result.report] if not self.two_eyes else [
+            self.result.right.report, self.result.left.report]
+        names = [m for r in reports for m in r["cache"]["misses"]] + (
             prepared["cache"]["misses"] if prepared else [])
         misses = Counter(re.sub(r"_[\d.]+nm$", "", m) for m in names)
         if not misses:
             return "passes only"
         return ", ".join(k if n == 1 else f"{k} x{n}" for k, n in sorted(misses.items()))
 
+    def warnings(self) -> list:
+        """The current frame's warnings (each eye's), as ``eyelab render`` reports them."""
+        if self.result is None:
+            return []
+        reports = [self.result.report] if not self.two_eyes else [
+            self.result.right.report, self.result.left.report]
+        return list(dict.fromkeys(w for r in reports for w in r.get("warnings", [])))
+
     def status(self) -> str:
         """The status line: Rx, lens, passes, the last change and what it recomputed."""
-        lens = self.spec.lens
-        lens_s = "no lens" if lens is None else (
-            ("lens " + (lens.rx.format() if lens.rx is not None else "(surfaces)")
-             + f" {lens.material.name}") if self.lens_on else "lens off")
-        done = 0 if self.result is None else self.result.report["samples"]["done_passes"]
+        sides = ("right", "left") if self.two_eyes else (None,)
+        lenses = [self.spec.lens if s is None else self.spec.binocular.lens(s) for s in sides]
+        lens_s = "; ".join((s[0].upper() + " " if s else "") + _lens_text(lens, self.lens_on)
+                           for s, lens in zip(sides, lenses, strict=True))
+        eye_s = "eye " + self.eye_rx().format() if not self.two_eyes else (
+            f"eyes R {self.eye_rx('right').format()}, L {self.eye_rx('left').format()} "
+            f"(editing {self.edit})")
+        out = "" if not self.two_eyes else f"  {self.output}"
+        done = 0 if self.result is None else self.eye_report()["samples"]["done_passes"]
         first = self.timings.get("first_frame_s")
         t = "" if first is None else f"  first frame {first:.2f} s"
         cvd = "" if self.cvd is None else f"  CVD {self.cvd} {self.cvd_severity:.2f}"
         gz = self.value("gaze")
-        return (f"eye {self.eye_rx().format()};  {lens_s};  S {done}/{self.samples}"
-                f"  gaze [{gz[0]:+.0f}, {gz[1]:+.0f}]{cvd}\nchanged: {self.last_change}"
+        return (f"{eye_s};  {lens_s};  S {done}/{self.samples}"
+                f"  gaze [{gz[0]:+.0f}, {gz[1]:+.0f}]{cvd}{out}\nchanged: {self.last_change}"
                 f" -> recomputed: {self.recomputed()}{t}"
-                + (f"\n{self.message}" if self.message else ""))
+                + (f"\n{self.message}" if self.message else "")
+                + "".join(f"\nwarning: {w}" for w in self.warnings()))
 
     def readout(self) -> str:
         """``analyze`` at the gaze point: the scene point on the line of sight, its
@@ -400,6 +404,11 @@ class InspectorModel(GazeMapsMixin):
         from eyelab.optics.trace import FATAL
         from eyelab.scene.raycast import EmbreeIntersector
 
+        if self.two_eyes:
+            from eyelab.jobs.twoeyes import fixation_distance, readout
+
+            self.gaze_distance_m = fixation_distance(self.result)
+            return readout(self.result)
         cam = self.view.camera(self.spec.eye.rotation_centre)
         o = np.asarray(cam.position, float)[None]
         d = np.asarray(cam.basis[2], float)[None]
@@ -432,6 +441,17 @@ class InspectorModel(GazeMapsMixin):
             self._frames = None
         self.gaze_maps.close()
         self.renderer.close()
+        if self._left_renderer is not None:
+            self._left_renderer.close()
+
+
+def _lens_text(lens, on: bool) -> str:
+    if lens is None:
+        return "no lens"
+    if not on:
+        return "lens off"
+    return ("lens " + (lens.rx.format() if lens.rx is not None else "(surfaces)")
+            + f" {lens.material.name}")
 
 
 def write_state(model: InspectorModel, image_path, *, image=None) -> tuple:

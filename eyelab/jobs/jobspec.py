@@ -149,7 +149,7 @@ def load_job_spec(path, *, out_dir=None, max_jobs: int = MAX_JOBS) -> JobSpec:
 def validate_jobs(js: JobSpec) -> None:
     """Refuse up front (:class:`SpecError`, before anything is written) what would make
     jobs invalid: the first job as a whole (base spec and the first value of every axis:
-    parsed, one eye, within the memory limit), then every axis value in the first job's
+    parsed, one eye or two, within the memory limit), then every axis value in the first job's
     place and every case. The field names where the bad value came from: the job spec's
     ``[base]``, a sweep value or a case, and the spec key."""
     first = js.jobs[0]
@@ -170,12 +170,13 @@ def validate_jobs(js: JobSpec) -> None:
 def _check_job(data: dict, origin: dict, where: str) -> None:
     """Parse one job's spec as the job would; a :class:`SpecError` is re-raised naming
     where the bad value came from — ``origin[key]`` when the field is under a dotted key
-    of ``origin``, else ``where`` — and the spec field."""
+    of ``origin``, else ``where`` — and the spec field. The memory limit is checked for one
+    image: a job with two eyes renders them one after the other."""
     from eyelab.imaging.memory import check_memory, memory_limit
-    from eyelab.spec import one_eye, parse_spec
+    from eyelab.spec import parse_spec
 
     try:
-        spec = one_eye(parse_spec(copy.deepcopy(data), "eyelab batch"), "eyelab batch")
+        spec = parse_spec(copy.deepcopy(data), "eyelab batch")
         check_memory(spec.render, memory_limit())
     except SpecError as e:
         hit = [k for k in origin if e.field == k or e.field.startswith((k + ".", k + "["))]

@@ -20,7 +20,9 @@ MTF_FREQUENCIES_CPD = (5, 10, 15, 20, 30, 45, 60)
 def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: float = PITCH_ARCMIN,
               size: int = SIZE) -> tuple:
     """(psf (3, size, size) float64, image-oriented rows, each summing to the energy inside
-    the square; report dict) for ``spec``'s point ``point``."""
+    the square; report dict, its units first: :func:`eyelab.core.fileio.with_units`) for
+    ``spec``'s point ``point``."""
+    from eyelab.core.fileio import with_units
     from eyelab.imaging.eyepsf import channel_wavelengths
     from eyelab.optics import zernike as zk
     from eyelab.optics.aberrations import point_wave
@@ -70,4 +72,4 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
                            "astigmatism plus the eye's higher orders",
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}
-    return np.stack(images), rep
+    return np.stack(images), with_units(rep)

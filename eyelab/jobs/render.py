@@ -16,11 +16,12 @@ from eyelab.scene.scene import Scene
 def build_scene(source) -> Scene:
     """The scene a :class:`~eyelab.scene.scene.SceneSource` (or a bare name or path)
     describes: a built-in scene (:data:`eyelab.scene.library.SCENES`) or the parts of a
-    mesh file, placed, with its background (a mesh file's default: white)."""
+    mesh file, placed, lit as its ``shading`` says, with its background (a mesh file's
+    default: white)."""
     import dataclasses
 
     from eyelab.scene.library import SCENES
-    from eyelab.scene.scene import SceneSource, load_meshes
+    from eyelab.scene.scene import SceneSource, apply_shading, load_meshes
 
     src = source if isinstance(source, SceneSource) else SceneSource(str(source))
     if src.name in SCENES:
@@ -31,9 +32,10 @@ def build_scene(source) -> Scene:
         if src.placed:
             m = src.matrix()
             scene = dataclasses.replace(scene, meshes=[x.transformed(m) for x in scene.meshes])
+        scene = dataclasses.replace(scene, meshes=apply_shading(scene.meshes, src.shading))
     else:
-        scene = Scene(load_meshes(src.name, transform=src.matrix() if src.placed else None),
-                      name=Path(src.name).stem)
+        scene = Scene(load_meshes(src.name, transform=src.matrix() if src.placed else None,
+                                  shading=src.shading), name=Path(src.name).stem)
     if src.background is not None:
         scene = dataclasses.replace(scene, background=tuple(src.background))
     return scene
@@ -78,7 +80,10 @@ def demo(spec):
     """Three views of the spec's scene: the uncorrected eye, the eye with its lens, and an
     emmetrope of the same accommodation and pupil (a binocular spec: a row per eye, each
     column rendered binocularly — vergence and one accommodation for both eyes). Returns
-    (image, report)."""
+    (image, report): the report's units first (:func:`eyelab.core.fileio.with_units`), the
+    eyes as their spec keys (:func:`eyelab.jobs.analyze.eye_table`), each panel's render
+    report under its label in ``panels`` (binocular: ``rows`` names the figure's rows,
+    top first, and their columns; a panel's label is "<row>, <column>")."""
     rs = spec.render
     if rs.camera is not None:
         from eyelab.core.errors import SpecError
@@ -100,11 +105,13 @@ def demo(spec):
             res = r.render(scene, eye, lens, rs.view)
             panels.append((label, res.srgb))
             reports[label] = res.report
+    from eyelab.core.fileio import with_units
+    from eyelab.jobs.analyze import eye_table
+
     rx = None if spec.lens is None or spec.lens.rx is None else spec.lens.rx.format()
-    return panel_figure([panels]), {
+    return panel_figure([panels]), with_units({
         "scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
-        "eye": dataclasses.asdict(spec.eye), "emmetrope": dataclasses.asdict(emmetrope),
-        "panels": reports}
+        "eye": eye_table(spec.eye), "emmetrope": eye_table(emmetrope), "panels": reports})
 
 
 def _demo_binocular(spec, scene):
@@ -128,17 +135,59 @@ def _demo_binocular(spec, scene):
             for side in SIDES:
                 rows[side].append((f"{side} eye, {label}", getattr(res, side).srgb))
                 reports[f"{side} eye, {label}"] = res.report[side]
+    from eyelab.core.fileio import with_units
+    from eyelab.jobs.analyze import eye_table
+
     rx = {s: None if b.lens(s) is None or b.lens(s).rx is None else b.lens(s).rx.format()
           for s in SIDES}
-    return panel_figure([rows["right"], rows["left"]]), {
+    return panel_figure([rows["right"], rows["left"]]), with_units({
         "scene": scene.name, "renderer": rs.renderer, "lens_rx": rx,
-        "eye": {s: dataclasses.asdict(b.eye(s)) for s in SIDES}, "binocular": binocular,
-        "panels": reports}
+        "eye": {s: eye_table(b.eye(s)) for s in SIDES}, "binocular": binocular,
+        "rows": {f"{s} eye": [label for label, _ in configs] for s in SIDES},
+        "panels": reports})
+
+
+#: The panels' frame: a neutral mid grey (sRGB code) that reads on white and on black
+#: scenes, ``PANEL_FRAME_PX`` pixels wide, drawn over each panel's outermost pixels.
+PANEL_FRAME_GREY = 128
+PANEL_FRAME_PX = 2
+#: The label band above each panel (pixels) and the labels' largest font size (points).
+LABEL_BAND_PX = 50
+LABEL_PT = 14
+
+
+def framed(img: np.ndarray) -> np.ndarray:
+    """A copy of an (h, w, 3) uint8 panel with its :data:`PANEL_FRAME_PX` outermost pixels
+    :data:`PANEL_FRAME_GREY`."""
+    out = np.array(img, dtype=np.uint8, copy=True)
+    k = PANEL_FRAME_PX
+    out[:k] = out[-k:] = PANEL_FRAME_GREY
+    out[:, :k] = out[:, -k:] = PANEL_FRAME_GREY
+    return out
+
+
+def _fit_label(text, width_px: float, height_px: float) -> None:
+    """Set a matplotlib ``text`` on one line or on two (broken at its first comma),
+    whichever fits ``width_px`` x ``height_px`` at the larger font size, at that size
+    (at most :data:`LABEL_PT`; one line where both fit whole)."""
+    renderer = text.figure.canvas.get_renderer()
+    label = text.get_text()
+    best_scale, best = 0.0, label
+    for candidate in dict.fromkeys((label, label.replace(", ", "\n", 1))):
+        text.set_text(candidate)
+        text.set_fontsize(LABEL_PT)
+        box = text.get_window_extent(renderer)
+        scale = min(1.0, width_px / box.width, height_px / box.height)
+        if scale > best_scale:
+            best_scale, best = scale, candidate
+    text.set_text(best)
+    text.set_fontsize(LABEL_PT * best_scale)
 
 
 def panel_figure(rows: list) -> np.ndarray:
     """(H, W, 3) uint8 image of labelled panels: ``rows`` of [(label, (h, w, 3) uint8)],
-    every panel the same size, a 50-pixel label band above each."""
+    every panel the same size, framed (:func:`framed`), a :data:`LABEL_BAND_PX` band above
+    each holding its label (shrunk or broken at its comma to fit the panel's width)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -146,16 +195,17 @@ def panel_figure(rows: list) -> np.ndarray:
 
     h, w = rows[0][0][1].shape[:2]
     ncol, nrow = max(len(r) for r in rows), len(rows)
-    band = h + 50
+    band = h + LABEL_BAND_PX
     fig = plt.figure(figsize=(ncol * w / 100, nrow * band / 100), dpi=100)
     for j, row in enumerate(rows):
         for i, (label, img) in enumerate(row):
             bottom = (nrow - 1 - j) * band / (nrow * band)
             ax = fig.add_axes([i / ncol, bottom, 1 / ncol, h / (nrow * band)])
-            ax.imshow(img)
+            ax.imshow(framed(img), interpolation="nearest")
             ax.set_axis_off()
-            fig.text((i + 0.5) / ncol, bottom + (h + 25) / (nrow * band), label,
-                     ha="center", va="center", fontsize=14)
+            text = fig.text((i + 0.5) / ncol, bottom + (h + LABEL_BAND_PX / 2) / (nrow * band),
+                            label, ha="center", va="center_baseline", linespacing=1.0)
+            _fit_label(text, 0.9 * w, 0.9 * LABEL_BAND_PX)
     fig.canvas.draw()
     image = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
     plt.close(fig)

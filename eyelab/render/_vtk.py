@@ -8,6 +8,7 @@ from eyelab.core.interrupt import deferred
 
 # a Ctrl-C landing in VTK's module initialisation crashes it: held until VTK is loaded
 with deferred():
+    import vtkmodules.vtkRenderingFreeType  # registers the FreeType text renderer
     import vtkmodules.vtkRenderingOpenGL2  # registers the OpenGL implementations (factories)
     from vtkmodules.util.misc import calldata_type
     from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
@@ -20,7 +21,20 @@ with deferred():
         vtkUnsignedCharArray,
     )
     from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkDataObject, vtkImageData, vtkPolyData
-    from vtkmodules.vtkRenderingCore import vtkActor, vtkRenderer, vtkRenderWindow, vtkTexture
+    from vtkmodules.vtkRenderingCore import (
+        vtkActor,
+        vtkActor2D,
+        vtkCoordinate,
+        vtkPolyDataMapper2D,
+        vtkPropCollection,
+        vtkRenderer,
+        vtkRenderWindow,
+        vtkTextActor,
+        vtkTextMapper,
+        vtkTextProperty,
+        vtkTextRenderer,
+        vtkTexture,
+    )
     from vtkmodules.vtkRenderingOpenGL2 import (
         vtkOpenGLPolyDataMapper,
         vtkOpenGLShaderProperty,

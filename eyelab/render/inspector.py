@@ -18,7 +18,16 @@ Keys: arrows turn the gaze by 2 deg; a left click in the simulated view looks th
 map it turns the eye to that eye rotation; ``l`` lens on/off; ``m`` shows or hides the
 as-worn maps; ``v`` cycles the colour-vision deficiency; ``c`` designs the lens for the
 eye's current Rx; ``s`` saves the view and the spec that reproduces it; ``r`` resets;
-``o`` re-reads the spec file; ``h`` shows or hides the help; ``q`` quits.
+``o`` re-reads the spec file; ``h`` shows or hides the help (with the whole status); ``q``
+quits. Two eyes (a two-eye spec): both eyes' views as the spec's ``binocular.output``
+shows them; ``e`` cycles the eye the sliders edit (both, right, left); ``a`` toggles a
+red/cyan anaglyph; the status shows the pupillary and frame PDs and the prism at the
+fixated point; the maps and the scene view show the edited eye's lens.
+
+Text: one font size from the window's height (:mod:`eyelab.render.textlayout`); every
+line fitted to its viewport (the status elided, its whole text in the help); the window
+may be any size (``window_size``): the simulated view is then shown scaled to fit its
+cell (and read back from the model, not the screen, when saved).
 """
 
 from __future__ import annotations
@@ -29,8 +38,11 @@ from pathlib import Path
 import numpy as np
 import pyvista as pv
 
-from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.render._vtk import vtkRenderer
+from eyelab.render.legend import Legend
 from eyelab.render.mappanel import MapPanel
+from eyelab.render.sideviews import draw_side
+from eyelab.render.textlayout import elide, font_size, style, wrap
 
 #: Timer period (ms) between ticks.
 TICK_MS = 15
@@ -39,31 +51,47 @@ CONTROLS_PX = 230
 SIDE_FRACTION = 0.5
 #: Width of the as-worn map column relative to the view's height (each map is half of it).
 MAPS_FRACTION = 0.55
+#: The smallest window (px) by default: a small view gets this much room around it.
+DEFAULT_WINDOW = (960, 710)
+#: The smallest window (px) the layout keeps legible (``window_size``).
+MIN_WINDOW = (800, 560)
 #: Degrees per arrow-key press.
 GAZE_STEP_DEG = 2.0
 
 HELP = ("arrows: gaze +-2 deg   click: look there (view or map)   l: lens on/off\n"
         "m: as-worn maps on/off   v: colour vision   c: lens for the eye's Rx\n"
         "s: save view + spec   r: reset   o: reload spec   h: this help   q: quit")
+HELP_TWO_EYES = "e: sliders edit both eyes / right / left   a: anaglyph on/off"
+#: Margin (px) between text and its viewport's edges.
+MARGIN_PX = 6
 
 
 class InspectorWindow:
     """The window around ``model``; ``off_screen`` for tests and screenshots."""
 
-    def __init__(self, model, *, off_screen: bool = False, save_dir="."):
+    def __init__(self, model, *, off_screen: bool = False, save_dir=".",
+                 window_size=None):
         self.model = model
         self.save_dir = Path(save_dir)
-        w, h = model.size
-        side = max(240, int(round(w * SIDE_FRACTION)))
+        w, h = model.display_size
+        side = max(240, int(round(model.size[0] * SIDE_FRACTION)))
         maps_w = max(220, int(round(h * MAPS_FRACTION)))
-        self.window_size = (w + side + maps_w, h + CONTROLS_PX)
-        self._columns = (w / self.window_size[0], (w + side) / self.window_size[0])
+        natural = (max(w + side + maps_w, DEFAULT_WINDOW[0]),
+                   max(h + CONTROLS_PX, DEFAULT_WINDOW[1]))
+        self.window_size = tuple(int(v) for v in (window_size or natural))
+        W, H = self.window_size
+        self.font = font_size(H)
+        total = w + side + maps_w
+        self._columns = (w / total, (w + side) / total)
+        top = max(H - CONTROLS_PX, 2)
         p = pv.Plotter(off_screen=off_screen, shape=(3, 3),
                        groups=[(np.s_[0:2], 0), (2, np.s_[0:3])],
-                       row_weights=[h / 2, h / 2, CONTROLS_PX], col_weights=[w, side, maps_w],
+                       row_weights=[top / 2, top / 2, CONTROLS_PX],
+                       col_weights=[w, side, maps_w],
                        window_size=self.window_size, border=False,
                        title="eyelab inspector")
         self.plotter = p
+        self._overlay = self._add_overlay()
         self._ready = False
         self._opened = False
         self._saved = 0
@@ -72,7 +100,7 @@ class InspectorWindow:
         self._build_scene_view()
         self._build_controls()
         self._maps = MapPanel(p, ((0, 2), (1, 2)), relayout=self._layout,
-                              grid=model.maps_grid)
+                              grid=model.maps_grid, font=self.font)
         self._maps.sync(model)
         self._field_actor = None
         self._update_side = True
@@ -88,14 +116,22 @@ class InspectorWindow:
                         ("m", self._toggle_maps),
                         ("v", self._cycle_cvd), ("c", self._full_correction),
                         ("s", self.save), ("r", self._reset), ("o", self._reload),
-                        ("h", self._toggle_help)):
+                        ("h", self._toggle_help), ("e", self._cycle_edit),
+                        ("a", self._toggle_anaglyph)):
             p.add_key_event(key, fn)
 
     # ------------------------------------------------------------- building
     def _build_view(self):
-        p, (w, h) = self.plotter, self.model.size
+        p = self.plotter
         p.subplot(0, 0)
         p.set_background("black")
+        self._view_renderer = p.renderer
+        self._make_view_plane(*self.model.display_size)
+
+    def _make_view_plane(self, w: int, h: int) -> None:
+        """The textured plane of a (w, h) px image under a parallel camera."""
+        p = self.plotter
+        p.subplot(0, 0)
         self._image = pv.ImageData(dimensions=(w, h, 1))
         self._image.point_data["rgb"] = np.zeros((w * h, 3), np.uint8)
         self._texture = pv.Texture(self._image)
@@ -106,13 +142,30 @@ class InspectorWindow:
                    reset_camera=False)
         cam = p.renderer.camera
         cam.parallel_projection = True
-        cam.position = (w / 2, h / 2, 10.0)
-        cam.focal_point = (w / 2, h / 2, 0.0)
         cam.up = (0.0, 1.0, 0.0)
-        p.renderer.ResetCameraClippingRange()
+        self._view_px = (w, h)
         self._fit_view_camera()
-        self._help = p.add_text("", position=(8, 8), font_size=9, color="white", name="help")
-        self._view_renderer = p.renderer
+        cam.clipping_range = (1.0, 20.0)
+
+    def _add_overlay(self):
+        """A renderer over the whole window (layer 1) for the help text."""
+        win = self.plotter.ren_win
+        win.SetNumberOfLayers(2)
+        ren = vtkRenderer()
+        ren.SetLayer(1)
+        ren.SetViewport(0.0, 0.0, 1.0, 1.0)
+        ren.InteractiveOff()
+        win.AddRenderer(ren)
+        from eyelab.render._vtk import vtkTextActor
+
+        self._help = vtkTextActor()
+        style(self._help, self.font, top=True)
+        prop = self._help.GetTextProperty()
+        prop.SetBackgroundColor(0.0, 0.0, 0.0)
+        prop.SetBackgroundOpacity(0.85)
+        self._help.SetPosition(MARGIN_PX, self.window_size[1] - MARGIN_PX)
+        ren.AddViewProp(self._help)
+        return ren
 
     def _layout(self, maps_shown: bool) -> None:
         """The side column's right edge: before the map column, or at the window's edge
@@ -124,10 +177,31 @@ class InspectorWindow:
             ren.SetViewport(x0, y0, right, y1)
 
     def _fit_view_camera(self):
-        """Parallel scale for one texel per pixel when the viewport is the view's size."""
-        vp_h = self._view_renderer.GetSize()[1] if hasattr(self, "_view_renderer") else None
-        h = self.model.size[1]
-        self.plotter.renderers[0].camera.parallel_scale = (vp_h or h) / 2.0
+        """Parallel scale that shows the image whole: one texel per pixel when the viewport
+        holds it, else scaled down to fit (:attr:`one_to_one` says which)."""
+        vw, vh = self._view_renderer.GetSize()
+        w, h = self._view_px
+        vw, vh = vw or w, vh or h
+        cam = self.plotter.renderers[0].camera
+        cam.parallel_scale = max(vh, h, w * vh / vw) / 2.0
+        if vw >= w and vh >= h:     # texel j on pixel i0 + j exactly (no half-pixel shift)
+            i0, j0 = self._image_origin()
+            fx, fy = vw / 2 - i0, vh / 2 - j0
+        else:
+            fx, fy = w / 2, h / 2
+        cam.position = (fx, fy, 10.0)
+        cam.focal_point = (fx, fy, 0.0)
+
+    def _image_origin(self) -> tuple:
+        """(i0, j0) px of the image's lower-left corner in the view's viewport (1:1)."""
+        vw, vh = self._view_renderer.GetSize()
+        return (vw - self._view_px[0]) // 2, (vh - self._view_px[1]) // 2
+
+    @property
+    def one_to_one(self) -> bool:
+        """Whether the view shows the image one texel per screen pixel."""
+        vw, vh = self._view_renderer.GetSize()
+        return vw >= self._view_px[0] and vh >= self._view_px[1]
 
     def _build_scene_view(self):
         p = self.plotter
@@ -147,39 +221,61 @@ class InspectorWindow:
                            lighting=False, name=f"scene_{m.name}")
             else:
                 p.add_mesh(mesh, color="grey", name=f"scene_{m.name}")
-        p.add_text("scene, eye, lens, line of sight", font_size=8, color="white")
+        self._top_text(p.renderer, "scene, eye, lens, line of sight")
         p.subplot(1, 1)
         p.set_background((0.08, 0.08, 0.1))
-        self._field_title = p.add_text("blur field at the gaze depth (arcmin)",
-                                       position=(6, self.model.size[1] // 2 - 18),
-                                       font_size=7, color="white")
+        self._field_title = self._top_text(p.renderer, "blur field at the gaze depth (arcmin)")
+        self._field_legend = Legend(p.renderer)
+
+    def _top_text(self, ren, text: str):
+        """A text actor at the top left of renderer ``ren``, wrapped to its width."""
+        actor = self.plotter.add_text(" ", position=(MARGIN_PX, ren.GetSize()[1] - MARGIN_PX),
+                                      color="white")
+        style(actor, self.font, top=True)
+        actor._width_px = max(20, ren.GetSize()[0] - 2 * MARGIN_PX)
+        actor.SetInput(wrap(text, self.font, actor._width_px))
+        return actor
 
     def _build_controls(self):
-        p, m = self.plotter, self.model
+        p, m, font = self.plotter, self.model, self.font
         p.subplot(2, 0)
         p.set_background((0.16, 0.16, 0.18))
-        self._status = p.add_text("", position=(8, CONTROLS_PX - 52), font_size=6,
-                                  color="yellow", name="status")
-        self._sliders = {}
+        self._status = p.add_text(" ", position=(8, CONTROLS_PX - MARGIN_PX), color="yellow",
+                                  name="status")
+        style(self._status, font, (1.0, 1.0, 0.0), top=True)
+        self._sliders, self._values = {}, {}
         cols = 4
+        height = font / CONTROLS_PX          # a slider's text heights, of the strip's
         for i, c in enumerate(m.controls):
             row, col = divmod(i, cols)
-            y = (125 - 58 * row) / CONTROLS_PX     # the strip's own normalized coordinates
+            y = (112 - 56 * row) / CONTROLS_PX     # the strip's own normalized coordinates
             x0 = 0.02 + col * 0.245
-            self._sliders[c.name] = p.add_slider_widget(
+            w = self._sliders[c.name] = p.add_slider_widget(
                 lambda v, name=c.name: self._request(name, v), (c.lo, c.hi),
                 value=float(m.value(c.name)), title=c.label, pointa=(x0, y),
                 pointb=(x0 + 0.2, y), interaction_event="always", fmt=c.fmt,
-                title_height=0.07, style="modern")
+                title_height=height, style="modern")
+            rep = w.GetRepresentation()
+            rep.ShowSliderLabelOff()          # VTK sizes it itself (5 px): ours instead
+            rep.GetTitleProperty().ShadowOff()
+            rep.GetTitleProperty().SetColor(1.0, 1.0, 1.0)
+            value = p.add_text(" ", position=(int((x0 + 0.2) * self.window_size[0]),
+                                              int(y * CONTROLS_PX) + 9))
+            style(value, font)
+            value.GetTextProperty().SetJustificationToRight()
+            self._values[c.name] = (value, c.fmt)
         self._checks = {}
-        w = self.window_size[0]
+        W = self.window_size[0]
         for i, name in enumerate(m.toggles):
-            x = 12 + i * (w // 4)
+            x = 12 + i * (W // 4)
             self._checks[name] = p.add_checkbox_button_widget(
                 lambda v, name=name: self._request(name, v), value=bool(m.value(name)),
                 position=(x, 8), size=18, border_size=2)
-            p.add_text(name, position=(x + 24, 8), font_size=7, color="white")
-        p.add_text("h: help", position=(12 + 3 * (w // 4), 8), font_size=7, color="grey")
+            style(p.add_text(name, position=(x + 24, 8)), font)
+        hint = "h: help" + (" (e: eye, a: anaglyph)" if m.two_eyes else "")
+        x = 12 + 3 * (W // 4)
+        style(p.add_text(elide(hint, font, W - x - MARGIN_PX), position=(x, 8)), font,
+              (0.7, 0.7, 0.7))
 
     # ---------------------------------------------------------------- events
     def _request(self, name, value):
@@ -217,7 +313,28 @@ class InspectorWindow:
 
     def _toggle_help(self):
         self._help_on = not self._help_on
-        self._help.SetInput(HELP if self._help_on else "")
+        self._show_help()
+
+    def _show_help(self):
+        """The keys and the whole status (which the strip may elide), wrapped to the
+        window, over everything."""
+        if not self._help_on:
+            self._help.SetInput("")
+            return
+        keys = HELP + ("\n" + HELP_TWO_EYES if self.model.two_eyes else "")
+        text = keys + "\n\n" + self._status_text()
+        self._help.SetInput(wrap(text, self.font, self.window_size[0] - 2 * MARGIN_PX))
+
+    def _cycle_edit(self):
+        self.model.cycle_edit()
+        self.model._maps_key = None        # the maps follow the edited eye's lens
+        self._sync_widgets()
+        self._update_side = True
+        self.refresh()
+
+    def _toggle_anaglyph(self):
+        self.model.toggle_anaglyph()
+        self.refresh()
 
     def _on_click(self, obj, event):
         x, y = self.plotter.iren.get_event_position()
@@ -230,13 +347,15 @@ class InspectorWindow:
         vw, vh = ren.GetSize()
         if not (vx <= x < vx + vw and vy <= y < vy + vh):
             return
-        # the view's pixel under the click (the camera shows one texel per pixel, centred)
-        w, h = self.model.size
+        # the view's pixel under the click (the image centred; texels per pixel: scale)
+        iw, h = self._view_px
         scale = self.plotter.renderers[0].camera.parallel_scale * 2.0 / vh
-        px = w / 2 + (x - vx - vw / 2) * scale
+        px = iw / 2 + (x - vx - vw / 2) * scale
         py = h / 2 + (y - vy - vh / 2) * scale
-        if not (0 <= px < w and 0 <= py < h):
+        if not (0 <= px < iw and 0 <= py < h):
             return
+        w = self.model.size[0]
+        px = px % w                 # two eyes side by side: the pixel in its eye's view
         view = self.model.view
         g = self.model.value("gaze")
         ty = math.tan(math.radians(view.fov_y_deg / 2))
@@ -266,10 +385,11 @@ class InspectorWindow:
         """Show the model's current image, status and (after a change) side views."""
         img = self.model.display()
         h, w = img.shape[:2]
+        if (w, h) != self._view_px:        # two eyes: side by side <-> anaglyph
+            self._make_view_plane(w, h)
         self._image.point_data["rgb"][:] = img[::-1].reshape(-1, 3)
         self._image.Modified()
         self._texture.Modified()
-        text = self.model.status()
         if self._update_side and self.model.result is not None:
             self._update_side = False
             try:
@@ -278,69 +398,19 @@ class InspectorWindow:
                 text_r = f"gaze point: {e}"
             self._readout = text_r
             self._draw_side()
-        self._status.SetInput(text + "\n" + getattr(self, "_readout", ""))
+        for name, (actor, fmt) in self._values.items():
+            actor.SetInput(fmt % float(self.model.value(name)))
+        room = self.window_size[0] - 16
+        self._status.SetInput("\n".join(elide(line, self.font, room)
+                                        for line in self._status_text().split("\n")))
+        self._show_help()
+
+    def _status_text(self) -> str:
+        return self.model.status() + "\n" + getattr(self, "_readout", "")
 
     def _draw_side(self):
-        """Eye, lens, frustum and line of sight; the blur-field glyphs at the gaze depth."""
-        from eyelab.render.fields import ellipse_glyphs
-
-        p, m = self.plotter, self.model
-        view, eye = m.view, m.spec.eye
-        cam = view.camera(eye.rotation_centre)
-        p.subplot(0, 1)
-        pos = np.asarray(cam.position, float)
-        p.add_mesh(pv.Sphere(radius=0.012, center=pos + np.array([0, 0, 0.012])),
-                   color="white", name="eye")
-        if m.lens is not None:
-            v, f, _ = m.lens.mesh(8, 48)
-            p.add_mesh(pv.PolyData(v, np.column_stack([np.full(len(f), 3), f]).ravel()),
-                       color="lightblue", opacity=0.5, name="lens")
-        else:
-            p.remove_actor("lens")
-        depth = 1.5
-        corners = []
-        for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-            d = cam.ray_directions(np.array([sx], float), np.array([sy], float))[0]
-            corners.append(pos + d * depth / (d @ cam.basis[2]))
-        lines = [pv.Line(pos, c) for c in corners]
-        lines += [pv.Line(corners[i], corners[(i + 1) % 4]) for i in range(4)]
-        p.add_mesh(pv.merge(lines), color="yellow", name="frustum")
-        p.add_mesh(pv.Line(pos, pos + np.asarray(cam.basis[2]) * 20.0), color="red",
-                   line_width=2, name="gaze_line")
-        if not getattr(self, "_scene_camera_set", False):
-            p.camera_position = [(2.5, 1.5, 2.0), (0.0, 0.0, -1.5), (0.0, 1.0, 0.0)]
-            self._scene_camera_set = True
-        # the field of the last frame's first stage, ellipses at the gaze point's slice
-        p.subplot(1, 1)
-        cache = m.renderer.caches["fields"]
-        fields = [cache.get(k) for k in list(cache.keys())]
-        # the view's own field (the last stage's), its green channel when per channel
-        fields = [f for f in fields if f.camera == fields[-1].camera] if fields else []
-        if fields:
-            field = min(fields, key=lambda f: abs(f.report.get("wavelength_nm", EYE_REFERENCE_NM)
-                                                  - 546.07))
-            depth = getattr(m, "gaze_distance_m", None) or 1.0
-            k = int(np.argmin(np.abs(field.slice_depths() - depth)))
-            self._field_title.SetInput(
-                f"blur field at {field.slice_depths()[k]:.2f} m depth, "
-                f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm (arcmin)")
-            # ellipses magnified to fill about half the column spacing (Kakimoto Fig. 12)
-            w = field.slice_depths()[k]
-            tx, ty = field.camera.tan_half
-            spacing = 2 * 2 * w * tx / field.shape[2]
-            big = np.abs(field.matrix[k]).max() * w * max(tx, ty)
-            glyphs = ellipse_glyphs(field, slices=k, stride=2, segments=24,
-                                    scale=0.45 * spacing / big if big > 0 else 1.0)
-            if glyphs.n_points:
-                p.add_mesh(glyphs, scalars="blur_arcmin", cmap="viridis", name="glyphs",
-                           scalar_bar_args={"title": "blur (arcmin)", "n_labels": 3,
-                                            "label_font_size": 10, "title_font_size": 10})
-                p.view_vector(-np.asarray(field.camera.basis[2]), np.asarray(
-                    field.camera.basis[1]))
-                p.reset_camera()
-            else:
-                p.remove_actor("glyphs")
-        p.subplot(0, 0)
+        """Eye(s), lens(es), frustum and line of sight; the blur-field glyphs."""
+        draw_side(self)
 
     # ----------------------------------------------------------------- output
     def _sync_widgets(self):
@@ -351,14 +421,18 @@ class InspectorWindow:
 
     def grab_view(self) -> np.ndarray:
         """(h, w, 3) uint8: the simulated view as the window shows it, read back from the
-        window's framebuffer (the main viewport's pixels)."""
+        window's framebuffer (the image's pixels in the main viewport) when it is shown one
+        texel per pixel; else (scaled to fit a small window) the model's image."""
+        if not self.one_to_one:
+            return self.model.display()
         self.plotter.render()
         shot = self.plotter.screenshot(return_img=True)
-        ren = self._view_renderer
-        vx, vy = ren.GetOrigin()
-        vw, vh = ren.GetSize()
+        vx, vy = self._view_renderer.GetOrigin()
+        i0, j0 = self._image_origin()
+        w, h = self._view_px
         H = shot.shape[0]
-        return np.ascontiguousarray(shot[H - (vy + vh):H - vy, vx:vx + vw, :3])
+        y1 = H - (vy + j0)
+        return np.ascontiguousarray(shot[y1 - h:y1, vx + i0:vx + i0 + w, :3])
 
     def save(self, path=None) -> tuple:
         """Write the displayed view (as the window shows it) and the spec that reproduces

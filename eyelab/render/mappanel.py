@@ -19,7 +19,9 @@ import math
 import numpy as np
 import pyvista as pv
 
+from eyelab.render.legend import Legend
 from eyelab.render.maps import contour_step, finite_cells, map_edge
+from eyelab.render.textlayout import BASE_FONT, elide, style, text_width, wrap
 
 #: The marker's colour (sRGB; unlit, so exactly these pixels) and the panel's background.
 MARKER_RGB = (0, 255, 0)
@@ -27,7 +29,7 @@ BACKGROUND = (0.1, 0.1, 0.12)
 #: The maps shown (AsWornMaps attributes), their titles, colour maps and scalar-bar titles.
 MAP_LABELS = {"mean_error_d": "mean power error (D)", "cylinder_d": "cylinder (D)"}
 CMAPS = {"mean_error_d": "RdBu_r", "cylinder_d": "magma"}
-BAR_TITLES = {"mean_error_d": "error (D)", "cylinder_d": "cyl (D)"}
+BAR_TITLES = {"mean_error_d": "D", "cylinder_d": "D"}
 
 
 def marker_mesh(radius: float = 2.5) -> pv.PolyData:
@@ -62,26 +64,33 @@ class MapPanel:
 
     ``draws`` counts the maps drawn, ``marker_moves`` the marker's moves."""
 
-    def __init__(self, plotter, cells=((0, 2), (1, 2)), relayout=None, grid=(40.0, 21)):
+    def __init__(self, plotter, cells=((0, 2), (1, 2)), relayout=None, grid=(40.0, 21),
+                 font: int = BASE_FONT):
         self.plotter = plotter
+        self.font = int(font)
         self.half, self.points = float(grid[0]), int(grid[1])
         self.cells = dict(zip(MAP_LABELS, cells, strict=True))
         self.relayout = relayout
-        self.renderers, self._texts, self._markers = {}, {}, {}
+        self.renderers, self._texts, self._markers, self._legends = {}, {}, {}, {}
+        self._titles = {}
         for name, cell in self.cells.items():
             plotter.subplot(*cell)
             plotter.set_background(BACKGROUND)
             self.renderers[name] = plotter.renderer
-            plotter.add_text(MAP_LABELS[name] + ", as worn", position="upper_left",
-                             font_size=7, color="white", name=f"map_title_{name}")
-            self._texts[name] = plotter.add_text("", position=(6, 4), font_size=6,
-                                                 color="white", name=f"map_value_{name}")
+            self._titles[name] = plotter.add_text(" ", position=(6, 6),
+                                                  name=f"map_title_{name}")
+            style(self._titles[name], self.font, top=True)
+            self._texts[name] = plotter.add_text(" ", position=(6, 4),
+                                                 name=f"map_value_{name}")
+            style(self._texts[name], self.font)
+            self._legends[name] = Legend(plotter.renderer)
             actor = plotter.add_mesh(marker_mesh(), color=MARKER_RGB, lighting=False,
                                      line_width=2, name=f"map_marker_{name}",
                                      reset_camera=False)
             actor.VisibilityOff()
             self._markers[name] = actor
             self._fit_camera(plotter.renderer)
+        self._place_titles()
         plotter.subplot(0, 0)
         self.shown = None
         self.drawn = None          # (key, state) the panel shows
@@ -129,9 +138,7 @@ class MapPanel:
             p.subplot(*cell)
             for part in ("map", "iso", "edge"):
                 p.remove_actor(f"map_{part}_{name}", render=False)
-            title = BAR_TITLES[name]
-            if title in p.scalar_bars:
-                p.remove_scalar_bar(title, render=False)
+            self._legends[name].hide()
             if maps is not None:
                 self._draw_map(maps, name)
             self._fit_camera(p.renderer)
@@ -153,11 +160,11 @@ class MapPanel:
         actor = p.add_mesh(cells, scalars=name, cmap=cmap, clim=clim, lighting=False,
                            interpolate_before_map=True, name=f"map_map_{name}",
                            reset_camera=False, show_scalar_bar=False, render=False)
-        bar_x = _frame(p.renderer, self.half)[2]
-        p.add_scalar_bar(BAR_TITLES[name], mapper=actor.mapper, vertical=True,
-                         position_x=bar_x, position_y=0.16, width=0.06, height=0.56,
-                         n_labels=3, fmt="%+.2f", title_font_size=9, label_font_size=9,
-                         color="white")
+        bar_x = _frame(p.renderer, self.half, self._legend_px())[2]
+        vw = max(p.renderer.GetSize()[0], 1)
+        self._legends[name].show(actor.mapper.lookup_table, clim, BAR_TITLES[name],
+                                 box=(bar_x, 0.16, bar_x + 10 / vw, 0.62), size=self.font,
+                                 fmt="{:+.2f}")
         iso = cells.contour(isosurfaces=list(levels), scalars=name) if len(levels) else None
         if iso is not None and iso.n_points:
             p.add_mesh(iso.translate((0.0, 0.0, 0.2)), color="black", line_width=1,
@@ -169,9 +176,23 @@ class MapPanel:
                        lighting=False, name=f"map_edge_{name}", reset_camera=False,
                        render=False)
 
+    def _legend_px(self) -> int:
+        """Room (px) right of a map for its legend: the ramp and its widest label."""
+        return 10 + 8 + text_width("+00.00", self.font) + 6
+
+    def _place_titles(self) -> None:
+        """Each map's title at its viewport's top left, fitted to its width."""
+        for name, ren in self.renderers.items():
+            vw, vh = ren.GetSize()
+            self._titles[name].SetPosition(6, max(vh - 6, 0))
+            self._titles[name].SetInput(wrap(MAP_LABELS[name] + ", as worn", self.font,
+                                             max(vw - 12, 20)))
+
     def _say(self, text: str) -> None:
         for name in self.cells:
-            self._texts[name].SetInput(_wrap(text, 40) if name == "mean_error_d" else "")
+            vw = self.renderers[name].GetSize()[0]
+            self._texts[name].SetInput(wrap(text, self.font, max(vw - 12, 20))
+                                       if name == "mean_error_d" else "")
             self._markers[name].VisibilityOff()
 
     def _move_marker(self, marker: dict | None, gaze: tuple) -> None:
@@ -187,16 +208,18 @@ class MapPanel:
             actor.SetVisibility(on_map)
             v = marker[name]
             where = f"gaze ({round(a) + 0:+d}, {round(e) + 0:+d}) deg: "
-            self._texts[name].SetInput(
+            vw = self.renderers[name].GetSize()[0]
+            self._texts[name].SetInput(elide(
                 where + (f"{round(v, 2) + 0.0:+.2f} D" if math.isfinite(v) else
-                         "no path through the lens" if on_map else "beyond the maps"))
+                         "no path through the lens" if on_map else "beyond the maps"),
+                self.font, max(vw - 12, 20)))
         self.marker_moves += 1
 
     # ---------------------------------------------------------------- geometry
     def _fit_camera(self, ren) -> None:
         """A parallel camera down -z: the map's square on the left with room above and
         below for the title and the value, the scalar bar right of it."""
-        scale, fx, _ = _frame(ren, self.half)
+        scale, fx, _ = _frame(ren, self.half, self._legend_px())
         if scale is None:
             return
         cam = ren.GetActiveCamera()
@@ -240,22 +263,17 @@ class MapPanel:
         return self.display_point(x, y, name)
 
 
-def _frame(ren, half: float) -> tuple:
-    """(parallel scale, focal x, the scalar bar's x in the viewport (0-1)) that show a
-    map's +-``half`` deg square in renderer ``ren``: 70 % of the viewport's height
-    (at most 70 % of its width with the bar), its left edge 0.1 x the half angle from the
-    viewport's; (None, None, 0.78) before the viewport has a size."""
+def _frame(ren, half: float, legend_px: int = 60) -> tuple:
+    """(parallel scale, focal x, the legend's x in the viewport (0-1)) that show a map's
+    +-``half`` deg square in renderer ``ren``: at most 64 % of the viewport's height (room
+    above for the title, below for the value) and as wide as the viewport leaves beside
+    the legend's ``legend_px``, its left edge 6 px from the viewport's; (None, None, 0.78)
+    before the viewport has a size."""
     vw, vh = ren.GetSize()
     if vw <= 0 or vh <= 0:
         return None, None, 0.78
-    aspect = vw / vh
-    scale = max(half / 0.7, 2.2 * half / (0.7 * 2 * aspect))
-    fx = -1.1 * half + scale * aspect
-    right = 2.1 * half / (2 * scale * aspect)           # the map's right edge, 0-1
-    return scale, fx, min(right + 0.08, 0.8)
-
-
-def _wrap(text: str, width: int) -> str:
-    import textwrap
-
-    return "\n".join(textwrap.wrap(text, width))
+    side = max(8.0, min(0.64 * vh, vw - legend_px - 12.0))      # the map's side, px
+    scale = half * vh / side                 # parallel scale: half the viewport's height
+    deg_per_px = 2.0 * scale / vh
+    fx = -half - 6.0 * deg_per_px + 0.5 * vw * deg_per_px
+    return scale, fx, (6.0 + side + 6.0) / vw

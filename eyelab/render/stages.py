@@ -101,7 +101,7 @@ def lens_details(geo: dict, texcoord_sets: int, vcam) -> dict:
             "texcoord_sets": texcoord_sets,
             "vertices_missing_lens": int((~tc.lens_ok).any(0).sum()),
             "rays_missing_scene": int((~tcg.scene_hit).sum()),
-            "virtual_camera": {"position": list(map(float, vcam.position)),
+            "virtual_camera": {"position_m": list(map(float, vcam.position)),
                                "fov_y_deg": vcam.fov_y_deg, "aspect": vcam.aspect}}
 
 

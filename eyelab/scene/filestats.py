@@ -3,7 +3,9 @@ of a built :class:`~eyelab.scene.scene.Scene`, or read cheaply from a mesh file 
 loaded (for the memory estimate, :mod:`eyelab.imaging.memory`).
 
 From a file, by format (no mesh is parsed; every count is a lower bound of what the loader
-makes, exact for triangle meshes):
+makes, exact for triangle meshes — but for a part drawn shaded, whose vertices split at
+creases and whose edges split where the normals turn fast, up to
+:data:`~eyelab.scene.shading.MAX_SHADED_TRIANGLES`):
 
 - PLY (ASCII or binary): the header's ``element vertex`` / ``element face`` counts (faces
   with colours of their own are loaded flat, three vertices each) and a ``comment

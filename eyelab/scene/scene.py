@@ -1,7 +1,10 @@
 """Scene meshes: triangles with per-vertex colours or a texture, in world metres.
 
 Colours are sRGB-encoded uint8, shown unlit (the raster and the reference renderers use
-the same unlit shading, so that their differences measure optics, not lighting).
+the same unlit shading, so that their differences measure optics, not lighting). A mesh
+that should look lit carries its lighting in its colours: :meth:`SceneMesh.shaded` bakes
+Lambertian shading into them (:mod:`eyelab.scene.shading`), as a mesh file's parts
+without colours get by default (``[render] scene`` ``shading``).
 """
 
 from __future__ import annotations
@@ -11,8 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from eyelab.core.checks import check_choice
 from eyelab.core.color import decode_srgb
 from eyelab.core.errors import SpecError
+from eyelab.scene.shading import SHADINGS, shade
 
 
 @dataclass
@@ -24,6 +29,9 @@ class SceneMesh:
     The arrays are private read-only copies, so a mesh cannot change behind a renderer's
     back: edit one by assigning new arrays (or :meth:`transformed`), which renews
     :attr:`content_key`, the digest that every cache depending on the mesh is keyed by.
+
+    ``plain``: made with neither colours nor texture (its colours are then
+    :data:`PLAIN_GREY`): what ``shading = "auto"`` shades.
     """
 
     name: str
@@ -32,6 +40,7 @@ class SceneMesh:
     colors: np.ndarray | None = None
     texture: np.ndarray | None = None
     uv: np.ndarray | None = None
+    plain: bool = field(default=False, init=False, repr=False, compare=False)
 
     def __post_init__(self):
         self.vertices = np.ascontiguousarray(self.vertices, dtype=float)
@@ -48,7 +57,8 @@ class SceneMesh:
             self.texture = np.ascontiguousarray(self.texture[..., :3], dtype=np.uint8)
             self.uv = np.ascontiguousarray(self.uv, dtype=float)
         elif self.colors is None:
-            self.colors = np.full((len(self.vertices), 3), 200, np.uint8)
+            self.plain = True
+            self.colors = np.full((len(self.vertices), 3), PLAIN_GREY, np.uint8)
         if self.colors is not None:
             self.colors = np.ascontiguousarray(
                 np.broadcast_to(self.colors, (len(self.vertices), 3)), dtype=np.uint8)
@@ -81,7 +91,18 @@ class SceneMesh:
         """A copy moved by the (4, 4) homogeneous ``matrix`` (metres)."""
         m = np.asarray(matrix, float)
         v = self.vertices @ m[:3, :3].T + m[:3, 3]
-        return SceneMesh(self.name, v, self.faces, self.colors, self.texture, self.uv)
+        return SceneMesh(self.name, v, self.faces, None if self.plain else self.colors,
+                         self.texture, self.uv)
+
+    def shaded(self) -> SceneMesh:
+        """A copy with Lambertian shading baked into its colours, in linear light
+        (:func:`eyelab.scene.shading.shade`: its colours the albedo, vertices split at
+        creases and edges where the normals turn fast); a textured mesh as it is (a texture
+        has no per-vertex radiance to scale)."""
+        if self.texture is not None:
+            return self
+        v, f, c, _ = shade(self.vertices, self.faces, self.colors)
+        return SceneMesh(self.name, v, f, c)
 
     @property
     def n_triangles(self):
@@ -141,6 +162,15 @@ def sample_texture(tex, uv):
             + ty * ((1 - tx) * tex[y1, x0] + tx * tex[y1, x1]))
 
 
+def apply_shading(meshes, shading: str = "auto") -> list:
+    """``meshes`` lit as ``shading`` says (:data:`~eyelab.scene.shading.SHADINGS`):
+    "auto" shades the plain ones (:attr:`SceneMesh.plain`), "lambert" every one not
+    textured, "none" none (see :meth:`SceneMesh.shaded`)."""
+    check_choice("render.scene.shading", shading, SHADINGS)
+    return [m.shaded() if shading == "lambert" or (shading == "auto" and m.plain) else m
+            for m in meshes]
+
+
 @dataclass
 class Scene:
     """A list of meshes plus a background colour (sRGB uint8)."""
@@ -177,6 +207,9 @@ COLLECT_AFTER_TRIANGLES = 1 << 18
 
 #: Length units a mesh file may be written in -> metres.
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 1e-3, "in": 0.0254}
+#: The sRGB grey of a mesh made without colours or texture (its albedo when shaded: linear
+#: 0.58).
+PLAIN_GREY = 200
 
 
 @dataclass(frozen=True)
@@ -189,7 +222,8 @@ class SceneSource:
     file's origin goes (m, eyelab's frame: the pupil at the origin, looking along -z, y
     up); background : sRGB (r, g, b) of what no mesh covers (None: the built-in scene's
     own, white for a mesh file); chart_distance_m / chart_contrast : the built-in chart's
-    distance (m, default 6) and Weber contrast (default 1).
+    distance (m, default 6) and Weber contrast (default 1); shading : how the meshes are lit
+    (:func:`apply_shading`: "auto", "lambert" or "none"), once placed.
 
     A vertex v of the file goes to ``R_z R_y R_x (units * scale * v) + position_m``.
     """
@@ -202,6 +236,7 @@ class SceneSource:
     background: tuple | None = None
     chart_distance_m: float | None = None
     chart_contrast: float | None = None
+    shading: str = "auto"
 
     def __str__(self):
         return self.name
@@ -245,12 +280,14 @@ def _arrays(m):
     return m.vertices, m.faces, m.colors, m.texture, m.uv
 
 
-def load_meshes(path, *, transform=None) -> list:
+def load_meshes(path, *, transform=None, shading: str = "auto") -> list:
     """Every part of a mesh file trimesh reads (OBJ+MTL, PLY, STL, GLB/glTF, ...) as
     :class:`SceneMesh` es, with its look: a texture with its uv (a simple material's
     image or a PBR base-colour texture), per-vertex colours, per-face colours (kept flat:
-    each face gets its own vertices), a PBR base-colour factor, or grey. ``transform``:
-    (4, 4) applied to every part (after the file's own node transforms).
+    each face gets its own vertices), a PBR base-colour factor, or grey (a plain part).
+    ``transform``: (4, 4) applied to every part (after the file's own node transforms);
+    ``shading``: how the placed parts are lit (:func:`apply_shading`; by default the plain
+    ones are shaded).
 
     Unreadable, empty, point-cloud or non-finite meshes are a :class:`SpecError` naming
     ``render.scene``; zero-area triangles are dropped (all of them: an error)."""
@@ -281,7 +318,7 @@ def load_meshes(path, *, transform=None) -> list:
     if not parts:
         raise SpecError("render.scene", f"{str(path)!r}: every triangle is degenerate "
                                         "(zero area)")
-    return parts
+    return apply_shading(parts, shading)
 
 
 def _parts(geoms, path) -> list:

@@ -16,6 +16,7 @@ from eyelab.imaging.registry import CAMERA_RENDERERS, QUALITIES, RENDERERS, qual
 from eyelab.optics.system import LensSystem
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS, SceneSource
+from eyelab.scene.shading import SHADINGS
 from eyelab.spec.schema import LIMITS, check
 from eyelab.spec.tables import check_keys, check_rules
 
@@ -140,12 +141,12 @@ def parse_camera(t: dict):
 
 #: Keys of a ``[render] scene`` table (a mesh file placed in the world).
 SCENE_KEYS = {"path", "position_m", "scale", "rotation_deg", "units", "distance_m",
-              "contrast"}
+              "contrast", "shading"}
 
 
 def parse_scene(value, background, base: Path | None) -> tuple:
     """``[render] scene`` (a built-in name, a mesh path, or a table {path, position_m,
-    scale, rotation_deg, units; distance_m, contrast for the built-in chart}) and
+    scale, rotation_deg, units, shading; distance_m, contrast for the built-in chart}) and
     ``[render] background`` -> (:class:`SceneSource`,
     the value with its path resolved, as the spec table keeps it)."""
     table = value if isinstance(value, dict) else {"path": value}
@@ -173,6 +174,7 @@ def parse_scene(value, background, base: Path | None) -> tuple:
 
     units = table.get("units", "m")
     check_choice("render.scene.units", units, tuple(UNITS))
+    shading = check_choice("render.scene.shading", table.get("shading", "auto"), SHADINGS)
     bg = None if background is None else check_rgb("render.background", background)
     chart = {}
     for key in ("distance_m", "contrast"):
@@ -186,7 +188,7 @@ def parse_scene(value, background, base: Path | None) -> tuple:
                       position_m=triple("position_m"),
                       scale=check("render.scene.scale", table.get("scale", 1.0)),
                       rotation_deg=triple("rotation_deg"), units=units,
-                      background=bg)
+                      background=bg, shading=shading)
     return src, (dict(value, path=name) if isinstance(value, dict) else name)
 
 

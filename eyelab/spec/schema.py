@@ -42,10 +42,10 @@ from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
 from eyelab.optics.surfaces import REVOLVE_AXES
 from eyelab.optics.system import EXAMPLES, full_f_number, get_system
 from eyelab.scene.library import SCENE_NAMES
-from eyelab.scene.scene import UNITS
 from eyelab.spec.aberrationkeys import ABERRATION_KEYS, ABERRATION_LIMITS, ABERRATION_TABLE
 from eyelab.spec.eyerx import eye_rx_text
 from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
+from eyelab.spec.scenekeys import SCENE_LIMITS, SCENE_TABLE, scene_keys
 from eyelab.spec.surfacefile import POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
 from eyelab.spec.valuetext import number_text, option_default
 
@@ -83,9 +83,7 @@ SPEC_LIMITS = {
     "points[0].field_polar_deg[1]": (-360.0, 360.0), "points[0].position_m": (-1e6, 1e6),
     "render.background": RGB_RANGE, "render.rim_color": RGB_RANGE,
     "render.invalid_color": RGB_RANGE,
-    "render.scene.distance_m": (0.1, 100.0), "render.scene.contrast": (0.0, 1.0),
-    "render.scene.scale": (1e-9, 1e9), "render.scene.rotation_deg": (-360.0, 360.0),
-    "render.scene.position_m": (-1e4, 1e4), "render.camera_focus_m": (0.2, 1e6),
+    "render.camera_focus_m": (0.2, 1e6),
     "render.camera_f_number": (DOUBLET_FULL_F_NUMBER, 64.0),
     "lens.front.coefficients": (-1e12, 1e12),
 }
@@ -104,7 +102,7 @@ EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d"
                                                   "astigmatism_axis_deg")}}
 #: Every field's range but the renderers' own options (:func:`range_of` has those).
 LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS, **View.LIMITS,
-          **POINTS_LIMITS, **ABERRATION_LIMITS, **SPEC_LIMITS}
+          **POINTS_LIMITS, **ABERRATION_LIMITS, **SCENE_LIMITS, **SPEC_LIMITS}
 
 
 def declared(field_name: str) -> str:
@@ -465,23 +463,7 @@ KEYS = [
             range_text="full aperture–64",
             base={"render": {"renderer": r, "camera": "doublet"}}))),
     # ---------------------------------------------------------- [render.scene]
-    Key("render.scene", "path", "text", "", "required", "a mesh file (any format trimesh "
-        "reads; relative to the spec) or a built-in scene's name",
-        range_text="an existing file or a built-in name"),
-    Key("render.scene", "distance_m", "number", "m", "6", 'the built-in chart\'s distance '
-        '(path = `"chart"` only)', base={"render": {"scene": {"path": "chart"}}}),
-    Key("render.scene", "contrast", "number", "", "1", "the built-in chart's Weber "
-        "contrast, in linear light (1: black letters)",
-        base={"render": {"scene": {"path": "chart"}}}),
-    Key("render.scene", "units", "choice", "", '`"m"`', "the file's length unit",
-        choices=tuple(UNITS), base={"render": {"scene": {"path": "room"}}}),
-    Key("render.scene", "scale", "number", "", "1", "a further scale factor",
-        base={"render": {"scene": {"path": "room"}}}),
-    Key("render.scene", "rotation_deg", "triple", "deg", "[0, 0, 0]", "rotations about x, "
-        "then y, then z (world axes)", base={"render": {"scene": {"path": "room"}}}),
-    Key("render.scene", "position_m", "triple", "m", "[0, 0, 0]", "where the file's origin "
-        "goes (the pupil is at the origin, looking along −z)",
-        base={"render": {"scene": {"path": "room"}}}),
+    *scene_keys(Key),
 ] + [Key(*a, **kw) for a, kw in POINTS_KEYS + ABERRATION_KEYS]  # points; eye.aberrations
 
 #: Headings of the generated tables, in order.
@@ -495,6 +477,4 @@ TABLES = {"eye": "`[eye]`", "eye.aberrations": ABERRATION_TABLE,
           "one side over the shared `[eye]` / `[lens]` value — `eye.accommodation_d` only "
           "in `[eye]`: accommodation is consensual)", "frame": FRAME_TABLE,
           "points[0]": "`[[points]]` (one table per point)",
-          "render": "`[render]`", "render.scene": "`[render] scene = {…}` (a mesh file "
-          "placed in the world: a vertex v goes to R_z R_y R_x (units × scale × v) + "
-          "position_m)"}
+          "render": "`[render]`", "render.scene": SCENE_TABLE}

@@ -1,0 +1,144 @@
+"""The inspector's progressive frame loop (a mixin of
+:class:`eyelab.jobs.inspector.InspectorModel`): after a change, a preview frame (one pass
+on a coarse field), the full set-up on a worker thread, then the progressive frames of one
+reused raster renderer — both eyes' in step for a two-eye spec — one step per
+:meth:`~FrameLoopMixin.tick` so that the window never blocks longer than a step."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+from eyelab.jobs.controls import PREVIEW_FIELD
+
+
+class FrameLoopMixin:
+    """Needs of its model: ``spec``, ``renderers()``, ``scene()``, ``lens``, ``lens_on``,
+    ``view``, ``two_eyes``, ``samples``, ``every``, ``apply``, ``_pending`` and the
+    as-worn maps' ``_want_maps``."""
+
+    def restart(self, why: str, *, preview: bool = True) -> None:
+        """Start the progressive frames of the current state (set-up runs at the next
+        :meth:`tick`); with ``preview``, one pass on a coarse field comes first."""
+        if self._frames is not None:
+            self._frames.close()
+        self._frames = self._sequence(preview)
+        self.last_change = why
+        self._t_change = time.perf_counter()
+        self.timings = {}
+        self._maps_key = None            # the maps' key, found once the first frame is shown
+        self._shown = False              # whether this state's first frame has been shown
+
+    def _inputs(self) -> list:
+        """Each eye's render inputs (scene, eye, lens, view): one eye's, or both eyes'
+        posed as ``eyelab render`` poses them (then kept as ``self._pose``)."""
+        if not self.two_eyes:
+            return [(self.scene(), self.spec.eye, self.lens, self.view)]
+        from eyelab.imaging.stereo import pose_binocular
+
+        self._pose = pose_binocular(self.scene(), self.spec.binocular, self.view,
+                                    no_lens=not self.lens_on)
+        return [self._pose.inputs[s] for s in ("right", "left")]
+
+    def _result(self, results):
+        """One step's RenderResults (one per eye) as the model's result."""
+        if not self.two_eyes:
+            return results[0]
+        from eyelab.jobs.twoeyes import binocular_frame
+
+        return binocular_frame(self._pose, *results)
+
+    def _sequence(self, preview: bool):
+        """The preview frame (if asked); the full set-up on a worker thread (fields and
+        refinement need no GL: the window stays responsive, showing the preview); then the
+        full progressive frames, both eyes' in step for two. Yields the model's results,
+        or None while waiting or between shown images."""
+        import threading
+
+        self._prepared = None
+        q = self.spec.render.quality
+        inputs = self._inputs()
+        if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
+            coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
+                                         field_shape=PREVIEW_FIELD)
+            shots = [list(r.frames(*args, coarse))[-1]
+                     for r, args in zip(self.renderers(), inputs, strict=True)]
+            for res in shots:
+                res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
+            yield self._result(shots)
+            failed = []
+
+            def work():
+                try:
+                    reports = [r.prepare(*args, q)
+                               for r, args in zip(self.renderers(), inputs, strict=True)]
+                    self._prepared = {"cache": {"misses": [
+                        m for r in reports for m in r["cache"]["misses"]]}}
+                except Exception as e:          # re-raised on the GL thread below
+                    failed.append(e)
+
+            worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
+            worker.start()
+            try:
+                while worker.is_alive():
+                    worker.join(timeout=0.02)
+                    yield None
+            finally:
+                worker.join()
+            if failed:
+                raise failed[0]
+        gens = [r.frames(*args, q, every=self.every, images="doubling")
+                for r, args in zip(self.renderers(), inputs, strict=True)]
+        try:
+            for step in zip(*gens, strict=True):
+                yield None if step[0] is None else self._result(step)
+        finally:
+            for g in gens:
+                g.close()
+
+    def eye_report(self) -> dict | None:
+        """The (first) eye's report of the current result."""
+        if self.result is None:
+            return None
+        return self.result.report if not self.two_eyes else self.result.right.report
+
+    @property
+    def done(self) -> bool:
+        return self._frames is None
+
+    def tick(self) -> bool:
+        """Apply the queued changes, then advance the frames by one step (the first frame
+        after a change, or ``every`` more passes). Returns whether the image changed."""
+        if self._pending:
+            changes, self._pending = self._pending, {}
+            self.apply(changes)
+            if self.last_change.endswith("display only"):
+                return True
+        if self._shown:        # the maps start once the first frame is out, never before
+            self._want_maps()
+        if self._frames is None:
+            return False
+        try:
+            res = next(self._frames)
+        except StopIteration:
+            self._frames = None
+            return False
+        if res is None:            # passes ran; the next image comes at 2, 4, 8, ... S
+            return False
+        self.result = res
+        self._shown = True
+        done = self.eye_report()["samples"]["done_passes"]
+        elapsed = time.perf_counter() - self._t_change
+        self.timings.setdefault("first_frame_s", elapsed)
+        self.timings["to_now_s"] = elapsed
+        if done:
+            self.timings[f"to_S{done}_s"] = elapsed
+        if done >= self.samples:
+            self._frames.close()
+            self._frames = None
+        return True
+
+    def run_to_target(self) -> None:
+        """Tick until the target S is reached."""
+        while not self.done or self._pending:
+            self.tick()
