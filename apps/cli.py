@@ -275,10 +275,6 @@ def _render(args) -> int:
     return 0
 
 
-def _warn(warnings) -> None:
-    warn(warnings)
-
-
 def _write_outputs(args, image, report) -> None:
     """The image and (with ``--report``) its report, written as one set."""
     from eyelab.core.fileio import atomic_group, png_writer, report_writer
@@ -301,7 +297,7 @@ def _write_render(args, spec) -> None:
           f"{rep['timings_s']['total']:.2f} s)")
     for why in rep["skipped"]:
         print(f"  skipped {why}")
-    _warn(rep["warnings"])
+    warn(rep["warnings"])
 
 
 def _write_binocular(args, spec) -> None:
@@ -323,7 +319,7 @@ def _write_binocular(args, spec) -> None:
     if b["prism_at_fixation"] is not None:
         p = b["prism_at_fixation"]["binocular"]
         print(f"  induced prism at fixation: {p['horizontal']}, {p['vertical']}")
-    _warn(w for s in ("right", "left") for w in res.report[s]["warnings"])
+    warn(w for s in ("right", "left") for w in res.report[s]["warnings"])
 
 
 def _write_demo(args, spec) -> None:
@@ -338,7 +334,7 @@ def _write_demo(args, spec) -> None:
     lines = [f"{name}: " * bool(name) + " | ".join(cols) for name, cols in rows.items()]
     print(f"wrote {args.output} and {args.output[:-4]}.json:"
           + (f" {lines[0]}" if len(lines) == 1 else "".join(f"\n  {line}" for line in lines)))
-    _warn(w for r in rep["panels"].values() for w in r["warnings"])
+    warn(w for r in rep["panels"].values() for w in r["warnings"])
 
 
 def _maps(args) -> int:

@@ -2,12 +2,13 @@
 
 ``eyelab inspect [SPEC] [--mesh FILE]`` opens the window on a spec (default: the built-in
 scene; a two-eye spec shows both eyes); ``--mesh FILE`` looks at a mesh file instead of
-the spec's scene, placed by ``--mesh-position``, ``--mesh-scale``, ``--mesh-units`` and
-``--mesh-rotation`` (the keys of ``[render] scene = {path, ...}``); ``--screenshot FILE``
-renders to the target S, writes the simulated view as the window shows it (PNG) and the
-spec that reproduces it (``FILE`` with ``.toml``), and exits (offscreen when there is no
-display); ``--window-shot FILE`` also writes the whole window. The scene's warnings (the
-eye inside a mesh, nothing in view) are printed as ``eyelab render`` prints them.
+the spec's scene, placed and lit by ``--mesh-position``, ``--mesh-scale``,
+``--mesh-units``, ``--mesh-rotation`` and ``--mesh-shading`` (the keys of ``[render]
+scene = {path, ...}``); ``--screenshot FILE`` renders to the target S, writes the
+simulated view as the window shows it (PNG) and the spec that reproduces it (``FILE``
+with ``.toml``), and exits (offscreen when there is no display); ``--window-shot FILE``
+also writes the whole window. The scene's warnings (the eye inside a mesh, nothing in
+view) are printed as ``eyelab render`` prints them.
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ def add_parser(sub) -> None:
     ins.add_argument("--mesh-units", help="the mesh file's length unit (m, cm, mm, in)")
     ins.add_argument("--mesh-rotation", type=float, nargs=3, metavar=("RX", "RY", "RZ"),
                      help="rotations (deg) about x, then y, then z")
+    from eyelab.scene.shading import SHADINGS
+
+    ins.add_argument("--mesh-shading", choices=SHADINGS,
+                     help="how the mesh is lit (auto: Lambertian when it has no colours)")
     ins.add_argument("--window", help="window size WxH in pixels, e.g. 1280x800 (default: "
                      "what shows the view one pixel per pixel)")
     ins.add_argument("--size", help="simulated view size WxH in pixels, e.g. 800x600")
@@ -43,7 +48,7 @@ def add_parser(sub) -> None:
 
 #: ``--mesh-*`` flags and the scene-table keys they set.
 MESH_FLAGS = {"mesh_position": "position_m", "mesh_scale": "scale", "mesh_units": "units",
-              "mesh_rotation": "rotation_deg"}
+              "mesh_rotation": "rotation_deg", "mesh_shading": "shading"}
 
 
 def _size(text, flag="--size", lo=(16, 16)):
@@ -99,7 +104,10 @@ def run(args) -> int:
 
     apply_max_memory(args)
     model = _model(args, size)
-    check_memory(model.spec.render)
+    from eyelab.imaging.memory import memory_limit
+
+    # two eyes: two renderers hold their fields at once, each within half the limit
+    check_memory(model.spec.render, memory_limit() / (2 if model.two_eyes else 1))
     from eyelab.render.inspector import InspectorWindow
 
     win = InspectorWindow(model, off_screen=offscreen, window_size=window)

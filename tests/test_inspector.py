@@ -2,15 +2,14 @@
 ``eyelab inspect --screenshot`` command, and a real window under Xvfb."""
 
 import os
-import shutil
 import subprocess
 import sys
-import time
 import tomllib
 
 import numpy as np
 import pytest
 from skimage.metrics import structural_similarity
+from xvfb import XVFB, start_xvfb
 
 from eyelab.jobs.inspector import InspectorModel
 from eyelab.jobs.render import render_spec
@@ -208,32 +207,6 @@ def test_bench_inspect_small():
         "passes only"
 
 
-XVFB = shutil.which("Xvfb")
-
-
-def _start_xvfb():
-    """An Xvfb server on a free display, waited for: it writes its display number to a
-    pipe (-displayfd) once it accepts connections. Returns (process, ":N")."""
-    r, w = os.pipe()
-    proc = subprocess.Popen([XVFB, "-displayfd", str(w), "-screen", "0", "1280x1024x24",
-                             "-nolisten", "tcp", "-ac"], pass_fds=(w,),
-                            stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    os.close(w)
-    try:
-        num = b""
-        deadline = time.monotonic() + 30
-        while not num.endswith(b"\n") and time.monotonic() < deadline:
-            chunk = os.read(r, 16)
-            if not chunk:
-                break
-            num += chunk
-    finally:
-        os.close(r)
-    assert num.strip().isdigit(), f"Xvfb did not start ({num!r})"
-    return proc, f":{num.strip().decode()}"
-
-
 @pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
                     reason="Xvfb is not installed (CI installs it and sets "
                            "EYELAB_REQUIRE_XVFB)")
@@ -242,7 +215,7 @@ def test_real_window_under_xvfb(tmp_path):
     uncorrected and a corrected myope; the images are not blank, differ as the renders
     do, and equal the offscreen renders of the same specs."""
     assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
-    xvfb, display = _start_xvfb()
+    xvfb, display = start_xvfb()
     env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
     env["DISPLAY"] = display
     shots = {}

@@ -3,13 +3,19 @@ viewport at the default size and at 960 x 710 and 1280 x 800 (the text actors' a
 texts' boxes read back from VTK); two eyes shown as ``eyelab render --binocular`` renders
 them; a mesh file placed from the command line and warned about as render warns."""
 
+import json
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import trimesh
 from skimage.metrics import structural_similarity
+from xvfb import XVFB, start_xvfb
 
 from eyelab.jobs.inspector import InspectorModel
-from eyelab.render.textlayout import MIN_GLYPH_PX, text_boxes
+from eyelab.render.textlayout import MIN_GLYPH_PX, cap_height_px, overlaps, text_boxes
 
 ONE = """
 [eye]
@@ -61,23 +67,28 @@ def _file(tmp_path, text, name="spec.toml"):
 
 
 def _problems(win) -> list:
-    """Texts smaller than the minimum or reaching outside their viewport (1 px slack)."""
+    """Texts whose capitals' ink (measured on the glyphs the window draws) is under the
+    minimum, reaching outside their viewport, or overlapping another text (1 px slack)."""
     bad = []
-    for b in text_boxes(win.plotter.ren_win):
+    boxes = text_boxes(win.plotter.ren_win)
+    for b in boxes:
         x0, x1, y0, y1 = b["box"]
         v = b["viewport"]
-        if b["line_px"] < MIN_GLYPH_PX:
-            bad.append(("small", b["line_px"], b["text"]))
+        if cap_height_px(b["font_size"]) < MIN_GLYPH_PX:
+            bad.append(("small", b["font_size"], b["text"]))
         if x0 < v[0] - 1 or x1 > v[1] + 1 or y0 < v[2] - 1 or y1 > v[3] + 1:
             bad.append(("outside", b["box"], v, b["text"]))
+    bad.extend(("overlap", a, b) for a, b in overlaps(boxes))
     return bad
 
 
-@pytest.mark.parametrize("window", [None, (960, 710), (1280, 800)])
-def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window):
+@pytest.mark.parametrize("window,spec", [(None, ONE), ((960, 710), ONE), ((1280, 800), ONE),
+                                         ((1920, 1200), ONE), ((960, 710), "TWO")])
+def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window, spec):
     from eyelab.render.inspector import InspectorWindow
 
-    win = InspectorWindow(InspectorModel(_file(tmp_path, ONE)), off_screen=True,
+    spec = TWO if spec == "TWO" else spec
+    win = InspectorWindow(InspectorModel(_file(tmp_path, spec)), off_screen=True,
                           window_size=window)
     try:
         win.run_to_target()
@@ -85,15 +96,59 @@ def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window):
         boxes = text_boxes(win.plotter.ren_win)
         texts = " ".join(b["text"] for b in boxes)
         # the pieces the issue found unreadable or clipped are among those checked
-        for piece in ("eye sphere (D)", "-2.00", "changed:", "blur field", "as worn"):
+        for piece in ("eye sphere (D)", "-2.00", "changed:", "blur field", "as worn", "D"):
             assert piece in texts
         assert _problems(win) == []
-        win._toggle_help()                       # the help, with the whole status
-        win.plotter.render()
-        assert any("h: this help" in b["text"] for b in text_boxes(win.plotter.ren_win))
-        assert _problems(win) == []
+        win._toggle_help()                       # the help, over the window: not checked
+        win.plotter.render()                     # for overlap, only size and edges
+        help_ = [b for b in text_boxes(win.plotter.ren_win) if "h: this help" in b["text"]]
+        assert len(help_) == 1 and "changed:" in help_[0]["text"]
+        assert [p for p in _problems(win) if p[0] != "overlap"] == []
     finally:
         win.close()
+
+
+#: Run in a child process on the Xvfb display: a real window at each size, the problems
+#: found in it (as :func:`_problems`), printed as JSON.
+REAL_WINDOW = """
+import json, sys
+sys.path.insert(0, {tests!r})
+from test_inspector_view import _problems
+from eyelab.jobs.inspector import InspectorModel
+from eyelab.render.inspector import InspectorWindow
+out = {{}}
+for size in ((960, 710), (1280, 800)):
+    win = InspectorWindow(InspectorModel({spec!r}), window_size=size)
+    win.run_to_target()
+    win.plotter.render()
+    out[str(size)] = [list(map(str, p)) for p in _problems(win)]
+    out[str(size) + " on screen"] = list(win.plotter.ren_win.GetSize())
+    win.close()
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                    reason="Xvfb is not installed (CI installs it and sets "
+                           "EYELAB_REQUIRE_XVFB)")
+def test_text_is_legible_in_a_real_window_under_xvfb(tmp_path):
+    """The same check in real windows (an X display: Xvfb) of 960 x 710 and 1280 x 800."""
+    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
+    xvfb, display = start_xvfb()
+    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
+    env["DISPLAY"] = display
+    code = REAL_WINDOW.format(tests=os.path.dirname(__file__),
+                              spec=str(_file(tmp_path, ONE)))
+    try:
+        r = subprocess.run([sys.executable, "-P", "-c", code], env=env, capture_output=True,
+                           text=True, timeout=300)
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=30)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out == {"(960, 710)": [], "(960, 710) on screen": [960, 710],
+                   "(1280, 800)": [], "(1280, 800) on screen": [1280, 800]}
 
 
 def test_two_eyes_show_what_render_binocular_renders(tmp_path):
@@ -117,16 +172,24 @@ def test_two_eyes_show_what_render_binocular_renders(tmp_path):
         assert structural_similarity(shown, ref, channel_axis=2, data_range=255) >= 0.99
         assert "PD 32.0 + 32.0 mm, frame PD 60.0 mm" in win._readout
         assert "prism" in win._readout and "base" in win._readout
-        # linked: both eyes move; then the left eye alone
+        # linked: both eyes move by the right eye's change (the anisometropia kept); then
+        # the left eye alone
         m.request("sphere", -1.0)
         m.run_to_target()
-        assert (m.eye_rx("right").sphere, m.eye_rx("left").sphere) == (-1.0, -1.0)
+        assert (m.eye_rx("right").sphere, m.eye_rx("left").sphere) == (-1.0, -2.0)
+        m.request("cylinder", -0.5)     # both eyes -0.50 x 180
+        m.run_to_target()
+        m.request("axis", 10.0)         # right 180 -> 10, the left mirrored: 180 -> 170
+        m.run_to_target()
+        assert (m.eye_rx("right").axis, m.eye_rx("left").axis) == (10.0, 170.0)
+        assert m.eye_rx("left").cylinder == -0.5
         win._cycle_edit()
         win._cycle_edit()
         assert m.edit == "left"
         m.request("sphere", -4.0)
         win.run_to_target()
         assert (m.eye_rx("right").sphere, m.eye_rx("left").sphere) == (-1.0, -4.0)
+        assert "L -4.00 / -0.50 x 170" in m.status()
         spec = parse_spec(tomllib.loads(m.dump()), "<dump>")
         assert spec.binocular.left.power_min != spec.binocular.right.power_min
         res = render_binocular_spec(spec)
@@ -137,6 +200,12 @@ def test_two_eyes_show_what_render_binocular_renders(tmp_path):
         assert m.output == "anaglyph"
         assert structural_similarity(win.grab_view(), res.srgb("anaglyph"), channel_axis=2,
                                      data_range=255) >= 0.99
+        # what s saves is what the window shows, and its spec says how
+        png, toml = win.save(tmp_path / "v.png")
+        assert tomllib.loads(toml.read_text())["binocular"]["output"] == "anaglyph"
+        m.reset()
+        m.run_to_target()
+        assert (m.output, m.edit) == ("side-by-side", "both")
     finally:
         win.close()
 
@@ -170,11 +239,21 @@ def test_mesh_placement_flags_and_the_render_warning(tmp_path, capsys):
     # placed a metre ahead: no warning, and the box fills the middle of the view
     shot = tmp_path / "b.png"
     assert main(["inspect", str(spec), "--mesh", str(stl), "--mesh-position", "0", "0", "-1",
-                 "--screenshot", str(shot)]) == 0
+                 "--mesh-scale", "0.5", "--screenshot", str(shot)]) == 0
     out = capsys.readouterr()
     assert "warning" not in out.err and shot.is_file()
-    assert 'position_m = [ 0.0, 0.0, -1.0,]' in shot.with_suffix(".toml").read_text() or \
-        "-1.0" in shot.with_suffix(".toml").read_text()
+    import tomllib
+
+    from PIL import Image
+
+    scene = tomllib.loads(shot.with_suffix(".toml").read_text())["render"]["scene"]
+    assert scene["position_m"] == [0.0, 0.0, -1.0] and scene["scale"] == 0.5
+    img = np.asarray(Image.open(shot)).astype(float)
+    h, w = img.shape[:2]
+    # a 0.25 m box 1 m ahead (its face 0.875 m away) spans 16 deg, more than the 12 deg
+    # field: the middle is the box, lit (a grey, not the white background)
+    assert img[h // 2, w // 2].mean() < 230
+    assert img[h // 2, w // 2].std() < 2          # a grey: Lambertian on an uncoloured mesh
     # bad placement: one line naming the flag, exit 2, nothing written
     bad = tmp_path / "c.png"
     assert main(["inspect", str(spec), "--mesh", str(stl), "--mesh-scale", "-2",
@@ -186,3 +265,34 @@ def test_mesh_placement_flags_and_the_render_warning(tmp_path, capsys):
     assert "only with --mesh" in capsys.readouterr().err
     assert main(["inspect", str(spec), "--window", "100x100", "--screenshot", str(bad)]) == 2
     assert "--window" in capsys.readouterr().err
+
+
+def test_two_eye_model_edge_cases(tmp_path):
+    """An eye given by its powers: shown as such, its lens left alone by ``c`` (named in
+    the message) while the other eye's lens is designed; re-reading a file that changed
+    from two eyes to one is refused in one line and leaves the state as it was."""
+    from eyelab.core.errors import SpecError
+
+    text = TWO.replace('rx = "-2.00 DS"\nage', 'age').replace(
+        '[eye.left]\nrx = "-3.00 DS"',
+        '[eye.right]\nrx = "-2.00 DS"\n\n[eye.left]\npower_min_d = 61.0').replace(
+        '[lens]\nmaterial = "cr39"', '[lens]\nmaterial = "cr39"\n\n[lens.left]\nrx = "-1.00 DS"')
+    path = _file(tmp_path, text)
+    m = InspectorModel(path, samples=1)
+    try:
+        assert "L explicit powers" in m.status()
+        m.request("sphere", -3.0)           # linked: the right eye by -1 D, the left too
+        m.tick()
+        assert m.eye_rx("right").sphere == -3.0
+        assert m.copy_eye_rx_to_lens() is not None
+        assert "left lens's eye is given by its powers" in m.message
+        assert m.data["lens"]["right"]["rx"] == m.data["eye"]["right"]["rx"]
+        assert m.data["lens"]["left"]["rx"] == "-1.00 DS"
+        before = m.dump()
+        path.write_text(ONE)
+        with pytest.raises(SpecError) as e:
+            m.load()
+        assert e.value.field == "binocular" and "two eyes" not in str(e.value)
+        assert m.two_eyes and m.dump() == before
+    finally:
+        m.close()

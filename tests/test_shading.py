@@ -28,13 +28,13 @@ def cosine_law(n, albedo=ALBEDO):
     return albedo * (AMBIENT + (1 - AMBIENT) * np.maximum(n @ LIGHT_DIRECTION, 0.0))
 
 
-def _render(stl, shading):
-    """Linear (H, W, 3) reference render of the mesh file placed at CENTRE, an emmetropic
-    eye (accommodated per pixel: no blur but at depth edges), one wavelength."""
+def _render(stl, shading, renderer="reference", samples=64):
+    """Linear (H, W, 3) render of the mesh file placed at CENTRE, an emmetropic eye
+    (accommodated per pixel: no blur but at depth edges), one wavelength."""
     spec = parse_spec({"render": {
         "scene": {"path": str(stl), "position_m": CENTRE.tolist(), "shading": shading},
-        "renderer": "reference", "width": W, "height": H, "fov_y_deg": FOV_Y_DEG,
-        "samples": 64, "chromatic": False}})
+        "renderer": renderer, "width": W, "height": H, "fov_y_deg": FOV_Y_DEG,
+        "samples": samples, "chromatic": False}})
     return render_spec(spec).linear.astype(float)
 
 
@@ -64,12 +64,15 @@ def sphere_stl(tmp_path_factory):
     return path
 
 
-def test_a_plain_sphere_follows_the_cosine_law_per_pixel(sphere_stl):
+@pytest.mark.parametrize("renderer,samples", [("reference", 64), ("raster", 16)])
+def test_a_plain_sphere_follows_the_cosine_law_per_pixel(sphere_stl, renderer, samples):
     """Every pixel whose ray meets the sphere within 50 deg of its normal (off the
     silhouette) and away from the terminator (|n . l| > 0.1), and every pixel of the unlit
     side (n . l < -0.1) within 72.5 deg, shows the cosine law's linear radiance within 2 %,
-    in every channel (64 rays a pixel: their jitter over the pixel averages out)."""
-    img = _render(sphere_stl, "auto")
+    in every channel, in the reference (64 rays a pixel: their jitter over the pixel
+    averages out) and in the raster renderer (16 passes; it interpolates the vertex
+    colours' sRGB codes across a triangle, the reference their linear values)."""
+    img = _render(sphere_stl, "auto", renderer, samples)
     n, facing = _sphere_pixels()
     nl = n @ LIGHT_DIRECTION
     use = ((facing > math.cos(math.radians(50))) & (np.abs(nl) > 0.1)) \

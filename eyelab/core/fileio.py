@@ -243,9 +243,10 @@ def write_json(path, obj) -> None:
 #: spec's units, each key naming its unit by suffix.
 REPORT_UNITS = ("the spec's units: dioptres (prism in prism dioptres), mm for lens, eye, pupil "
                 "and PD lengths, um for retinal blur and wavefronts, m for scene distances, "
-                "degrees for angles, nm for wavelengths, arcmin for angular blur, s for times; "
-                "a key with a unit names it by suffix (_d, _mm, _um, _m, _deg, _rad, _nm, "
-                "_arcmin, _s, _px, _cpd)")
+                "degrees for angles, nm for wavelengths, arcmin for angular blur, s for times, "
+                "pixels for image sizes (width, height: the spec's keys); any other key with "
+                "a unit names it by suffix (_d, _mm, _um, _m, _deg, _rad, _nm, _arcmin, _s, "
+                "_px, _cpd)")
 
 
 def with_units(report: dict) -> dict:

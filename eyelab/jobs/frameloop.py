@@ -31,14 +31,15 @@ class FrameLoopMixin:
 
     def _inputs(self) -> list:
         """Each eye's render inputs (scene, eye, lens, view): one eye's, or both eyes'
-        posed as ``eyelab render`` poses them (then kept as ``self._pose``)."""
+        posed as ``eyelab render`` poses them (then kept as ``self.pose``, a
+        :class:`~eyelab.imaging.stereo.BinocularPose`)."""
         if not self.two_eyes:
             return [(self.scene(), self.spec.eye, self.lens, self.view)]
         from eyelab.imaging.stereo import pose_binocular
 
-        self._pose = pose_binocular(self.scene(), self.spec.binocular, self.view,
+        self.pose = pose_binocular(self.scene(), self.spec.binocular, self.view,
                                     no_lens=not self.lens_on)
-        return [self._pose.inputs[s] for s in ("right", "left")]
+        return [self.pose.inputs[s] for s in ("right", "left")]
 
     def _result(self, results):
         """One step's RenderResults (one per eye) as the model's result."""
@@ -46,7 +47,7 @@ class FrameLoopMixin:
             return results[0]
         from eyelab.jobs.twoeyes import binocular_frame
 
-        return binocular_frame(self._pose, *results)
+        return binocular_frame(self.pose, *results)
 
     def _sequence(self, preview: bool):
         """The preview frame (if asked); the full set-up on a worker thread (fields and

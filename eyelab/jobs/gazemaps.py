@@ -191,10 +191,10 @@ class GazeMapsMixin:
 
     def gaze_marker(self) -> dict | None:
         """The line of sight's point on the maps: ``eye_rotation_deg`` (right, up; the
-        gaze's Fick angles, deg) and each map's value there (D, bilinear; NaN outside the
-        maps or the lens); None while there are no maps."""
+        shown eye's Fick angles, deg: :meth:`eye_gaze`) and each map's value there (D,
+        bilinear; NaN outside the maps or the lens); None while there are no maps."""
         maps = self.maps()
         if maps is None:
             return None
-        a, e = (float(v) for v in self.value("gaze"))
+        a, e = (float(v) for v in self.eye_gaze())
         return {"eye_rotation_deg": (a, e), **values_at(maps, a, e)}

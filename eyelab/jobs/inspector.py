@@ -29,18 +29,16 @@ from eyelab.jobs.controls import (
     CVD_CYCLE,
     PREVIEW_AFTER,
     TOGGLES,
-    edit_spec_data,
     snap,
 )
 from eyelab.jobs.frameloop import FrameLoopMixin
 from eyelab.jobs.gazemaps import GazeMaps, GazeMapsMixin
-from eyelab.jobs.twoeyes import EDIT_CYCLE, edited_sides, sided_data
+from eyelab.jobs.twoeyes import TwoEyesMixin, sided_data
 from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.optics.prescription import Prescription
 from eyelab.spec import dump_spec, parse_spec, read_spec_data
 
 
-class InspectorModel(FrameLoopMixin, GazeMapsMixin):
+class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
     """The inspected spec and its frames.
 
     Parameters
@@ -65,6 +63,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
         self._overrides = {"size": size, "samples": samples, "scene": scene}
         self.renderer = RasterRenderer()
         self._left_renderer = None     # two eyes: the left eye's own (its GL state, caches)
+        self.pose = None               # two eyes: the last frame's BinocularPose
         self._scenes = {}
         self._pending = {}
         self._frames = None
@@ -80,7 +79,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
     # ------------------------------------------------------------------ state
     def load(self) -> None:
         """(Re)read the spec file (or the built-in default) and restart."""
-        data, self.source, self.base = read_spec_data(self.path)
+        data, source, base = read_spec_data(self.path)
         data = copy.deepcopy(data)
         r = data.setdefault("render", {})
         if r.get("renderer", "raster") != "raster":
@@ -101,7 +100,12 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
             data["render"]["scene"] = {**scene, "path": str(Path(scene["path"]).resolve())}
         elif scene is not None:
             data["render"]["scene"] = str(Path(scene).resolve())
-        spec = parse_spec(data, self.source, self.base)
+        spec = parse_spec(data, source, base)
+        if hasattr(self, "spec") and (spec.binocular is not None) != self.two_eyes:
+            now = "two eyes" if spec.binocular is not None else "one eye"
+            raise SpecError("binocular", f"the spec now has {now}: open the inspector on it "
+                                         "again to show that")
+        self.source, self.base = source, base
         if spec.binocular is not None:      # each eye's keys in its own table
             data = sided_data(data)
         elif "lens" in data and "rx" not in data["lens"] and "front" not in data["lens"] \
@@ -109,8 +113,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
             # the lens keeps its own prescription while the eye's controls move
             data["lens"]["rx"] = data["eye"]["rx"]
         self.spec = parse_spec(data, self.source, self.base)
-        self.edit = "both" if self.two_eyes else None
-        self.output = None if self.spec.binocular is None else self.spec.binocular.output
+        self.reset_eyes()
         self.loaded = copy.deepcopy(data)
         self.data = data
         self.lens_on = "lens" in data
@@ -122,6 +125,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
         """Back to the spec as loaded."""
         self.data = copy.deepcopy(self.loaded)
         self.spec = parse_spec(self.data, self.source, self.base)
+        self.reset_eyes()
         self.lens_on = "lens" in self.data
         self.cvd = self.spec.render.view.cvd
         self.cvd_severity = self.spec.render.view.cvd_severity
@@ -139,47 +143,6 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
     @property
     def samples(self) -> int:
         return self.spec.render.quality.samples
-
-    @property
-    def two_eyes(self) -> bool:
-        return self.spec.binocular is not None
-
-    @property
-    def side(self) -> str | None:
-        """The eye the controls show (two eyes: the edited one, the right when both)."""
-        return None if not self.two_eyes else ("right" if self.edit == "both" else self.edit)
-
-    @property
-    def eye(self):
-        """The eye the controls show (:attr:`side`'s of two)."""
-        return self.spec.eye if not self.two_eyes else self.spec.binocular.eye(self.side)
-
-    def _eye_table(self, side=None) -> dict:
-        eye = self.data.get("eye", {})
-        return eye if not self.two_eyes else eye.get(side or self.side, {})
-
-    def eye_rx(self, side=None) -> Prescription:
-        """The eye's refraction as an Rx (plano when the spec gives explicit powers); of
-        ``side`` (default the shown eye) for two eyes."""
-        rx = self._eye_table(side).get("rx")
-        field = "eye.rx" if not self.two_eyes else f"eye.{side or self.side}.rx"
-        return Prescription() if rx is None else Prescription.parse(rx, field=field)
-
-    def cycle_edit(self) -> str | None:
-        """Two eyes: the controls edit the next of both / right / left; returns it."""
-        if self.two_eyes:
-            self.edit = EDIT_CYCLE[(EDIT_CYCLE.index(self.edit) + 1) % len(EDIT_CYCLE)]
-            self.last_change = f"editing: {self.edit} eye{'s' if self.edit == 'both' else ''}"
-        return self.edit
-
-    def toggle_anaglyph(self) -> str | None:
-        """Two eyes: the view as a red/cyan anaglyph, or back to the spec's output."""
-        if self.two_eyes:
-            spec_out = self.spec.binocular.output
-            self.output = (spec_out if self.output == "anaglyph" and spec_out != "anaglyph"
-                           else "side-by-side" if self.output == "anaglyph" else "anaglyph")
-            self.last_change = f"output {self.output}: display only"
-        return self.output
 
     def value(self, name: str):
         """The current value of a control or toggle."""
@@ -238,8 +201,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
                 elif name == "cvd_severity":
                     sev = min(max(float(v), 0.0), 1.0)
                 else:
-                    edit_spec_data(data, name, v, None if not self.two_eyes else
-                                   edited_sides(self.edit))
+                    self.edit_eyes(data, name, v)
             spec = parse_spec(data, self.source, self.base)
         except SpecError as e:
             self.message = str(e)
@@ -276,16 +238,6 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
             return tuple(map(float, v)) == tuple(map(float, cur))
         return v == cur
 
-    def copy_eye_rx_to_lens(self) -> str | None:
-        """The lens made for the eye's current refraction (a full correction)."""
-        if "lens" not in self.data or "front" in self.data["lens"]:
-            self.message = "no lens designed from an Rx to change"
-            return self.message
-        if not self.two_eyes:
-            return self.apply({"lens_rx": self.data.get("eye", {}).get("rx", "plano")})
-        return self.apply({"lens_rx": {s: self._eye_table(s).get("rx", "plano")
-                                       for s in edited_sides(self.edit)}})
-
     def dump(self) -> str:
         """The spec that reproduces the current state (TOML)."""
         data = copy.deepcopy(self.data)
@@ -296,6 +248,8 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
         r.pop("cvd_severity", None)
         if self.cvd is not None:
             r["cvd"], r["cvd_severity"] = self.cvd, float(self.cvd_severity)
+        if self.two_eyes and self.output != self.spec.binocular.output:
+            data.setdefault("binocular", {})["output"] = self.output     # as displayed
         return dump_spec(data)
 
     # ----------------------------------------------------------------- frames
@@ -306,17 +260,6 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
         if name not in self._scenes:
             self._scenes[name] = build_scene(name)
         return self._scenes[name]
-
-    def renderers(self) -> list:
-        """The raster renderer of each eye: one eye's, or the right's and the left's (two
-        interleaved progressive renders may not share one renderer's GL windows)."""
-        if not self.two_eyes:
-            return [self.renderer]
-        if self._left_renderer is None:
-            from eyelab.render.raster import RasterRenderer
-
-            self._left_renderer = RasterRenderer()
-        return [self.renderer, self._left_renderer]
 
     @property
     def lens(self):
@@ -380,9 +323,7 @@ class InspectorModel(FrameLoopMixin, GazeMapsMixin):
         lenses = [self.spec.lens if s is None else self.spec.binocular.lens(s) for s in sides]
         lens_s = "; ".join((s[0].upper() + " " if s else "") + _lens_text(lens, self.lens_on)
                            for s, lens in zip(sides, lenses, strict=True))
-        eye_s = "eye " + self.eye_rx().format() if not self.two_eyes else (
-            f"eyes R {self.eye_rx('right').format()}, L {self.eye_rx('left').format()} "
-            f"(editing {self.edit})")
+        eye_s = self.eye_text()
         out = "" if not self.two_eyes else f"  {self.output}"
         done = 0 if self.result is None else self.eye_report()["samples"]["done_passes"]
         first = self.timings.get("first_frame_s")
@@ -456,12 +397,13 @@ def _lens_text(lens, on: bool) -> str:
 
 def write_state(model: InspectorModel, image_path, *, image=None) -> tuple:
     """Write the displayed view (PNG) and, beside it, the spec that reproduces it
-    (``<stem>.toml``), each atomically. Returns the two paths."""
-    from eyelab.core.fileio import atomic_path, write_png
+    (``<stem>.toml``), as one set (:func:`~eyelab.core.fileio.atomic_group`). Returns the
+    two paths."""
+    from eyelab.core.fileio import atomic_group, png_writer
 
     image_path = Path(image_path)
     spec_path = image_path.with_suffix(".toml")
-    write_png(image_path, model.display() if image is None else image)
-    with atomic_path(spec_path, suffix=".toml") as tmp:
-        Path(tmp).write_text(model.dump())
+    text = model.dump()
+    atomic_group({image_path: png_writer(model.display() if image is None else image),
+                  spec_path: lambda p: Path(p).write_text(text)})
     return image_path, spec_path

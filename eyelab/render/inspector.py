@@ -22,7 +22,8 @@ eye's current Rx; ``s`` saves the view and the spec that reproduces it; ``r`` re
 quits. Two eyes (a two-eye spec): both eyes' views as the spec's ``binocular.output``
 shows them; ``e`` cycles the eye the sliders edit (both, right, left); ``a`` toggles a
 red/cyan anaglyph; the status shows the pupillary and frame PDs and the prism at the
-fixated point; the maps and the scene view show the edited eye's lens.
+fixated point; the scene view draws both eyes, the blur field and the maps are the edited
+eye's (the right when both).
 
 Text: one font size from the window's height (:mod:`eyelab.render.textlayout`); every
 line fitted to its viewport (the status elided, its whole text in the help); the window
@@ -39,14 +40,16 @@ import numpy as np
 import pyvista as pv
 
 from eyelab.render._vtk import vtkRenderer
+from eyelab.render.controlstrip import MARGIN_PX, build_controls
 from eyelab.render.legend import Legend
 from eyelab.render.mappanel import MapPanel
 from eyelab.render.sideviews import draw_side
-from eyelab.render.textlayout import elide, font_size, style, wrap
+from eyelab.render.textlayout import BASE_FONT, elide, font_size, style, wrap
 
 #: Timer period (ms) between ticks.
 TICK_MS = 15
-#: Height (px) of the controls strip and width of the side column relative to the view.
+#: Height (px) of the controls strip at the base font (it grows with the font) and width
+#: of the side column relative to the view.
 CONTROLS_PX = 230
 SIDE_FRACTION = 0.5
 #: Width of the as-worn map column relative to the view's height (each map is half of it).
@@ -62,8 +65,8 @@ HELP = ("arrows: gaze +-2 deg   click: look there (view or map)   l: lens on/off
         "m: as-worn maps on/off   v: colour vision   c: lens for the eye's Rx\n"
         "s: save view + spec   r: reset   o: reload spec   h: this help   q: quit")
 HELP_TWO_EYES = "e: sliders edit both eyes / right / left   a: anaglyph on/off"
-#: Margin (px) between text and its viewport's edges.
-MARGIN_PX = 6
+#: Lines of status the strip shows (the rest: in the ``h`` help).
+STATUS_LINES = 4
 
 
 class InspectorWindow:
@@ -81,12 +84,14 @@ class InspectorWindow:
         self.window_size = tuple(int(v) for v in (window_size or natural))
         W, H = self.window_size
         self.font = font_size(H)
+        self.scale = self.font / BASE_FONT          # the controls strip's layout grows with it
+        self.strip_px = int(round(CONTROLS_PX * self.scale))
         total = w + side + maps_w
         self._columns = (w / total, (w + side) / total)
-        top = max(H - CONTROLS_PX, 2)
+        top = max(H - self.strip_px, 2)
         p = pv.Plotter(off_screen=off_screen, shape=(3, 3),
                        groups=[(np.s_[0:2], 0), (2, np.s_[0:3])],
-                       row_weights=[top / 2, top / 2, CONTROLS_PX],
+                       row_weights=[top / 2, top / 2, self.strip_px],
                        col_weights=[w, side, maps_w],
                        window_size=self.window_size, border=False,
                        title="eyelab inspector")
@@ -106,6 +111,7 @@ class InspectorWindow:
         self._update_side = True
         self._ready = True
         self.refresh()
+        p.ren_win.AddObserver("WindowResizeEvent", self._on_resize)
         p.iren.add_observer("TimerEvent", self._on_timer)
         p.iren.add_observer("LeftButtonPressEvent", self._on_click)
         for key, fn in (("Left", lambda: self._turn(-GAZE_STEP_DEG, 0)),
@@ -221,61 +227,49 @@ class InspectorWindow:
                            lighting=False, name=f"scene_{m.name}")
             else:
                 p.add_mesh(mesh, color="grey", name=f"scene_{m.name}")
-        self._top_text(p.renderer, "scene, eye, lens, line of sight")
+        self._top_texts = {}
+        self._top_text(p.renderer, "scene", "scene, eyes, lenses, lines of sight"
+                       if self.model.two_eyes else "scene, eye, lens, line of sight")
         p.subplot(1, 1)
         p.set_background((0.08, 0.08, 0.1))
-        self._field_title = self._top_text(p.renderer, "blur field at the gaze depth (arcmin)")
+        self._top_text(p.renderer, "field", "blur field at the gaze depth")
         self._field_legend = Legend(p.renderer)
 
-    def _top_text(self, ren, text: str):
-        """A text actor at the top left of renderer ``ren``, wrapped to its width."""
-        actor = self.plotter.add_text(" ", position=(MARGIN_PX, ren.GetSize()[1] - MARGIN_PX),
-                                      color="white")
+    def _top_text(self, ren, key: str, text: str) -> None:
+        """A text at the top left of renderer ``ren``, wrapped to its width (placed again
+        when the window's size changes: :meth:`_place_texts`)."""
+        actor = self.plotter.add_text(" ", position=(MARGIN_PX, MARGIN_PX), color="white")
         style(actor, self.font, top=True)
-        actor._width_px = max(20, ren.GetSize()[0] - 2 * MARGIN_PX)
-        actor.SetInput(wrap(text, self.font, actor._width_px))
-        return actor
+        self._top_texts[key] = [actor, ren, text]
+        self.set_top_text(key, text)
+
+    def set_top_text(self, key: str, text: str) -> None:
+        """Set the top text ``key`` ("scene", "field"), wrapped to its viewport."""
+        actor, ren, _ = self._top_texts[key]
+        self._top_texts[key][2] = text
+        w, h = ren.GetSize()
+        actor.SetPosition(MARGIN_PX, max(h - MARGIN_PX, 0))
+        actor.SetInput(wrap(text, self.font, max(20, w - 2 * MARGIN_PX)))
+
+    def _place_texts(self) -> None:
+        """Every text whose place or width follows the window's size."""
+        self._help.SetPosition(MARGIN_PX, self.window_size[1] - MARGIN_PX)
+        for key, (_, _, text) in self._top_texts.items():
+            self.set_top_text(key, text)
+        W = self.window_size[0]
+        for actor, _, x1, y in self._values.values():
+            actor.SetPosition(int(x1 * W), y)
+        self._maps.place_titles()
+
+    def _on_resize(self, obj, event) -> None:
+        """The window was resized: the view's scale, the texts' places and widths."""
+        self.window_size = tuple(int(v) for v in self.plotter.ren_win.GetSize())
+        self._fit_view_camera()
+        self._place_texts()
+        self.refresh()
 
     def _build_controls(self):
-        p, m, font = self.plotter, self.model, self.font
-        p.subplot(2, 0)
-        p.set_background((0.16, 0.16, 0.18))
-        self._status = p.add_text(" ", position=(8, CONTROLS_PX - MARGIN_PX), color="yellow",
-                                  name="status")
-        style(self._status, font, (1.0, 1.0, 0.0), top=True)
-        self._sliders, self._values = {}, {}
-        cols = 4
-        height = font / CONTROLS_PX          # a slider's text heights, of the strip's
-        for i, c in enumerate(m.controls):
-            row, col = divmod(i, cols)
-            y = (112 - 56 * row) / CONTROLS_PX     # the strip's own normalized coordinates
-            x0 = 0.02 + col * 0.245
-            w = self._sliders[c.name] = p.add_slider_widget(
-                lambda v, name=c.name: self._request(name, v), (c.lo, c.hi),
-                value=float(m.value(c.name)), title=c.label, pointa=(x0, y),
-                pointb=(x0 + 0.2, y), interaction_event="always", fmt=c.fmt,
-                title_height=height, style="modern")
-            rep = w.GetRepresentation()
-            rep.ShowSliderLabelOff()          # VTK sizes it itself (5 px): ours instead
-            rep.GetTitleProperty().ShadowOff()
-            rep.GetTitleProperty().SetColor(1.0, 1.0, 1.0)
-            value = p.add_text(" ", position=(int((x0 + 0.2) * self.window_size[0]),
-                                              int(y * CONTROLS_PX) + 9))
-            style(value, font)
-            value.GetTextProperty().SetJustificationToRight()
-            self._values[c.name] = (value, c.fmt)
-        self._checks = {}
-        W = self.window_size[0]
-        for i, name in enumerate(m.toggles):
-            x = 12 + i * (W // 4)
-            self._checks[name] = p.add_checkbox_button_widget(
-                lambda v, name=name: self._request(name, v), value=bool(m.value(name)),
-                position=(x, 8), size=18, border_size=2)
-            style(p.add_text(name, position=(x + 24, 8)), font)
-        hint = "h: help" + (" (e: eye, a: anaglyph)" if m.two_eyes else "")
-        x = 12 + 3 * (W // 4)
-        style(p.add_text(elide(hint, font, W - x - MARGIN_PX), position=(x, 8)), font,
-              (0.7, 0.7, 0.7))
+        build_controls(self)
 
     # ---------------------------------------------------------------- events
     def _request(self, name, value):
@@ -327,7 +321,6 @@ class InspectorWindow:
 
     def _cycle_edit(self):
         self.model.cycle_edit()
-        self.model._maps_key = None        # the maps follow the edited eye's lens
         self._sync_widgets()
         self._update_side = True
         self.refresh()
@@ -340,7 +333,8 @@ class InspectorWindow:
         x, y = self.plotter.iren.get_event_position()
         on_map = self._maps.eye_rotation_at(x, y)
         if on_map is not None:            # a map's point is an eye rotation: look there
-            self._request("gaze", tuple(round(v, 1) for v in on_map))
+            gaze = self.model.gaze_for_eye_rotation(on_map)
+            self._request("gaze", tuple(round(v, 1) for v in gaze))
             return
         ren = self._view_renderer
         vx, vy = ren.GetOrigin()
@@ -398,11 +392,14 @@ class InspectorWindow:
                 text_r = f"gaze point: {e}"
             self._readout = text_r
             self._draw_side()
-        for name, (actor, fmt) in self._values.items():
+        for name, (actor, fmt, _, _) in self._values.items():
             actor.SetInput(fmt % float(self.model.value(name)))
         room = self.window_size[0] - 16
-        self._status.SetInput("\n".join(elide(line, self.font, room)
-                                        for line in self._status_text().split("\n")))
+        lines = self._status_text().split("\n")
+        if len(lines) > STATUS_LINES:           # the rest in the help
+            more = len(lines) - STATUS_LINES + 1
+            lines = lines[:STATUS_LINES - 1] + [f"(+{more} lines: press h)"]
+        self._status.SetInput("\n".join(elide(line, self.font, room) for line in lines))
         self._show_help()
 
     def _status_text(self) -> str:
@@ -423,6 +420,7 @@ class InspectorWindow:
         """(h, w, 3) uint8: the simulated view as the window shows it, read back from the
         window's framebuffer (the image's pixels in the main viewport) when it is shown one
         texel per pixel; else (scaled to fit a small window) the model's image."""
+        self._fit_view_camera()             # the viewport's size now (after a resize)
         if not self.one_to_one:
             return self.model.display()
         self.plotter.render()

@@ -18,10 +18,13 @@ from eyelab.render._vtk import (
     vtkPolyDataMapper2D,
     vtkTextActor,
 )
-from eyelab.render.textlayout import style, wrap
+from eyelab.render.textlayout import style, text_width, wrap
 
-#: Steps of the colour ramp.
+#: Steps of the colour ramp, and its width (px).
 RAMP_STEPS = 64
+RAMP_PX = 10
+#: Gaps (px): between the ramp and its labels, and around the legend.
+GAP_PX = 4
 
 
 def _normalized(actor) -> None:
@@ -58,6 +61,14 @@ class Legend:
             renderer.AddViewProp(a)
         self.hide()
 
+    @staticmethod
+    def room_px(clim, title: str, size: int, fmt: str = "{:.2f}") -> int:
+        """Width (px) a legend of ``clim`` and ``title`` needs at font ``size``: the ramp
+        and its widest label, or its title if that is wider, with the gaps."""
+        labels = max(text_width(fmt.format(float(v) + 0.0), size)
+                     for v in (clim[0], 0.5 * (clim[0] + clim[1]), clim[1]))
+        return max(RAMP_PX + GAP_PX + labels, text_width(title, size)) + 3 * GAP_PX
+
     def hide(self) -> None:
         for a in (self.ramp, self.title, *self.labels):
             a.VisibilityOff()
@@ -84,12 +95,13 @@ class Legend:
         room = max(20, int((1.0 - x0) * w) - 4)
         self.title.SetInput(wrap(title, size, room))
         style(self.title, size, color)
-        self.title.SetPosition(x0, y1 + 6.0 / max(h, 1))
+        # above the high label, which is centred on the ramp's top
+        self.title.SetPosition(x0, y1 + (0.6 * size + GAP_PX) / max(h, 1))
         for a, v, y in zip(self.labels, (lo, 0.5 * (lo + hi), hi), (y0, 0.5 * (y0 + y1), y1),
                            strict=True):
             a.SetInput(fmt.format(v + 0.0))
             style(a, size, color)
             a.GetTextProperty().SetVerticalJustificationToCentered()
-            a.SetPosition(x1 + 4.0 / max(w, 1), y)
+            a.SetPosition(x1 + GAP_PX / max(w, 1), y)
         for a in (self.ramp, self.title, *self.labels):
             a.VisibilityOn()

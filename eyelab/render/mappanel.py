@@ -19,9 +19,9 @@ import math
 import numpy as np
 import pyvista as pv
 
-from eyelab.render.legend import Legend
+from eyelab.render.legend import RAMP_PX, Legend
 from eyelab.render.maps import contour_step, finite_cells, map_edge
-from eyelab.render.textlayout import BASE_FONT, elide, style, text_width, wrap
+from eyelab.render.textlayout import BASE_FONT, elide, style, wrap
 
 #: The marker's colour (sRGB; unlit, so exactly these pixels) and the panel's background.
 MARKER_RGB = (0, 255, 0)
@@ -90,7 +90,7 @@ class MapPanel:
             actor.VisibilityOff()
             self._markers[name] = actor
             self._fit_camera(plotter.renderer)
-        self._place_titles()
+        self.place_titles()
         plotter.subplot(0, 0)
         self.shown = None
         self.drawn = None          # (key, state) the panel shows
@@ -163,7 +163,7 @@ class MapPanel:
         bar_x = _frame(p.renderer, self.half, self._legend_px())[2]
         vw = max(p.renderer.GetSize()[0], 1)
         self._legends[name].show(actor.mapper.lookup_table, clim, BAR_TITLES[name],
-                                 box=(bar_x, 0.16, bar_x + 10 / vw, 0.62), size=self.font,
+                                 box=(bar_x, 0.16, bar_x + RAMP_PX / vw, 0.62), size=self.font,
                                  fmt="{:+.2f}")
         iso = cells.contour(isosurfaces=list(levels), scalars=name) if len(levels) else None
         if iso is not None and iso.n_points:
@@ -177,10 +177,10 @@ class MapPanel:
                        render=False)
 
     def _legend_px(self) -> int:
-        """Room (px) right of a map for its legend: the ramp and its widest label."""
-        return 10 + 8 + text_width("+00.00", self.font) + 6
+        """Room (px) right of a map for its legend: the ramp, its widest label, its title."""
+        return Legend.room_px((-10.0, 10.0), "D", self.font, "{:+.2f}")
 
-    def _place_titles(self) -> None:
+    def place_titles(self) -> None:
         """Each map's title at its viewport's top left, fitted to its width."""
         for name, ren in self.renderers.items():
             vw, vh = ren.GetSize()

@@ -9,7 +9,7 @@ import numpy as np
 import pyvista as pv
 
 from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.render.textlayout import text_width, wrap
+from eyelab.render.legend import RAMP_PX
 
 
 def _draw_eye(win, tag: str, cam, lens, offset) -> None:
@@ -43,7 +43,7 @@ def draw_side(win) -> None:
     p, m = win.plotter, win.model
     p.subplot(0, 1)
     if m.two_eyes:                       # each eye at its pupil (head frame)
-        pose = m._pose
+        pose = m.pose
         for side in ("right", "left"):
             _, eye, lens, view = pose.inputs[side]
             offset = -np.asarray(pose.wearer.to_eye(side), float)[:3, 3]
@@ -54,9 +54,10 @@ def draw_side(win) -> None:
     if not getattr(win, "_scene_camera_set", False):
         p.camera_position = [(2.5, 1.5, 2.0), (0.0, 0.0, -1.5), (0.0, 1.0, 0.0)]
         win._scene_camera_set = True
-    # the field of the last frame's first stage, ellipses at the gaze point's slice
+    # the field of the last frame's first stage (the shown eye's), ellipses at the gaze
+    # point's slice (the farthest for a gaze to infinity)
     p.subplot(1, 1)
-    cache = m.renderer.caches["fields"]
+    cache = m.shown_renderer().caches["fields"]
     fields = [cache.get(k) for k in list(cache.keys())]
     # the view's own field (the last stage's), its green channel when per channel
     fields = [f for f in fields if f.camera == fields[-1].camera] if fields else []
@@ -64,11 +65,11 @@ def draw_side(win) -> None:
         field = min(fields, key=lambda f: abs(f.report.get("wavelength_nm", EYE_REFERENCE_NM)
                                               - 546.07))
         depth = getattr(m, "gaze_distance_m", None) or 1.0
-        k = int(np.argmin(np.abs(field.slice_depths() - depth)))
-        win._field_title.SetInput(wrap(
-            f"blur field at {field.slice_depths()[k]:.2f} m depth, "
-            f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm",
-            win.font, win._field_title._width_px))
+        depths = field.slice_depths()
+        k = int(np.argmin(np.abs(depths - depth))) if np.isfinite(depth) else len(depths) - 1
+        eye = f"{m.side} eye, " if m.two_eyes else ""
+        win.set_top_text("field", f"blur field ({eye}{depths[k]:.2f} m depth, "
+                                  f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm)")
         # ellipses magnified to fill about half the column spacing (Kakimoto Fig. 12)
         w = field.slice_depths()[k]
         tx, ty = field.camera.tan_half
@@ -91,11 +92,10 @@ def draw_side(win) -> None:
 
 def _show_legend(win, actor) -> None:
     """The blur legend at the field panel's right edge, its labels' room measured."""
-    ren = win._field_legend.renderer
-    vw, _ = ren.GetSize()
+    legend = win._field_legend
+    vw, _ = legend.renderer.GetSize()
     lo, hi = actor.mapper.scalar_range
-    room = max(text_width(f"{v:.2f}", win.font) for v in (lo, hi)) + 24
-    x0 = max(0.5, 1.0 - room / max(vw, 1))
-    win._field_legend.show(actor.mapper.lookup_table, (lo, hi), "blur (')",
-                            box=(x0, 0.1, x0 + 10 / max(vw, 1), 0.62), size=win.font)
+    x0 = max(0.5, 1.0 - legend.room_px((lo, hi), "arcmin", win.font) / max(vw, 1))
+    legend.show(actor.mapper.lookup_table, (lo, hi), "arcmin",
+                box=(x0, 0.1, x0 + RAMP_PX / max(vw, 1), 0.62), size=win.font)
 

@@ -3,13 +3,16 @@ width by measuring them (FreeType, through VTK's text renderer: the same glyphs 
 draws), and the boxes of every piece of text a window shows (for tests: no glyph smaller
 than :data:`MIN_GLYPH_PX`, nothing outside its viewport).
 
-Sizes are VTK font sizes, which VTK draws at 72 dpi: a size of N is N pixels from the top
-of the tallest glyph to the bottom of the lowest, a line's box about 0.93 N pixels tall.
+Sizes are VTK font sizes, which VTK draws at 72 dpi: a line's box is about N pixels tall
+for a size of N, its capitals and digits (the glyph height the window is checked on,
+:func:`cap_height_px`, measured on the ink) about 0.75 N: 11 px at 14.
 """
 
 from __future__ import annotations
 
 import textwrap
+
+import numpy as np
 
 from eyelab.render._vtk import (
     vtkActor2D,
@@ -20,7 +23,7 @@ from eyelab.render._vtk import (
     vtkTextRenderer,
 )
 
-#: The smallest line box (px) any text of a window may have.
+#: The smallest glyph height (px: a capital's or a digit's ink) any text may have.
 MIN_GLYPH_PX = 10
 #: Font size at the smallest window; it grows with the window's height beyond that.
 BASE_FONT = 14
@@ -34,6 +37,20 @@ def font_size(window_height: int) -> int:
     """The window's font size (px at 72 dpi): :data:`BASE_FONT` up to 700 px of height,
     then one per :data:`HEIGHT_PER_POINT` px."""
     return max(BASE_FONT, int(round(window_height / HEIGHT_PER_POINT)))
+
+
+def cap_height_px(size: int) -> int:
+    """Height (px) of a capital H's ink at font ``size``: the glyph height of the text."""
+    from eyelab.render._vtk import vtk_to_numpy, vtkImageData
+
+    prop = vtkTextProperty()
+    prop.SetFontSize(int(size))
+    img = vtkImageData()
+    vtkTextRenderer.GetInstance().RenderString(prop, "H", img, [0, 0], DPI)
+    w, h, _ = img.GetDimensions()
+    alpha = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, -1)[..., -1]
+    rows = np.flatnonzero(alpha.max(axis=1) > 127)
+    return int(rows[-1] - rows[0] + 1) if len(rows) else 0
 
 
 def text_width(text: str, size: int) -> int:
@@ -95,8 +112,8 @@ def style(actor, size: int, color=(1.0, 1.0, 1.0), *, top: bool = False) -> None
 def text_boxes(render_window) -> list:
     """Every non-empty piece of text the window draws: a list of dicts with ``text``,
     ``box`` (x0, x1, y0, y1) in window pixels (origin lower left), ``line_px`` (the box's
-    height over its number of lines) and ``viewport`` (x0, x1, y0, y1) px of the renderer
-    it is drawn in. Text actors (PyVista's ``add_text``) and the text of slider widgets
+    height over its number of lines), ``font_size`` and ``viewport`` (x0, x1, y0, y1) px of
+    the renderer it is drawn in. Text actors (PyVista's ``add_text``) and the text of slider widgets
     (their title and value) are read; renderers that are not drawn are skipped."""
     out = []
     rens = render_window.GetRenderers()
@@ -125,7 +142,8 @@ def _boxes(prop, ren, port) -> list:
         bb = [0.0] * 4
         prop.GetBoundingBox(ren, bb)          # about the actor's anchor
         x0, y0 = prop.GetActualPositionCoordinate().GetComputedDisplayValue(ren)
-        return [_entry(text, (bb[0] + x0, bb[1] + x0, bb[2] + y0, bb[3] + y0), port)]
+        return [_entry(text, (bb[0] + x0, bb[1] + x0, bb[2] + y0, bb[3] + y0), port,
+                       prop.GetTextProperty().GetFontSize())]
     if isinstance(prop, vtkActor2D) and isinstance(prop.GetMapper(), vtkTextMapper):
         mapper = prop.GetMapper()
         text = mapper.GetInput() or ""
@@ -139,7 +157,8 @@ def _boxes(prop, ren, port) -> list:
                   size[0] if just.GetJustification() == 2 else 0)
         y0 = y - (size[1] / 2 if just.GetVerticalJustification() == 1 else
                   size[1] if just.GetVerticalJustification() == 2 else 0)
-        return [_entry(text, (x0, x0 + size[0], y0, y0 + size[1]), port)]
+        return [_entry(text, (x0, x0 + size[0], y0, y0 + size[1]), port,
+                       just.GetFontSize())]
     if hasattr(prop, "GetActors2D") and not isinstance(prop, vtkActor2D):
         parts = vtkPropCollection()       # a widget representation's own actors
         prop.GetActors2D(parts)
@@ -159,7 +178,22 @@ def _boxes(prop, ren, port) -> list:
     return []
 
 
-def _entry(text, box, port) -> dict:
+def _entry(text, box, port, size) -> dict:
     lines = max(1, len(text.rstrip("\n").split("\n")))
     return {"text": text, "box": tuple(float(v) for v in box),
-            "line_px": (box[3] - box[2]) / lines, "viewport": port}
+            "line_px": (box[3] - box[2]) / lines, "font_size": int(size), "viewport": port}
+
+
+def overlaps(boxes: list, slack: float = 1.0) -> list:
+    """Pairs of :func:`text_boxes` entries of one viewport whose boxes overlap by more than
+    ``slack`` px both ways: [(text a, text b)]."""
+    out = []
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            if a["viewport"] != b["viewport"]:
+                continue
+            dx = min(a["box"][1], b["box"][1]) - max(a["box"][0], b["box"][0])
+            dy = min(a["box"][3], b["box"][3]) - max(a["box"][2], b["box"][2])
+            if dx > slack and dy > slack:
+                out.append((a["text"], b["text"]))
+    return out
