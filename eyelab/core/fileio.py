@@ -37,7 +37,7 @@ def sweep_for(*paths) -> int:
             try:
                 t.unlink()
                 n += 1
-            except OSError:
+            except OSError:       # already gone (another sweep) or not ours to remove
                 pass
     return n
 

@@ -44,6 +44,8 @@ CONTROLS = (
 
 
 CONTROL_NAMES = tuple(c.name for c in CONTROLS)
+#: Each slider's step (the unit its value is snapped to).
+STEP = {c.name: c.step for c in CONTROLS}
 
 
 #: The toggles.
@@ -61,13 +63,14 @@ PREVIEW_FIELD = (32, 16, 16)
 
 
 def snap(value, step):
+    """``value`` rounded to a multiple of ``step``."""
     return round(float(value) / step) * step
 
 
 def _edit_rx(eye: dict, name: str, v) -> None:
     """One part (sphere, cylinder, axis) of an eye table's Rx set to ``v`` (snapped)."""
     rx = Prescription.parse(eye["rx"], field="eye.rx") if "rx" in eye else Prescription()
-    rx = dataclasses.replace(rx, **{name: snap(v, 1.0 if name == "axis" else 0.25)})
+    rx = dataclasses.replace(rx, **{name: snap(v, STEP[name])})
     for k in EXPLICIT_EYE:
         eye.pop(k, None)
     eye["rx"] = rx.format()
@@ -104,7 +107,7 @@ def edit_spec_data(data: dict, name: str, v, sides=None) -> None:
         if float(v) < 0:
             eye.pop("accommodation_d", None)
         else:
-            eye["accommodation_d"] = snap(v, 0.25)
+            eye["accommodation_d"] = snap(v, STEP["focus_d"])
     elif name == "samples":
         render["samples"] = int(round(float(v)))
     elif name in ("chromatic", "reconstruct"):

@@ -28,6 +28,7 @@ from eyelab.jobs.controls import (
     CONTROLS,
     CVD_CYCLE,
     PREVIEW_AFTER,
+    STEP,
     TOGGLES,
     snap,
 )
@@ -224,12 +225,10 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
             cur = self.value(name)
         except KeyError:
             return False
-        if name in ("sphere", "cylinder", "focus_d"):
+        if name in ("sphere", "cylinder", "axis", "focus_d"):
             if name == "focus_d" and float(v) < 0:
                 return cur < 0
-            return snap(v, 0.25) == cur
-        if name == "axis":
-            return snap(v, 1.0) == cur
+            return snap(v, STEP[name]) == cur
         if name in ("samples", "age"):
             return int(round(float(v))) == int(cur)
         if name in ("pupil_mm", "cvd_severity"):

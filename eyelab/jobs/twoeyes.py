@@ -11,7 +11,7 @@ from __future__ import annotations
 import copy
 
 from eyelab.imaging.stereo import SIDES, BinocularResult, binocular_report, compose
-from eyelab.jobs.controls import EXPLICIT_EYE, edit_spec_data, snap
+from eyelab.jobs.controls import EXPLICIT_EYE, STEP, edit_spec_data, snap
 from eyelab.optics.prescription import Prescription
 from eyelab.spec.sides import SHARED_ONLY
 
@@ -91,9 +91,8 @@ class TwoEyesMixin:
     written (one eye's table, or both eyes' — linked — by the same change), each eye's
     renderer, and its rotation on the as-worn maps. Needs of its model: ``spec``,
     ``data``, ``renderer``, ``pose`` (the last frame's :class:`BinocularPose`, or None),
-    ``value()``, ``apply()``, ``message``, ``last_change`` and ``_maps_key``."""
-
-    _left_renderer = None
+    ``value()``, ``apply()``, ``message``, ``last_change``, ``_maps_key`` and
+    ``_left_renderer`` (None until a left eye's renderer is made)."""
 
     @property
     def two_eyes(self) -> bool:
@@ -171,8 +170,7 @@ class TwoEyesMixin:
         if self.edit != "both" or name not in ("sphere", "cylinder", "axis"):
             edit_spec_data(data, name, v, edited_sides(self.edit))
             return
-        step = 1.0 if name == "axis" else 0.25
-        change = snap(v, step) - getattr(self.eye_rx("right", data), name)
+        change = snap(v, STEP[name]) - getattr(self.eye_rx("right", data), name)
         for side, sign in (("right", 1.0), ("left", -1.0 if name == "axis" else 1.0)):
             if self.explicit_powers(side):
                 continue                # its powers are kept: edit it alone to replace them
@@ -200,12 +198,12 @@ class TwoEyesMixin:
                 left_out.append(f"{who}'s eye is given by its powers, not an Rx")
             else:
                 rxs[side] = self._eye_table(side).get("rx", "plano")
-        out = None
-        if rxs:
-            out = self.apply({"lens_rx": rxs[None] if None in rxs else rxs})
-        if left_out and out is None:
+        if rxs and (error := self.apply({"lens_rx": rxs[None] if None in rxs else rxs})):
+            return error
+        if left_out:
             self.message = "not designed: " + "; ".join(left_out)
-        return out or (self.message if left_out else None)
+            return self.message
+        return None
 
     def renderers(self) -> list:
         """The raster renderer of each eye: one eye's, or the right's and the left's (two
@@ -225,7 +223,7 @@ class TwoEyesMixin:
     def eye_gaze(self) -> tuple:
         """(right, up) deg: the shown eye's rotation — the gaze for one eye; for two, the
         eye's own rotation toward the fixated point (the last frame's pose)."""
-        if not self.two_eyes or getattr(self, "pose", None) is None:
+        if not self.two_eyes or self.pose is None:
             return tuple(self.value("gaze"))
         return tuple(float(v) for v in self.pose.gazes[self.side])
 

@@ -71,7 +71,7 @@ def draw_side(win) -> None:
         win.set_top_text("field", f"blur field ({eye}{depths[k]:.2f} m depth, "
                                   f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm)")
         # ellipses magnified to fill about half the column spacing (Kakimoto Fig. 12)
-        w = field.slice_depths()[k]
+        w = depths[k]
         tx, ty = field.camera.tan_half
         spacing = 2 * 2 * w * tx / field.shape[2]
         big = np.abs(field.matrix[k]).max() * w * max(tx, ty)

@@ -10,6 +10,7 @@ for a size of N, its capitals and digits (the glyph height the window is checked
 
 from __future__ import annotations
 
+import functools
 import textwrap
 
 import numpy as np
@@ -39,6 +40,7 @@ def font_size(window_height: int) -> int:
     return max(BASE_FONT, int(round(window_height / HEIGHT_PER_POINT)))
 
 
+@functools.lru_cache(maxsize=64)
 def cap_height_px(size: int) -> int:
     """Height (px) of a capital H's ink at font ``size``: the glyph height of the text."""
     from eyelab.render._vtk import vtk_to_numpy, vtkImageData
