@@ -8,11 +8,13 @@ loads no VTK and no embree)::
     result.save("view.png")                                     # Jupyter shows `result`
     eye = eyelab.Eye.from_rx("-3.00 / -1.00 x 180")
 
-Functions: :func:`render`, :func:`analyze`, :func:`maps`, :func:`load_spec`,
+Functions: :func:`render`, :func:`analyze`, :func:`maps`, :func:`psf`, :func:`load_spec`,
 :func:`make_renderer` (a renderer by name), :func:`builtin_scene`. Types:
-:class:`Eye`, :class:`Prescription`, :class:`SpectacleLens`, :class:`LensPose`,
-:class:`Material`, :class:`Scene`, :class:`View`, :class:`RenderResult`, :class:`Spec`,
-:class:`SpecError`. The packages below are the layers (docs/ARCHITECTURE.md).
+:class:`Session` (open renderers and built scenes kept between calls; the functions use a
+shared default one unless given ``session=``), :class:`Eye`, :class:`Prescription`,
+:class:`SpectacleLens`, :class:`LensPose`, :class:`Material`, :class:`Scene`,
+:class:`View`, :class:`RenderResult`, :class:`Spec`, :class:`SpecError`. The packages
+below are the layers (docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ _API = {
     "render": "eyelab.jobs.api",
     "analyze": "eyelab.jobs.api",
     "maps": "eyelab.jobs.api",
+    "psf": "eyelab.jobs.api",
+    "Session": "eyelab.jobs.session",
     "builtin_scene": "eyelab.jobs.api",
 }
 __all__ = ["__version__", *_API]

@@ -160,7 +160,7 @@ class LendingPool:
                 stale.append(self._idle.pop(0)[1])
             self._lent += 1
         try:
-            _close_all(stale)
+            close_all(stale)
             return make()
         except BaseException:
             with self._lock:
@@ -174,7 +174,7 @@ class LendingPool:
             self._closed = True
             stale = [obj for _, obj in self._idle]
             self._idle.clear()
-        _close_all(stale)
+        close_all(stale)
 
     def __enter__(self):
         return self
@@ -209,7 +209,7 @@ def release_owned(key) -> bool:
     return obj is not None
 
 
-def _close_all(objects) -> None:
+def close_all(objects) -> None:
     """Close every object, even when one fails; the first failure is raised after."""
     first = None
     for obj in objects:

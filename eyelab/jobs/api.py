@@ -1,6 +1,13 @@
 """The functions of eyelab's public API (:mod:`eyelab`): from a spec — a TOML file's path,
 a :class:`~eyelab.spec.Spec`, the spec's dict, or None for the built-in default — to an
-image, a point analysis or as-worn maps, with ``[render]`` keys overridden by keyword.
+image, a point analysis, as-worn maps or a point-spread function, with ``[render]`` keys
+overridden by keyword.
+
+Each function runs in a :class:`~eyelab.jobs.session.Session`: ``session=None`` (the
+default) is the process's shared one (:func:`~eyelab.jobs.session.default_session`),
+which keeps open renderers and built scenes between calls, so that rendering the same
+spec again (or with another eye or lens) costs about a warm renderer's frame; pass your
+own ``eyelab.Session()`` to hold them apart and close them when you are done.
 
 >>> import eyelab
 >>> eyelab.render(None, width=96, height=72, samples=2)       # doctest: +SKIP
@@ -9,69 +16,48 @@ image, a point analysis or as-worn maps, with ``[render]`` keys overridden by ke
 
 from __future__ import annotations
 
-from pathlib import Path
+from eyelab.jobs.psf import PITCH_ARCMIN, SIZE
+from eyelab.jobs.session import Session, as_spec, session_or_default, with_render
 
-from eyelab.core.errors import SpecError
-from eyelab.spec import Spec, load_spec, one_eye, parse_spec
-
-
-def as_spec(spec=None) -> Spec:
-    """A :class:`~eyelab.spec.Spec` from a path (str or :class:`~pathlib.Path`), a spec's
-    dict (the TOML's tables), a Spec (returned as is) or None (the built-in default)."""
-    if spec is None or isinstance(spec, (str, Path)):
-        return load_spec(spec)
-    if isinstance(spec, Spec):
-        return spec
-    if isinstance(spec, dict):
-        return parse_spec(spec, "<dict>")
-    raise TypeError(f"a spec is a path, a dict, a Spec or None, got {type(spec).__name__}")
+__all__ = ["analyze", "as_spec", "builtin_scene", "maps", "psf", "render", "with_render"]
 
 
-def with_render(spec: Spec, overrides: dict) -> Spec:
-    """``spec`` with ``[render]`` keys replaced (validated again, errors naming the key)."""
-    import dataclasses
-
-    if not overrides:
-        return spec
-    gaze = overrides.get("gaze_deg")
-    if isinstance(gaze, tuple):
-        overrides = dict(overrides, gaze_deg=list(gaze))   # as a TOML array; else checked as is
-    return dataclasses.replace(spec, render=spec.render.with_changes(**overrides))
-
-
-def render(spec=None, *, no_lens: bool = False, **overrides):
+def render(spec=None, *, no_lens: bool = False, session: Session | None = None,
+           **overrides):
     """What the spec's eye sees (through its lens unless ``no_lens``), or both eyes' images
     for a two-eye spec. ``overrides``: ``[render]`` keys, e.g. ``width=320, samples=8,
-    renderer="reference", scene="chart", gaze_deg=(10, -20)``. Returns a
+    renderer="reference", scene="chart", gaze_deg=(10, -20)``. ``session``: the
+    :class:`~eyelab.jobs.session.Session` whose renderers and scenes to reuse (None: the
+    default one); the report's ``cache.session`` says what was reused. Returns a
     :class:`~eyelab.imaging.contract.RenderResult` (one eye; ``.save(path)``, shown by
     Jupyter) or an :class:`~eyelab.imaging.stereo.BinocularResult` (two)."""
-    from eyelab.jobs.render import render_binocular_spec, render_spec
-
-    s = with_render(as_spec(spec), overrides)
-    if s.binocular is not None:
-        return render_binocular_spec(s, no_lens=no_lens)
-    return render_spec(s, no_lens=no_lens)
+    return session_or_default(session).render(spec, no_lens=no_lens, **overrides)
 
 
-def analyze(spec=None, *, no_lens: bool = False) -> dict:
+def analyze(spec=None, *, no_lens: bool = False, session: Session | None = None) -> dict:
     """The lens designer's point analysis of the spec's ``[[points]]`` (``eyelab analyze``'s
     JSON report, as a dict)."""
-    from eyelab.jobs.analyze import analyze_spec
-
-    return analyze_spec(as_spec(spec), no_lens=no_lens)
+    return session_or_default(session).analyze(spec, no_lens=no_lens)
 
 
-def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31):
+def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31,
+         session: Session | None = None):
     """As-worn maps of the spec's lens over an n x n grid of eye rotations (Fick angles
     about the centre of rotation) within ±half_angle_deg
     (:class:`~eyelab.optics.asworn.AsWornMaps`)."""
-    from eyelab.optics.asworn import as_worn_maps
+    return session_or_default(session).maps(spec, half_angle_deg=half_angle_deg, n=n)
 
-    s = one_eye(as_spec(spec), "maps")
-    if s.lens is None:
-        raise SpecError("lens", "the spec has no lens to map")
-    return as_worn_maps(s.eye, s.lens, half_angle_deg=half_angle_deg, n=n,
-                        wavelength_nm=s.wavelength_nm)
+
+def psf(spec=None, *, point: int = 0, no_lens: bool = False,
+        pitch_arcmin: float = PITCH_ARCMIN, size: int = SIZE,
+        session: Session | None = None) -> tuple:
+    """The eye's point-spread function at the spec's ``[[points]]`` entry ``point``, per
+    colour channel, in wave optics (``eyelab psf``): (psf (3, size, size) float64, rows
+    top to bottom as the wearer sees, each channel summing to the energy inside the
+    square; report dict, its units first). ``pitch_arcmin``: arcmin per pixel (0.01-10),
+    ``size``: pixels a side (odd, 3-1025)."""
+    return session_or_default(session).psf(spec, point=point, no_lens=no_lens,
+                                           pitch_arcmin=pitch_arcmin, size=size)
 
 
 def builtin_scene(name: str = "room", **params):

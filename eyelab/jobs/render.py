@@ -41,12 +41,14 @@ def build_scene(source) -> Scene:
     return scene
 
 
-def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
+def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None,
+                scene: Scene | None = None):
     """Render what the spec's eye sees (through its lens unless ``no_lens``) with the spec's
     renderer, view and quality (:class:`eyelab.spec.RenderSpec`); ``renderer`` reuses an
-    open renderer of the same kind."""
+    open renderer of the same kind, ``scene`` the spec's scene built already (what
+    :func:`build_scene` makes of ``spec.render.scene``)."""
     rs = spec.render
-    scene = build_scene(rs.scene)
+    scene = build_scene(rs.scene) if scene is None else scene
     # the observer: the spec's camera lens where it has one, else its eye (and lens)
     observer = spec.eye if rs.camera is None else rs.camera
     lens = None if no_lens or rs.camera is not None else spec.lens
@@ -56,14 +58,16 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
         return r.render(scene, observer, lens, rs.view)
 
 
-def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None):
+def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None,
+                          scene: Scene | None = None):
     """Both eyes of a binocular spec (:func:`eyelab.imaging.stereo.render_binocular`) with
     the spec's renderer, view and quality; ``renderer`` reuses an open renderer of that
-    kind. Returns a :class:`~eyelab.imaging.stereo.BinocularResult`."""
+    kind, ``scene`` the spec's scene built already. Returns a
+    :class:`~eyelab.imaging.stereo.BinocularResult`."""
     from eyelab.imaging.stereo import render_binocular
 
     rs = spec.render
-    scene = build_scene(rs.scene)
+    scene = build_scene(rs.scene) if scene is None else scene
     if renderer is not None:
         return render_binocular(renderer, scene, spec.binocular, rs.view, rs.quality,
                                 no_lens=no_lens)
