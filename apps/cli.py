@@ -1,5 +1,5 @@
 """The ``eyelab`` command: ``analyze``, ``render``, ``demo``, ``inspect``, ``batch``,
-``maps``, ``surface``, ``bench``.
+``maps``, ``surface``, ``psf``, ``cache``, ``bench``.
 
 Thin: parses arguments and calls the library. User mistakes (bad spec, bad option)
 print one line naming the field and exit with status 2; no partial output file is left.
@@ -12,7 +12,7 @@ import contextlib
 import sys
 
 from eyelab.apps import bench
-from eyelab.apps.common import add_max_memory, add_quiet, apply_max_memory, warn
+from eyelab.apps.common import add_max_memory, add_no_cache, add_quiet, apply_max_memory, warn
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import report_text, write_report
 
@@ -54,7 +54,7 @@ def _build_parser() -> argparse.ArgumentParser:
     dm.add_argument("-o", "--output", default="eyelab-demo.png", help="PNG file (its JSON "
                     "report is written beside it, .json)")
     _render_overrides(dm)
-    from eyelab.apps import batch, inspector, psf, surface
+    from eyelab.apps import batch, cache, inspector, psf, surface
 
     inspector.add_parser(sub)
     batch.add_parser(sub)
@@ -70,8 +70,16 @@ def _build_parser() -> argparse.ArgumentParser:
                          "+-this many degrees (default 30)")
     mp.add_argument("--points", type=int, default=31,
                     help="eye rotations per axis (default 31)")
+    cache.add_parser(sub)
     bench.add_parser(sub)
+    for name in _CACHED:
+        add_no_cache(sub.choices[name])
     return ap
+
+
+#: The subcommands that read specs, so may make an optimised progressive design (taken
+#: from the on-disk cache unless ``--no-cache``).
+_CACHED = ("analyze", "render", "demo", "inspect", "batch", "surface", "psf", "maps")
 
 
 #: [render] keys whose command-line flag has another name.
@@ -158,8 +166,14 @@ def _main(args) -> int:
         from eyelab.core.progress import set_enabled
 
         set_enabled(False)
+    from eyelab.core.diskcache import OFF_ENV
+    from eyelab.core.parallel import scoped_environ
+
+    # --no-cache: EYELAB_NO_CACHE=1 for this command and the processes it starts
+    off = {OFF_ENV: "1"} if getattr(args, "no_cache", False) else {}
     try:
-        return _COMMANDS[args.command](args)
+        with scoped_environ(**off):
+            return _COMMANDS[args.command](args)
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
         return 2
@@ -187,7 +201,7 @@ def _app(module: str):
 _COMMANDS = {"analyze": lambda a: _analyze(a), "bench": lambda a: bench.run(a),
              "render": lambda a: _render(a), "demo": lambda a: _render(a),
              "maps": lambda a: _maps(a), "inspect": _app("inspector"), "batch": _app("batch"),
-             "surface": _app("surface"), "psf": _app("psf")}
+             "surface": _app("surface"), "psf": _app("psf"), "cache": _app("cache")}
 
 
 def _analyze(args) -> int:
@@ -339,8 +353,7 @@ def _write_demo(args, spec) -> None:
 
 def _maps(args) -> int:
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, report_writer
-    from eyelab.jobs.maps import cli_maps as as_worn_maps
-    from eyelab.jobs.maps import figures_summary, maps_figures, maps_summary, plot_maps
+    from eyelab.jobs import maps as job
     from eyelab.spec import load_spec, one_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
@@ -355,15 +368,18 @@ def _maps(args) -> int:
         check_distinct(**{"--output": args.output, "--json": args.json})
     if spec.lens is None:
         raise SpecError("lens", "the spec has no lens to map")
-    maps = as_worn_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle, n=args.points,
+    maps = job.cli_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle, n=args.points,
                         wavelength_nm=spec.wavelength_nm)
-    figures = maps_figures(spec.eye, spec.lens, wavelength_nm=spec.wavelength_nm, maps=maps)
+    figures = job.maps_figures(spec.eye, spec.lens, wavelength_nm=spec.wavelength_nm, maps=maps)
     title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
-    writers = {args.output: lambda tmp: plot_maps(maps, tmp, title)}
+    origin = job.design_origin(spec.lens)
+    writers = {args.output: lambda tmp: job.plot_maps(maps, tmp, title)}
     if args.json:
-        writers[args.json] = report_writer(dict(maps.to_json(), figures=figures))
+        extra = {} if origin is None else {"design": origin}
+        writers[args.json] = report_writer(dict(maps.to_json(), figures=figures, **extra))
     atomic_group(writers)
-    print("\n".join(maps_summary(maps) + figures_summary(figures)))
+    print("\n".join(job.design_summary(origin) + job.maps_summary(maps)
+                    + job.figures_summary(figures)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
 

@@ -9,6 +9,15 @@ def add_quiet(parser) -> None:
                         "stderr when it is a terminal, for work longer than 2 s)")
 
 
+def add_no_cache(parser) -> None:
+    """``--no-cache``: results are computed, not read from or written to the on-disk cache
+    (:mod:`eyelab.core.diskcache`) — as ``EYELAB_NO_CACHE=1``, which the command sets for
+    itself and the processes it starts (a batch's local Dask workers)."""
+    parser.add_argument("--no-cache", action="store_true",
+                        help="neither read nor write the on-disk cache of expensive results "
+                        "(optimised progressive designs); as EYELAB_NO_CACHE=1")
+
+
 def apply_max_memory(args) -> None:
     """``--max-memory``, when given, becomes this process's limit (every render checks it)."""
     from eyelab.imaging.memory import set_memory_limit

@@ -1,10 +1,19 @@
+import atexit
 import os
+import shutil
 import sys
+import tempfile
 
 import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")
+# The suite never reads or writes the user's on-disk cache (~/.cache/eyelab,
+# eyelab/core/diskcache.py): one empty folder per run, removed at exit, inherited by the
+# subprocesses the tests start. Set at import, before any test (or doctest) runs.
+_CACHE = tempfile.mkdtemp(prefix="eyelab-test-cache-")
+os.environ["EYELAB_CACHE_DIR"] = _CACHE
+atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 
 @pytest.fixture(autouse=True)

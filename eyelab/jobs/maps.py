@@ -118,6 +118,30 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
     png_writer(rgb)(path)
 
 
+def design_origin(lens) -> dict | None:
+    """Where an optimised progressive ``lens``'s design came from in this process
+    (:func:`eyelab.optics.optimise.design_origin`: "computed" by the optimiser, or read
+    from the on-disk cache, with the entry's path); None for any other lens. For the
+    maps' JSON (``design``) and :func:`design_summary`."""
+    from eyelab.optics.optimise import design_origin as origin
+
+    return origin(lens)
+
+
+def design_summary(origin: dict | None) -> list:
+    """The line saying whether the optimiser ran (:func:`design_origin`); none for a lens
+    that was not optimised."""
+    if origin is None:
+        return []
+    took = f"the optimiser's {origin['seconds']:.1f} s"
+    if origin["source"] == "disk":
+        return [f"design: optimised as worn ({origin['preset']}), from the on-disk cache "
+                f"({origin['path']}; {took} saved)"]
+    where = (f"cached in {origin['path']}" if origin["path"] and not origin["note"] else
+             f"not cached: {origin['note']}" if origin["note"] else "not cached")
+    return [f"design: optimised as worn ({origin['preset']}) in this run, {took}; {where}"]
+
+
 def maps_summary(maps: AsWornMaps) -> list:
     """Lines a designer reads first: the extremes and the central value."""
     c = len(maps.eye_rotation_y_deg) // 2

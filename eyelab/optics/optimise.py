@@ -37,11 +37,16 @@ approach to progressive lens design", *Computer-Aided Design* 30:595 (1998)). He
   it decreases monotonically whatever the model's error (tested against finite
   differences of the exact residuals: ``tests/test_optimise.py``), and the result is
   deterministic (no random starts).
+* **Cache**: being deterministic, a design is optimised once per machine
+  (:func:`optimised_progressive`): kept in memory, and on disk as its coefficients
+  (:mod:`eyelab.core.diskcache`), from which :func:`corrected_lens` rebuilds the lens
+  bit for bit in any later process.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
 
 import numpy as np
@@ -177,6 +182,26 @@ def weights(x_mm, y_mm, design, preset: str) -> tuple:
     return wm, wc
 
 
+def _corrected(lens, design, corr: Correction, c):
+    """The analytic ``lens`` with the correction ``c`` added to its front's sag grid: the
+    one path from coefficients to a lens (the optimiser's and the disk cache's)."""
+    from eyelab.optics.progressive import _with_front
+    from eyelab.optics.surfaces import FreeForm
+
+    f = lens.front
+    front = FreeForm(f.x, f.y, f.z + corr.sag(c, f.x, f.y))
+    return _with_front(lens, front, lens.rx, design)
+
+
+def corrected_lens(lens, design, coefficients, *, knots: int,
+                   wavelength_nm: float = 587.56):
+    """The analytic progressive ``lens`` of ``design`` with the optimiser's ``coefficients``
+    ((knots + 3)^2,) — ``report["coefficients"]`` of :func:`optimise_progressive` run with
+    the same ``knots`` and wavelength (nm) — applied: the optimised lens, bit for bit."""
+    corr = Correction(lens.diameter, knots, lens.material.n(wavelength_nm))
+    return _corrected(lens, design, corr, np.asarray(coefficients, float))
+
+
 class _Problem:
     """The fixed gazes, targets and weights, and the exact residual of a coefficient
     vector (one lens built and traced per call)."""
@@ -217,12 +242,7 @@ class _Problem:
 
     def lens(self, c):
         """The lens with the corrected front."""
-        from eyelab.optics.progressive import _with_front
-        from eyelab.optics.surfaces import FreeForm
-
-        z = self.z0 + self.corr.sag(c, self.gx, self.gy)
-        front = FreeForm(self.gx, self.gy, z)
-        return _with_front(self.base, front, self.base.rx, self.design)
+        return _corrected(self.base, self.design, self.corr, c)
 
     def errors(self, lens) -> tuple:
         """(E11, E12, E22, front hit x, y (m)) per gaze, the as-worn power error (D) in the
@@ -307,35 +327,106 @@ def optimise_progressive(lens, design, *, settings: Settings | None = None,
 
 
 _DESIGNS = None
+_ORIGINS = None
+_CACHES_LOCK = threading.Lock()
 
 
-def optimised_progressive(rx, add: float, preset: str, **kw) -> tuple:
+def _caches() -> tuple:
+    """The process's LRU caches of optimised designs (by the analytic lens's key) and of
+    their origins (by the optimised front's), made on first use (under a lock: threads
+    share them)."""
+    global _DESIGNS, _ORIGINS
+    from eyelab.core.cache import LRUCache
+
+    with _CACHES_LOCK:
+        if _DESIGNS is None:
+            _DESIGNS = LRUCache(8, "optimised designs")
+        if _ORIGINS is None:
+            _ORIGINS = LRUCache(8, "design origins")
+        return _DESIGNS, _ORIGINS
+
+
+#: The disk cache's namespace of optimised designs (:mod:`eyelab.core.diskcache`).
+CACHE_NAMESPACE = "progressive-design"
+
+
+def optimised_progressive(rx, add: float, preset: str, *, settings: Settings | None = None,
+                          **kw) -> tuple:
     """The progressive lens of :func:`eyelab.optics.progressive.progressive_lens` (same
-    arguments), optimised as worn with the ``preset``'s weights: (lens, design, report).
-    Kept in a process-wide LRU cache keyed by the analytic lens's content (built first: a
-    tenth of a second) and the preset, so every spec that makes the same lens — whatever
-    its wording — shares one optimisation (the optimiser takes seconds; specs are parsed
-    again by the inspector, the demo and batch jobs)."""
-    global _DESIGNS
-    from eyelab.core.cache import LRUCache, content_key
+    arguments), optimised as worn with the ``preset``'s weights (``settings``: the
+    optimiser's grid and stopping rule, default :class:`Settings`; its preset is
+    ``preset``): (lens, design, report).
+
+    The optimiser takes seconds, so its result is kept twice, keyed by the analytic lens's
+    content (built first: a tenth of a second), the settings and the wavelength — every
+    spec that makes the same lens, whatever its wording, shares one optimisation: in a
+    process-wide LRU cache (specs are parsed again by the inspector, the demo and batch
+    jobs), and on disk (:mod:`eyelab.core.diskcache`: the coefficients and the report,
+    so a new process rebuilds the lens bit for bit through :func:`corrected_lens`).
+    ``report["optimised"]["source"]`` says where this call's design came from:
+    "computed", "memory" or "disk"; ``["cache"]`` is the disk cache's
+    :class:`~eyelab.core.diskcache.Status` (its entry's path, or why it was not used)."""
+    from eyelab.core.cache import content_key
     from eyelab.optics.progressive import progressive_lens
 
-    if _DESIGNS is None:
-        _DESIGNS = LRUCache(8, "optimised designs")
+    designs, origins = _caches()
+    settings = dataclasses.replace(settings or Settings(), preset=preset)
     lens, design, report = progressive_lens(rx, add, **kw)
     wl = kw.get("wavelength_nm", 587.56)
-    key = content_key(front=lens.front.content_key, back=repr(lens.back),
-                      thickness=lens.center_thickness, diameter=lens.diameter,
-                      material=repr(lens.material), pose=repr(lens.pose),
-                      rx=[lens.rx.sphere, lens.rx.cylinder, lens.rx.axis, lens.rx.add],
-                      design=repr(design), preset=preset, wavelength_nm=wl)
-
-    def make():
-        opt, rep = optimise_progressive(lens, design, settings=Settings(preset=preset),
-                                        wavelength_nm=wl)
-        return opt, rep
-
-    opt, rep = _DESIGNS.get_or_create(key, make)[0]
-    report = dict(report, optimised={k: v for k, v in rep.items()
-                                     if k not in ("history", "coefficients")})
+    parts = dict(front=lens.front.content_key, back=repr(lens.back),
+                 thickness=lens.center_thickness, diameter=lens.diameter,
+                 material=repr(lens.material), pose=repr(lens.pose),
+                 rx=[lens.rx.sphere, lens.rx.cylinder, lens.rx.axis, lens.rx.add],
+                 design=repr(design), settings=settings, wavelength_nm=wl)
+    key = content_key(**parts)
+    hit = designs.get(key)
+    if hit is None:
+        opt, rep, status = _design_from_disk_or_optimiser(lens, design, settings, wl, parts)
+        designs.put(key, (opt, rep, status))
+        origins.put(opt.front.content_key, dict(status.to_json(), seconds=rep["seconds"],
+                                                 preset=preset))
+        source = status.source
+    else:
+        (opt, rep, status), source = hit, "memory"
+    report = dict(report, optimised=dict(rep, source=source, cache=status.to_json()))
     return opt, design, report
+
+
+def _design_from_disk_or_optimiser(lens, design, settings, wl, parts) -> tuple:
+    """(optimised lens, report without history and coefficients, disk cache status)."""
+    from pathlib import Path
+
+    import scipy
+
+    from eyelab.core import diskcache
+
+    made = {}
+
+    def compute():
+        opt, rep = optimise_progressive(lens, design, settings=settings, wavelength_nm=wl)
+        made["lens"] = opt
+        return ({"coefficients": rep["coefficients"]},
+                {k: v for k, v in rep.items() if k not in ("history", "coefficients")})
+
+    # the code that computes a design: this package and the core (an edited optimiser in
+    # an editable install misses); numpy's and scipy's versions (their last bits)
+    code = (Path(__file__).parent, Path(diskcache.__file__).parent)
+    arrays, rep, status = diskcache.fetch(
+        CACHE_NAMESPACE, dict(parts, numpy=np.__version__, scipy=scipy.__version__),
+        compute, code=code)
+    opt = made.get("lens")
+    if opt is None:
+        opt = corrected_lens(lens, design, arrays["coefficients"], knots=settings.knots,
+                             wavelength_nm=wl)
+    return opt, rep, status
+
+
+def design_origin(lens) -> dict | None:
+    """How this process got the optimised ``lens`` (one :func:`optimised_progressive`
+    made, matched by its front's content) when it was not in memory: ``source``
+    "computed" or "disk", ``path`` of the disk cache's entry, ``note`` (why the cache was
+    not used, or what was wrong with its entry), ``seconds`` the optimiser took (then),
+    ``preset``. None for a lens it did not make (or one its small cache has forgotten)."""
+    if not hasattr(lens.front, "content_key"):
+        return None
+    return _caches()[1].get(lens.front.content_key)
