@@ -18,8 +18,8 @@ _SIZE_RANGE = View.LIMITS["render.width"]
 BENCHES = {
     "optics": ("throughput of the optics engine", ("points", "repeats")),
     "blurfield": ("blur-field precompute time and accuracy", ("repeats",)),
-    "render": ("raster frame times per stage and per skip; the default frame, old vs new",
-               ("repeats", "against", "quality_json")),
+    "render": ("raster frame times per stage and per skip; the default frames, old vs new",
+               ("repeats", "against", "quality_json", "frames_only")),
     "quality": ("error against converged references vs time, every renderer",
                 ("preset", "size", "plot", "truth_spp", "reference_spp", "configs", "scenes",
                  "merge", "omit", "truth_cache")),
@@ -62,6 +62,10 @@ _BENCH_FLAGS = {
     "preset": _add_preset,
     "quick": lambda b, name: b.add_argument("--quick", action="store_true",
                                             help="a small, fast run"),
+    "frames_only": lambda b, name: b.add_argument(
+        "--frames-only", action="store_true",
+        help="only the default frames (uncorrected, through the lens, emmetrope, the API's "
+             "first and second call), three rounds of processes"),
     "points": lambda b, name: b.add_argument(
         "--points", type=int, default=1_000_000,
         help="points per wavefront-tracing batch (default 1e6)"),
@@ -143,7 +147,7 @@ def _bench_render(args):
 
     quality = None if args.quality is None else _read_json("--quality", args.quality)
     return run_render_bench(repeats=min(args.repeats, 3), against=args.against,
-                            quality=quality)
+                            quality=quality, frames_only=args.frames_only)
 
 
 def _bench_quality(args):

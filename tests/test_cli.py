@@ -165,9 +165,10 @@ def test_bench_render_small(tmp_path, monkeypatch):
     import eyelab.bench.render as br
 
     orig = br.run_render_bench
-    monkeypatch.setattr(br, "run_render_bench", lambda repeats=1, against=None, quality=None:
+    monkeypatch.setattr(br, "run_render_bench", lambda repeats=1, against=None, quality=None,
+                        frames_only=False:
                         orig(width=96, height=72, triangles=(600,), samples=(1, 4), repeats=1,
-                             against=against, quality=quality))
+                             against=against, quality=quality, frames_only=frames_only))
     out = tmp_path / "r.json"
     quality = tmp_path / "q.json"
     quality.write_text(json.dumps(_quality_result()))
@@ -176,7 +177,10 @@ def test_bench_render_small(tmp_path, monkeypatch):
     res = json.loads(out.read_text())
     frame = res["default_frame"]
     assert frame["size"] == [96, 72] and "old" not in frame
-    assert frame["new"]["quality"]["samples"] == 8 and frame["new"]["naked"] > 0
+    assert frame["new"]["quality"]["samples"] == 8
+    assert all(frame["new"][k] > 0 for k in frame["kinds"])
+    assert set(frame["new"]["ratios"]) == {"emmetrope_over_uncorrected",
+                                           "api_second_over_warm", "api_first_over_warm"}
     # equal-error speed-up: where the raster's error equals the reference's at 16 spp it is
     # their time ratio; a 4x smaller error takes the reference 16x the samples and time
     # (Monte Carlo error ~ 1/sqrt(spp)), which the reference's own two rows bear out here
@@ -223,8 +227,8 @@ def test_bench_render_against_an_earlier_version_or_a_clear_refusal(tmp_path, ca
         return
     res = default_frames("HEAD", size=(64, 48), repeats=1, rounds=1)
     assert res["against"]["ref"] == "HEAD" and len(res["against"]["commit"]) == 40
-    assert set(res["speedup"]) == {"naked", "through_lens"}
-    assert all(res[v]["through_lens"] > 0 for v in ("old", "new"))
+    assert set(res["new_over_old"]) == set(res["kinds"])
+    assert all(res[v]["corrected_through_lens"] > 0 for v in ("old", "new"))
 
 
 @pytest.mark.parametrize("text", ['{"benchmark": "render"}', "[1, 2]",

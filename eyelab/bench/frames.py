@@ -1,7 +1,8 @@
-"""The default-quality frame, old against new: the built-in spec's eye (at 1024 x 768 in
-``eyelab bench render``), naked and through its lens, warm frames, each code version in its
-own process, the versions' processes interleaved so that they share the machine's noise
-(``eyelab bench render --against REF``). An earlier version is checked out with ``git
+"""The default-quality frames, old against new: the built-in spec's eye (at 1024 x 768 in
+``eyelab bench render``) uncorrected, through its lens and made emmetropic, warm frames,
+and the public API's first and second call (:data:`FRAME_KINDS`), each code version in
+its own process, the versions' processes interleaved so that they share the machine's
+noise (``eyelab bench render --against REF``). An earlier version is checked out with ``git
 worktree`` into a temporary folder and imported from there (``PYTHONPATH``; this version
 likewise from its own folder); it must have ``eyelab.jobs.api.as_spec`` / ``with_render``,
 ``eyelab.jobs.render.render_spec`` and ``eyelab.imaging.registry.make_renderer``, or the
@@ -24,25 +25,42 @@ from eyelab.core.errors import SpecError
 #: The frame measured: the built-in spec at this size, at its renderer's defaults.
 DEFAULT_FRAME_SIZE = (1024, 768)
 
-#: Run in a fresh process of one code version: warm frames of the default spec, naked and
-#: through the lens, alternating; prints one JSON line (best and all times, the quality).
+#: The frames timed, each a warm frame of the built-in spec: its eye uncorrected (a
+#: blurred far field), through its lens (the wearer corrected: blur below a pixel over most
+#: of the view), and its emmetrope (everything but the nearest floor in focus); and
+#: ``eyelab.render`` of the spec called twice in a row (the public API: the second call is
+#: what a notebook pays for each new image).
+FRAME_KINDS = ("uncorrected", "corrected_through_lens", "emmetrope", "api_first_call",
+               "api_second_call")
+
+#: Run in a fresh process of one code version: warm frames of the default spec (uncorrected,
+#: through the lens, the emmetrope), alternating; then the public API called twice; prints
+#: one JSON line (all times, the quality).
 FRAME_SCRIPT = r"""
-import json, sys, time
+import dataclasses, json, sys, time
+import eyelab
 from eyelab.jobs.api import as_spec, with_render
-from eyelab.jobs.render import render_spec
+from eyelab.jobs.render import render_spec, _emmetrope
 from eyelab.imaging.registry import make_renderer
 w, h, repeats = json.loads(sys.argv[1])
 spec = with_render(as_spec(None), dict(width=w, height=h))
+emm = dataclasses.replace(spec, eye=_emmetrope(spec.eye))
 rs = spec.render
-times = {"naked": [], "through_lens": []}
+cases = (("uncorrected", spec, True), ("corrected_through_lens", spec, False),
+         ("emmetrope", emm, True))
+times = {k: [] for k, _, _ in cases}
 with make_renderer(rs.renderer, rs.quality) as r:
-    for no_lens in (True, False):                     # cold frames: caches and shaders
-        render_spec(spec, no_lens=no_lens, renderer=r)
+    for _, s, no_lens in cases:                       # cold frames: caches and shaders
+        render_spec(s, no_lens=no_lens, renderer=r)
     for _ in range(repeats):
-        for label, no_lens in (("naked", True), ("through_lens", False)):
+        for label, s, no_lens in cases:
             t = time.perf_counter()
-            render_spec(spec, no_lens=no_lens, renderer=r)
+            render_spec(s, no_lens=no_lens, renderer=r)
             times[label].append(time.perf_counter() - t)
+for label in ("api_first_call", "api_second_call"):
+    t = time.perf_counter()
+    eyelab.render(None, width=w, height=h)
+    times[label] = [time.perf_counter() - t]
 q = rs.quality
 print(json.dumps({"times_s": times,
                   "quality": {k: getattr(q, k) for k in ("samples", "reconstruct",
@@ -110,10 +128,10 @@ def _frames(root, size, repeats, ref=None) -> dict:
 
 def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repeats=3,
                    rounds=2, progress=None) -> dict:
-    """Best warm frame time (s) of the default spec, naked and through its lens, for this
-    code ("new") and, with ``against`` (a git ref), for that version ("old"), with the
-    ratios old / new. ``rounds`` processes per version, interleaved (old, new, old,
-    new, ...), ``repeats`` frames of each kind in each."""
+    """Best time (s) of each of :data:`FRAME_KINDS` for this code ("new") and, with
+    ``against`` (a git ref), for that version ("old"), with each version's
+    :func:`frame_ratios` and the ratios new / old. ``rounds`` processes per version,
+    interleaved (old, new, old, new, ...), ``repeats`` frames of each kind in each."""
     runs = {"new": []}
     with (worktree(against) if against else nullcontext()) as tree:
         roots = {"new": _checkout()}
@@ -126,12 +144,23 @@ def default_frames(against: str | None = None, *, size=DEFAULT_FRAME_SIZE, repea
                                            against if label == "old" else None))
                 if progress is not None:
                     progress.update(1)
-    out = {"size": list(size), "repeats": repeats, "rounds": rounds}
+    out = {"size": list(size), "repeats": repeats, "rounds": rounds, "kinds": FRAME_KINDS}
     for label, results in runs.items():
         out[label] = {kind: min(t for r in results for t in r["times_s"][kind])
-                      for kind in ("naked", "through_lens")}
+                      for kind in FRAME_KINDS}
         out[label]["quality"] = results[0]["quality"]
+        out[label]["ratios"] = frame_ratios(out[label])
     if against:
         out["against"] = {"ref": against, "commit": tree[1]}
-        out["speedup"] = {k: out["old"][k] / out["new"][k] for k in ("naked", "through_lens")}
+        out["new_over_old"] = {k: out["new"][k] / out["old"][k] for k in FRAME_KINDS}
     return out
+
+
+def frame_ratios(best: dict) -> dict:
+    """What the frames say about cost following the scene (best times of one version): the
+    emmetrope's frame over the uncorrected one (a sharp view should cost a fraction of a
+    blurred one), and the API's second call over the warm frame through the lens (the
+    same image: a warm API adds next to nothing)."""
+    return {"emmetrope_over_uncorrected": best["emmetrope"] / best["uncorrected"],
+            "api_second_over_warm": best["api_second_call"] / best["corrected_through_lens"],
+            "api_first_over_warm": best["api_first_call"] / best["corrected_through_lens"]}

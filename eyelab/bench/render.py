@@ -83,20 +83,26 @@ def equal_error_table(quality: dict) -> dict:
 
 
 def run_render_bench(width=1024, height=768, triangles=(10_000, 100_000), samples=(1, 10, 32),
-                     repeats=2, *, against: str | None = None, quality: dict | None = None
-                     ) -> dict:
+                     repeats=2, *, against: str | None = None, quality: dict | None = None,
+                     frames_only: bool = False) -> dict:
     rx = Prescription(-3.0, -1.0, 180)
     eye = Eye.from_rx(rx, accommodation_max=1.0)
     lens = SpectacleLens.from_rx(rx)
     rows = []
     table = None if quality is None else equal_error_table(quality)   # refused before the run
     rounds = 2
-    bar = progress_bar(len(triangles) * len(samples) + 2 + rounds * (2 if against else 1),
-                       "render bench", "row")
+    if frames_only:          # the default frames alone, three rounds of processes
+        rounds, triangles, samples = 3, (), ()
+    bar = progress_bar(len(triangles) * len(samples) + rounds * (2 if against else 1)
+                       + (0 if frames_only else 2), "render bench", "row")
     from eyelab.bench.frames import default_frames
 
     default = default_frames(against, size=(width, height), repeats=repeats, rounds=rounds,
                              progress=bar)
+    if frames_only:
+        bar.close()
+        return {"benchmark": "render", "size": [width, height], "default_frame": default,
+                "summary": _default_lines(default)}
     for n in triangles:
         scene = boxes_scene(n)
         for s in samples:
@@ -185,13 +191,17 @@ def _default_lines(d: dict) -> list:
     lines = []
     for label in ("old", "new"):
         if label in d:
-            q = d[label]["quality"]
-            lines.append(f"default frame {w}x{h} ({label}: S={q.get('samples')}, filter "
-                         f"{q.get('reconstruct')}, env x{q.get('env_oversample')}): naked "
-                         f"{d[label]['naked'] * 1e3:.0f} ms, through the lens "
-                         f"{d[label]['through_lens'] * 1e3:.0f} ms")
-    if "speedup" in d:
-        lines.append(f"new vs old ({d['against']['ref']} = {d['against']['commit'][:10]}): "
-                     f"naked x{d['speedup']['naked']:.2f}, through the lens "
-                     f"x{d['speedup']['through_lens']:.2f}")
+            q, b, r = d[label]["quality"], d[label], d[label]["ratios"]
+            lines.append(
+                f"default frames {w}x{h} ({label}: S={q.get('samples')}, filter "
+                f"{q.get('reconstruct')}, env x{q.get('env_oversample')}): uncorrected "
+                f"{b['uncorrected'] * 1e3:.0f} ms, through the lens "
+                f"{b['corrected_through_lens'] * 1e3:.0f} ms, emmetrope "
+                f"{b['emmetrope'] * 1e3:.0f} ms ({r['emmetrope_over_uncorrected']:.2f} of "
+                f"the uncorrected); eyelab.render first call {b['api_first_call']:.2f} s, "
+                f"second {b['api_second_call'] * 1e3:.0f} ms "
+                f"({r['api_second_over_warm']:.2f} x the warm frame)")
+    if "new_over_old" in d:
+        lines.append(f"new / old ({d['against']['ref']} = {d['against']['commit'][:10]}): "
+                     + ", ".join(f"{k} {v:.2f}" for k, v in d["new_over_old"].items()))
     return lines

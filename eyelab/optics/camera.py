@@ -204,3 +204,43 @@ def fit_window(cam: Camera, width: int) -> tuple:
 
     h = max(16, int(round(width / cam.aspect)))
     return dataclasses.replace(cam, aspect=width / h), (width, h)
+
+
+def lens_view_density(lens, eye_cam: Camera, vcam: Camera, eye_width_px: int, *,
+                      wavelength_nm=587.56, samples=33, distance_m=10.0) -> float | None:
+    """How densely a virtual camera ``vcam`` must sample to resolve what ``eye_cam`` (an image
+    ``eye_width_px`` wide) sees through the lens: the smallest, over the lens as seen in
+    the view, of the smallest singular value of d(vcam pixel) / d(eye pixel) for a vcam
+    image 1 pixel wide — so that a vcam image ``k / density`` pixels wide has at least k
+    of its pixels per eye pixel in every direction everywhere on the lens. Eye rays on a
+    ``samples`` x ``samples`` NDC grid are reverse-traced through the lens (as
+    :func:`fit_virtual_camera` does) to points ``distance_m`` along the leaving rays,
+    projected into ``vcam``; each grid cell whose four corners pass gives the local
+    Jacobian by finite differences. The lens's magnification and distortion both show in
+    it (a plus lens magnifies: denser). None when fewer than one cell passes."""
+    g = np.linspace(-1.0, 1.0, samples)
+    gx, gy = np.meshgrid(g, g)
+    dirs = eye_cam.ray_directions(gx.ravel(), gy.ravel())
+    o = np.broadcast_to(np.asarray(eye_cam.position, float), dirs.shape)
+    res = lens.trace(o, dirs, wavelength_nm, reverse=True)
+    ok = (res["status"] == 0).reshape(samples, samples)
+    ndc = np.full((samples * samples, 2), np.nan)
+    good = ok.ravel()
+    p = res["out_points"][good] + distance_m * res["out_dirs"][good]
+    ndc[good] = vcam.world_to_ndc(p)[:, :2]
+    ndc = ndc.reshape(samples, samples, 2)
+    cell = ok[:-1, :-1] & ok[1:, :-1] & ok[:-1, 1:] & ok[1:, 1:]
+    if not cell.any():
+        return None
+    step = g[1] - g[0]
+    # d(vcam ndc) / d(eye ndc), averaged over each cell's two edges per axis
+    dx = 0.5 * (ndc[:-1, 1:] - ndc[:-1, :-1] + ndc[1:, 1:] - ndc[1:, :-1]) / step
+    dy = 0.5 * (ndc[1:, :-1] - ndc[:-1, :-1] + ndc[1:, 1:] - ndc[:-1, 1:]) / step
+    jac = np.stack([dx[cell], dy[cell]], -1)           # (m, 2 vcam axes, 2 eye axes)
+    # to pixels: vcam 1 px wide (height 1 / aspect), eye W x H px (NDC spans 2 units)
+    scale_v = np.array([0.5, 0.5 / vcam.aspect])[:, None]
+    scale_e = np.array([2.0, 2.0 * eye_cam.aspect])[None, :] / eye_width_px
+    from eyelab.core.vecmath import svd2x2
+
+    s = svd2x2(jac * scale_v * scale_e)[1][..., 1]
+    return float(s.min())

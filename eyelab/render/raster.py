@@ -8,9 +8,10 @@ Per frame (the orchestration lives here; the parts in their own modules):
    along their edges;
 3. naked-eye view: the scene from the eye camera, each vertex displaced in NDC by its
    blur-field matrix times a per-pass seed (vertex shader, ``window.OffscreenWindow``),
-   S passes averaged (``accumulate.PassAccumulator``);
+   S passes averaged (``accumulate.PassAccumulator``); with per-channel fields a pass draws
+   the other channels only where they differ from the first (``channels``);
 4. through the lens (only if the lens is in view): the same with the virtual camera and
-   the through-lens field -> the environment image; per-vertex ray tracing
+   the through-lens field -> the environment image, as dense as the lens needs; per-vertex ray tracing
    (``eyelab.scene.pervertex``) gives every lens vertex its texture coordinates into it
    (one set per colour channel when the lens disperses);
 5. reconstruction (``eyelab.blur.reconstruct``; on by default, ``RasterQuality.reconstruct``):
@@ -55,6 +56,7 @@ from eyelab.optics.camera import fit_virtual_camera, fit_window
 from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.optics.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import PassAccumulator, encode_linear
+from eyelab.render.channels import channel_spread, grab_pass, note_channels
 from eyelab.render.composite import LensCompositor, compose
 from eyelab.render.stages import (
     env_width,
@@ -216,8 +218,8 @@ class RasterRenderer(Renderer):
                                                     "naked")
         f_lens = vcam = None
         if lens_in_view:
-            vcam = self._virtual_camera(lens, cam, view, q, report)
-            f_lens = self._fields(eye, lens, vcam, bounds, view, q, report, "through_lens",
+            vcam = self._virtual_camera(lens, cam, view, q, report)      # (camera, size)
+            f_lens = self._fields(eye, lens, vcam[0], bounds, view, q, report, "through_lens",
                                   pupil=cam.position)
         timings["fields"] = time.perf_counter() - t
         meshes = None
@@ -250,13 +252,13 @@ class RasterRenderer(Renderer):
 
     def _virtual_camera(self, lens, cam, view, q, report):
         """The virtual camera fitted to the refracted rays (§3.1), in an integer window."""
-        def fit():
+        def fit():       # the camera and its window's width, from the lens's density
             fitted = fit_virtual_camera(lens, cam).camera
-            return fit_window(fitted, env_width(cam, fitted, view, q))[0]
+            return fit_window(fitted, env_width(cam, fitted, view, q, lens))
 
         key = content_key(what="vcam", lens=lens, camera=cam, oversample=q.env_oversample,
                           width=view.width)
-        return self._cached("small", key, fit, report, "virtual_camera")[0]
+        return self._cached("small", key, fit, report, "virtual_camera")[0]  # (cam, size)
 
     def _fields(self, eye, lens, cam, bounds, view, q, report, label, pupil=None) -> list:
         """The stage's blur fields: one at the eye's reference wavelength, or one per colour
@@ -315,24 +317,29 @@ class RasterRenderer(Renderer):
         return scene_items(meshes, fields, q.field_route, passes, cam, height, prefilter)
 
     def _reconstruction(self, fields, passes, size, q, report) -> tuple:
-        """(fields the passes displace by, reconstruction state or None) of a stage of
+        """(fields the passes displace by, reconstruction state or None, their
+        :func:`~eyelab.render.channels.channel_spread`) of a stage of
         ``size`` = (w, h) px. With the reconstruction filter on and more than one pass,
         each field is variance-compensated for the filter's per-voxel sigma at S passes
         (:func:`eyelab.blur.reconstruct.compensated`: disc + Gaussian keep the blur's
         second moments), cached; otherwise the fields themselves."""
         if not (q.reconstruct and passes > 1):
-            return fields, None
+            spread, _ = self._cached("small", ("spread", tuple(size)) + tuple(
+                f.key for f in fields), lambda: channel_spread(fields, size), report,
+                "channel_spread")
+            return fields, None, spread
 
         def build():
             svds = [pixel_svd(f, size) for f in fields]
             vol = sigma_volume(svds, passes)
-            return svds, vol, [compensated(f, svd, vol, size)
-                               for f, svd in zip(fields, svds, strict=True)]
+            shrunk = [compensated(f, svd, vol, size, c)
+                      for c, (f, svd) in enumerate(zip(fields, svds, strict=True))]
+            return svds, vol, shrunk, channel_spread(shrunk, size)
 
         key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)
-        (svds, vol, shrunk), _ = self._cached("small", key, build, report,
-                                              "compensated_fields")
-        return shrunk, {"svds": svds, "sigma": vol}
+        (svds, vol, shrunk, spread), _ = self._cached("small", key, build, report,
+                                                      "compensated_fields")
+        return shrunk, {"svds": svds, "sigma": vol}, spread
 
     def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
@@ -344,9 +351,9 @@ class RasterRenderer(Renderer):
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
         passes, seeds, jitter = passes_for(fields, q, report, "naked view")
-        fields, recon = self._reconstruction(fields, passes, (view.width, view.height), q,
-                                             report)
-        return {"win": win, "cam": cam, "fields": fields, "recon": recon,
+        fields, recon, spread = self._reconstruction(fields, passes,
+                                                     (view.width, view.height), q, report)
+        return {"win": win, "cam": cam, "fields": fields, "recon": recon, "spread": spread,
                 "items": self._scene_items(meshes, fields, q, passes, cam, view.height, report),
                 "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter,
@@ -357,10 +364,11 @@ class RasterRenderer(Renderer):
             self._env_win = OffscreenWindow()
         win = self._env_win
         win.render_s = win.readback_s = 0.0
-        vcam, (w_env, h_env) = fit_window(vcam, env_width(cam, vcam, view, q))
+        vcam, (w_env, h_env) = vcam
         win.set_view(vcam, (w_env, h_env), scene.background)
         passes, seeds, jitter = passes_for(fields, q, report, "environment")
-        fields, recon = self._reconstruction(fields, passes, (w_env, h_env), q, report)
+        fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,
+                                                     report)
         items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
@@ -373,8 +381,10 @@ class RasterRenderer(Renderer):
                            eye=cam, size=(view.width, view.height))
         geo, _ = self._cached("texcoords", tkey, lambda: lens_geometry(
             scene, lens, vcam, cam, view, q, wls), report, "lens_texcoords")
-        report["details"]["lens"] = lens_details(geo, len(wls), vcam)
-        return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "items": items,
+        report["details"]["lens"] = dict(lens_details(geo, len(wls), vcam),
+                                         environment_px=[w_env, h_env])
+        return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "spread": spread,
+                "items": items,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
                 "geo_key": tkey,
@@ -404,11 +414,13 @@ class RasterRenderer(Renderer):
                         if k >= st["passes"]:
                             continue
                         t = time.perf_counter()
-                        st["acc"].add(self._pass(st, k, q.field_route))
-                        if k == 0 and st["recon"] is not None:
+                        st["acc"].add(grab_pass(st, k, q.field_route))
+                        if k == 0 and st["recon"] is not None and "zbuf" not in st:
                             st["zbuf"] = st["win"].depth()
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
+                        note_channels(st, "naked view" if st is naked else "environment",
+                                      report)
                     bar.update(1)
                 done = cp
                 if shown is not None and cp not in shown:
@@ -421,26 +433,11 @@ class RasterRenderer(Renderer):
             for st in stages:
                 st["win"].set_seed((0.0, 0.0))
 
-    def _pass(self, st, k, route) -> np.ndarray:
-        """Pass ``k`` of a stage as GL-ordered RGBA uint8: one render, or with per-channel
-        fields one render per channel (the same seed and jitter, each displacing by its
-        own channel's field), of which each gives its own colour channel."""
-        win = st["win"]
-        win.set_seed(st["seeds"][k], st["jitter"][k])
-        if len(st["fields"]) == 1:
-            return win.grab_rgba()
-        out = st["rgba"]
-        for c in range(len(st["fields"])):       # the seed uniforms stay set across channels
-            select_channel(st, c, route)
-            out[..., c] = win.grab_rgba()[..., c]
-        out[..., 3] = 255
-        return out
-
     def _mean(self, st, q, report) -> np.ndarray:
         """The stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
         reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`)."""
         acc = st["acc"]
-        if "zbuf" not in st:
+        if st["recon"] is None or "zbuf" not in st:
             return acc.mean_rgba()
         t = time.perf_counter()
         # the sigma the fields were compensated for; before the last pass (a progressive

@@ -58,9 +58,18 @@ def passes_for(fields, q, report, label) -> tuple:
     return q.samples, seeds, jit
 
 
-def env_width(cam, vcam, view, q) -> int:
-    ratio = vcam.tan_half[0] / cam.tan_half[0]
-    return int(min(4096, max(16, round(view.width * ratio * q.env_oversample))))
+def env_width(cam, vcam, view, q, lens=None) -> int:
+    """The environment image's width (px): ``q.env_oversample`` of its pixels per eye pixel
+    in every direction where the lens needs them most
+    (:func:`~eyelab.optics.camera.lens_view_density`: its magnification and distortion),
+    in 16-4096. Without ``lens`` (or where no ray passes it), the virtual camera's field
+    over the eye's, times the oversampling."""
+    from eyelab.optics.camera import lens_view_density
+
+    density = None if lens is None else lens_view_density(lens, cam, vcam, view.width)
+    if density is None or density <= 0:
+        density = cam.tan_half[0] / (vcam.tan_half[0] * view.width)
+    return int(min(4096, max(16, round(q.env_oversample / density))))
 
 
 def lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:

@@ -15,6 +15,10 @@ import numpy as np
 from eyelab.core.interrupt import deferred
 from eyelab.render import _vtk
 
+#: The ``tile`` uniform (NDC scale x, y and centre x, y of the rendered rectangle in the
+#: whole view) of a whole-view render.
+WHOLE_VIEW = (1.0, 1.0, 0.0, 0.0)
+
 #: Vertex shader tags measured to exist in VTK 9.7 (docs/VTK_NOTES.md Q5).
 VERTEX_TAGS = ("//VTK::PositionVC::Dec", "//VTK::PositionVC::Impl",
                "//VTK::CustomBegin::Impl", "//VTK::CustomEnd::Impl")
@@ -90,6 +94,7 @@ class OffscreenWindow:
                     inject_fragment(sp, "encode_srgb.frag")
                 sp.GetVertexCustomUniforms().SetUniform2f("seed", [0.0, 0.0])
                 sp.GetVertexCustomUniforms().SetUniform2f("jitter", [0.0, 0.0])
+                sp.GetVertexCustomUniforms().SetUniform4f("tile", list(WHOLE_VIEW))
                 self.shaders[route, textured] = sp
         self.route = "attribute"
         self.actors = {}
@@ -100,18 +105,28 @@ class OffscreenWindow:
         self.render_s = 0.0
         self.readback_s = 0.0
         self._buf = _vtk.vtkUnsignedCharArray()
+        self._rect_buf = _vtk.vtkUnsignedCharArray()
+        self._jitter_px = (0.0, 0.0)
+        self._fov_y_deg = 30.0
 
     def _route_shaders(self):
         return [self.shaders[self.route, t] for t in (False, True)]
 
     def set_seed(self, seed, jitter_px=(0.0, 0.0)) -> None:
         """Per-pass uniforms: the unit-disc seed and a sub-pixel offset (pixels)."""
-        w, h = self.size
+        self._jitter_px = (float(jitter_px[0]), float(jitter_px[1]))
         for sp in self._route_shaders():
-            u = sp.GetVertexCustomUniforms()
-            u.SetUniform2f("seed", [float(seed[0]), float(seed[1])])
-            u.SetUniform2f("jitter", [2.0 * float(jitter_px[0]) / max(w, 1),
-                                      2.0 * float(jitter_px[1]) / max(h, 1)])
+            sp.GetVertexCustomUniforms().SetUniform2f("seed", [float(seed[0]),
+                                                               float(seed[1])])
+        self._set_jitter(self.size)
+
+    def _set_jitter(self, size) -> None:
+        """The pass's sub-pixel offset as NDC of a viewport of ``size`` = (w, h) px."""
+        w, h = size
+        for sp in self._route_shaders():
+            sp.GetVertexCustomUniforms().SetUniform2f(
+                "jitter", [2.0 * self._jitter_px[0] / max(w, 1),
+                           2.0 * self._jitter_px[1] / max(h, 1)])
 
     def use_field(self, field, route: str) -> None:
         """Select the route. "texture": the field as a 3D RGBA32F texture (linear filtering,
@@ -197,6 +212,7 @@ class OffscreenWindow:
         c.SetFocalPoint(*(pos + np.asarray(forward, float)))
         c.SetViewUp(*np.asarray(up, float))
         c.SetViewAngle(fov_y_deg)
+        self._fov_y_deg = float(fov_y_deg)
         c.SetClippingRange(near, far)
         self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
 
@@ -220,6 +236,48 @@ class OffscreenWindow:
         self.render_s += t1 - t0
         self.readback_s += time.perf_counter() - t1
         return out
+
+    def grab_rect_rgba(self, rect) -> np.ndarray:
+        """Render only the pixels of ``rect`` = (x0, y0, x1, y1) (GL order: row 0 at the
+        bottom; x1, y1 exclusive) as they are in the whole view, and read them as RGBA
+        (y1 - y0, x1 - x0, 4) uint8 (a view of a reused buffer). The renderer's viewport is
+        the rectangle and the camera's frustum its part of the whole one (the view angle
+        scaled, the window centre moved); the shaders' ``tile`` uniform maps the
+        rectangle's NDC back to the whole view's, so the field is looked up, and displaces,
+        as in a whole-view render, and the jitter stays the same in pixels. The rasteriser
+        fills only the rectangle (its cost follows its area: docs/VTK_NOTES.md)."""
+        import math
+
+        x0, y0, x1, y1 = (int(v) for v in rect)
+        w, h = self.size
+        sx, sy = (x1 - x0) / w, (y1 - y0) / h
+        cx, cy = (x0 + x1) / w - 1.0, (y0 + y1) / h - 1.0
+        cam = self.ren.GetActiveCamera()
+        tan_y = math.tan(math.radians(self._fov_y_deg) / 2)
+        cam.SetViewAngle(2 * math.degrees(math.atan(tan_y * sy)))
+        cam.SetWindowCenter(cx / sx, cy / sy)
+        self.ren.SetViewport(x0 / w, y0 / h, x1 / w, y1 / h)
+        self._set_tile((sx, sy, cx, cy), (x1 - x0, y1 - y0))
+        try:
+            t0 = time.perf_counter()
+            with deferred():
+                self.win.Render()
+            t1 = time.perf_counter()
+            self.win.GetRGBACharPixelData(x0, y0, x1 - 1, y1 - 1, 0, self._rect_buf)
+            out = _vtk.vtk_to_numpy(self._rect_buf).reshape(y1 - y0, x1 - x0, 4)
+            self.render_s += t1 - t0
+            self.readback_s += time.perf_counter() - t1
+        finally:
+            cam.SetViewAngle(self._fov_y_deg)
+            cam.SetWindowCenter(0.0, 0.0)
+            self.ren.SetViewport(0.0, 0.0, 1.0, 1.0)
+            self._set_tile(WHOLE_VIEW, self.size)
+        return out
+
+    def _set_tile(self, tile, size) -> None:
+        for sp in self._route_shaders():
+            sp.GetVertexCustomUniforms().SetUniform4f("tile", [float(v) for v in tile])
+        self._set_jitter(size)
 
     def grab(self) -> np.ndarray:
         """Render and read RGB (h, w, 3) uint8 (a copy), row 0 at the top."""

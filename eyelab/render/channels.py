@@ -1,0 +1,182 @@
+"""Colour channels rendered apart only where they differ.
+
+Where the eye's chromatic aberration or a lens's dispersion gives each colour channel its
+own blur field, a pass displaces every vertex by each channel's own matrix, and so draws
+the view once per channel (Kakimoto et al. 2007, §4.5, per wavelength). But where every
+channel's pass displacement is the same — in focus, or where the reconstruction filter
+carries each channel's small blur whole (:data:`eyelab.blur.reconstruct.FULL_CARRY_PX`) —
+the channels' renders are the same image. A pass therefore draws the whole view once,
+with the first channel's field, and draws the other channels again only inside the
+rectangles where some channel's displacement differs from the first's by more than
+:data:`CHANNEL_TOL_PX`, widened by how far any displaced copy can reach. The rectangles
+are found once per frame, from the first pass's depth buffer.
+
+Pure numpy and scipy (the rectangles); the renders are :class:`~eyelab.render.window.
+OffscreenWindow`'s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Channels agree where the blurs their passes make differ by at most this (px): drawn with
+#: the first channel's displacement B0 instead of its own B, a channel's blur covariance
+#: B0 B0^T / 4 differs from its own by at most (CHANNEL_TOL_PX / 2)^2 = 0.0625 px^2 (the
+#: spectral norm), less than the pixel's own footprint (1/12 px^2). The passes' seeds
+#: average to the disc's covariance whatever the matrix's sign (eyelab.core.sampling), so
+#: the two sides of focus, B and -B, agree.
+CHANNEL_TOL_PX = 0.5
+
+#: Side (px) of the tiles the disagreement is mapped on.
+TILE_PX = 32
+
+#: A render's fixed cost as pixels of fill: two rectangles are drawn as one (their
+#: bounding box) when that fills fewer extra pixels than this. Measured with llvmpipe on the
+#: built-in room at 1024 x 768 (`OffscreenWindow.grab_rect_rgba`): 1.1 ms for a 32 x 32
+#: rectangle, 4.95 ms for the 1024 x 192 band of floor, page and boxes (~20 ns per pixel of
+#: dense geometry), 7.6 ms for the whole view: a render's overhead is worth ~55k pixels.
+RENDER_COST_PX = 60_000
+
+
+def channel_spread(fields, size) -> dict | None:
+    """Per voxel of per-channel ``fields`` (those the passes displace by) in a window of
+    ``size`` = (w, h) px: "diff" (nz, ny, nx) px, the largest difference of a channel's
+    blur from the first's, sqrt(||B B^T - B0 B0^T||) of the pixel-scaled matrices
+    (spectral norm: for round blurs of semi-axes a and a0, sqrt|a^2 - a0^2|), and "reach"
+    (nz, ny, nx) px, the largest displacement of any channel. None for one field."""
+    if len(fields) < 2:
+        return None
+    from eyelab.core.vecmath import svd2x2
+
+    px = np.array([size[0] / 2, size[1] / 2])[:, None]
+    def cov(m):
+        return m @ np.swapaxes(m, -1, -2)
+
+    m0 = fields[0].matrix * px
+    c0 = cov(m0)
+    diff = np.zeros(fields[0].matrix.shape[:3])
+    reach = svd2x2(m0)[1][..., 0]
+    for f in fields[1:]:
+        m = f.matrix * px
+        # the symmetric difference's spectral norm is its largest |eigenvalue|
+        d = cov(m) - c0
+        mean, half = (d[..., 0, 0] + d[..., 1, 1]) / 2, np.hypot(
+            (d[..., 0, 0] - d[..., 1, 1]) / 2, d[..., 0, 1])
+        diff = np.maximum(diff, np.sqrt(np.abs(mean) + half))
+        reach = np.maximum(reach, svd2x2(m)[1][..., 0])
+    return {"diff": diff, "reach": reach}
+
+
+def disagreeing_rects(spread: dict, voxels: dict) -> list:
+    """The rectangles (x0, y0, x1, y1) (GL order: row 0 at the bottom; x1, y1 exclusive)
+    that the other channels must be drawn in: tiles of :data:`TILE_PX` holding a surface
+    pixel whose channels disagree (``spread`` of :func:`channel_spread` looked up through
+    ``voxels``, :func:`eyelab.blur.reconstruct.pixel_voxels` of the first pass's depth
+    buffer), widened by the largest reach of those pixels (+ 2 px: jitter and rounding),
+    each connected group of tiles one rectangle (its bounding box), rectangles merged where
+    :data:`RENDER_COST_PX` says one render is cheaper (:func:`merge_boxes`; a pixel in two
+    rectangles is drawn twice, the same both times). Empty where the channels agree."""
+    from scipy.ndimage import find_objects, label, maximum_filter
+
+    h, w = voxels["shape"]
+    vox = voxels["voxel"]                                  # every 2nd pixel, top row first
+    diff = np.concatenate([[0.0], spread["diff"].ravel()])[vox]
+    dyn = diff > CHANNEL_TOL_PX
+    if not dyn.any():
+        return []
+    reach = float(np.concatenate([[0.0], spread["reach"].ravel()])[vox][dyn].max()) + 2.0
+    t = TILE_PX // 2                                       # tile side in evaluated pixels
+    ty, tx = -(-dyn.shape[0] // t), -(-dyn.shape[1] // t)
+    pad = np.zeros((ty * t, tx * t), bool)
+    pad[:dyn.shape[0], :dyn.shape[1]] = dyn
+    tiles = pad.reshape(ty, t, tx, t).any((1, 3))
+    k = int(np.ceil(reach / TILE_PX))
+    tiles = maximum_filter(tiles, size=2 * k + 1, mode="constant")
+    labels, n = label(tiles)
+    boxes = [[s[0].start, s[0].stop, s[1].start, s[1].stop] for s in find_objects(labels)]
+    boxes = merge_boxes(boxes, RENDER_COST_PX / TILE_PX**2)
+    t = TILE_PX
+    return [(c0 * t, max(h - r1 * t, 0), min(c1 * t, w), h - r0 * t)
+            for r0, r1, c0, c1 in boxes]
+
+
+def merge_boxes(boxes: list, cost: float) -> list:
+    """Boxes [r0, r1, c0, c1] (half-open) merged pairwise, cheapest first, while drawing
+    two as their bounding box fills fewer extra cells than ``cost`` (a render's fixed cost
+    in cells) — which also merges overlapping boxes."""
+    boxes = [list(b) for b in boxes]
+
+    def area(b):
+        return (b[1] - b[0]) * (b[3] - b[2])
+
+    while len(boxes) > 1:
+        best = None
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                a, b = boxes[i], boxes[j]
+                u = [min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])]
+                extra = area(u) - area(a) - area(b)
+                if extra < cost and (best is None or extra < best[0]):
+                    best = (extra, i, j, u)
+        if best is None:
+            break
+        _, i, j, u = best
+        boxes = [b for k, b in enumerate(boxes) if k not in (i, j)] + [u]
+    return boxes
+
+
+def rects_area(rects) -> int:
+    """Pixels covered by non-overlapping ``rects`` (x0, y0, x1, y1)."""
+    return int(sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in rects))
+
+
+def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
+    """Pass ``k`` of a raster stage ``st`` (:mod:`eyelab.render.raster`) as GL-ordered RGBA
+    uint8: one render, or with per-channel fields the whole view with the first channel's
+    field and, inside the rectangles of :func:`disagreeing_rects` (found on pass 0 from its
+    depth buffer, kept in ``st["rects"]``), each other channel with its own (the same seed
+    and jitter), of which each gives its own colour channel."""
+    from eyelab.blur.reconstruct import pixel_voxels
+    from eyelab.render.stages import select_channel
+
+    win = st["win"]
+    win.set_seed(st["seeds"][k], st["jitter"][k])
+    fields = st["fields"]
+    if len(fields) == 1:
+        return win.grab_rgba()
+    select_channel(st, 0, route)
+    whole = win.grab_rgba()
+    if "rects" not in st:
+        st["zbuf"] = win.depth()
+        st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
+        st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
+    out = st["rgba"]
+    np.copyto(out, whole)
+    for c in range(1, len(fields)):     # the seed uniforms stay set across channels
+        if not st["rects"]:
+            break
+        select_channel(st, c, route)
+        for x0, y0, x1, y1 in st["rects"]:
+            out[y0:y1, x0:x1, c] = win.grab_rect_rgba((x0, y0, x1, y1))[..., c]
+    out[..., 3] = 255
+    return out
+
+
+def note_channels(st: dict, label: str, report: dict) -> None:
+    """Once per frame and stage: the report's ``details.channels[label]`` (rectangles drawn
+    per channel, their share of the view, renders per pass) and, where that saves renders,
+    the skipped work."""
+    if "rects" not in st or st.get("noted"):
+        return
+    st["noted"] = True
+    n = len(st["fields"])
+    h, w = st["acc"].shape
+    share = rects_area(st["rects"]) / float(w * h)
+    report["details"].setdefault("channels", {})[label] = {
+        "channels": n, "rects": [list(map(int, r)) for r in st["rects"]],
+        "area_fraction": share, "renders_per_pass": 1 + (n - 1) * len(st["rects"])}
+    if share < 1.0:
+        report["skipped"].append(
+            f"{label}: the {n} colour channels' displacements agree outside "
+            f"{len(st['rects'])} rectangle(s) ({100 * share:.0f} % of the view): one render "
+            f"per pass there instead of {n}")
