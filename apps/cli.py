@@ -368,18 +368,22 @@ def _maps(args) -> int:
         check_distinct(**{"--output": args.output, "--json": args.json})
     if spec.lens is None:
         raise SpecError("lens", "the spec has no lens to map")
-    maps = job.cli_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle, n=args.points,
-                        wavelength_nm=spec.wavelength_nm)
-    figures = job.maps_figures(spec.eye, spec.lens, wavelength_nm=spec.wavelength_nm, maps=maps)
+    maps, maps_origin = job.cli_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle,
+                                     n=args.points, wavelength_nm=spec.wavelength_nm)
+    figures, figures_origin = job.figures_and_origin(spec.eye, spec.lens, maps=maps,
+                                                     wavelength_nm=spec.wavelength_nm)
     title = f"{spec.lens.rx.format()} in {spec.lens.material.name}, as worn"
     origin = job.design_origin(spec.lens)
     writers = {args.output: lambda tmp: job.plot_maps(maps, tmp, title)}
     if args.json:
         extra = {} if origin is None else {"design": origin}
-        writers[args.json] = report_writer(dict(maps.to_json(), figures=figures, **extra))
+        writers[args.json] = report_writer(dict(maps.to_json(), figures=figures, **extra,
+                                                maps_origin=maps_origin,
+                                                figures_origin=figures_origin))
     atomic_group(writers)
-    print("\n".join(job.design_summary(origin) + job.maps_summary(maps)
-                    + job.figures_summary(figures)))
+    print("\n".join(job.design_summary(origin) + job.origin_summary("maps", maps_origin)
+                    + job.origin_summary("figures of merit", figures_origin)
+                    + job.maps_summary(maps) + job.figures_summary(figures)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
 

@@ -319,7 +319,7 @@ def test_the_maps_command_says_where_the_design_came_from(folder, monkeypatch, t
     """``eyelab maps`` of docs/gallery/pal.toml (its optimisation and figures' grid made
     coarse: the path is the same): the first run optimises and says so, the next
     process's (the memory cache emptied) reads the design from disk — in its summary line
-    and its JSON."""
+    and its JSON — and its maps and figures of merit too, the same numbers."""
     import functools
 
     from eyelab.apps.cli import main
@@ -330,11 +330,19 @@ def test_the_maps_command_says_where_the_design_came_from(folder, monkeypatch, t
     monkeypatch.setattr(maps, "FIGURES_GRID", {"half_angle_deg": 40.0, "n": 11})
     args = ["maps", "docs/gallery/pal.toml", "--points", "5", "-o", str(tmp_path / "m.png"),
             "--json", str(tmp_path / "m.json")]
+    figures = []
     for source, line in (("computed", "in this run"), ("disk", "from the on-disk cache")):
         monkeypatch.setattr(optimise, "_DESIGNS", None)
         monkeypatch.chdir(os.path.dirname(os.path.dirname(__file__)))
         assert main(args) == 0
         out = capsys.readouterr().out
         assert out.startswith("design: optimised as worn (soft)") and line in out, out
-        design = json.loads((tmp_path / "m.json").read_text())["design"]
+        report = json.loads((tmp_path / "m.json").read_text())
+        design = report["design"]
         assert design["source"] == source and design["path"].startswith(str(folder))
+        for what, key in (("maps", "maps_origin"), ("figures of merit", "figures_origin")):
+            assert report[key]["source"] == source
+            said = "from the on-disk cache" if source == "disk" else "computed in this run"
+            assert f"\n{what}: {said}" in out, out
+        figures.append(report["figures"])
+    assert figures[1] == figures[0]

@@ -16,38 +16,91 @@ from collections import OrderedDict
 import numpy as np
 
 
+class Incomplete(TypeError):
+    """A part of a key that only its ``repr`` could stand for (:func:`complete_key`)."""
+
+
 def content_key(**parts) -> str:
     """Stable hex key of every input that matters: dataclasses (field by field), numpy
     arrays (their bytes, dtype and shape), numbers, strings, lists and dicts. An object
     with a ``content_key`` attribute (e.g. a scene mesh, which caches the digest of its
-    read-only arrays) contributes that instead of being re-hashed.
+    read-only arrays) contributes that instead of being re-hashed; anything else, its
+    ``repr`` (which may leave things out: :func:`complete_key` refuses it).
 
     >>> content_key(a=1.0, b="x") == content_key(b="x", a=1.0)
     True
     >>> content_key(a=np.zeros(3)) == content_key(a=np.zeros(4))
     False
     """
+    return _key(parts, strict=False)
+
+
+def complete_key(**parts) -> str | None:
+    """A key of ``parts`` as :func:`content_key`'s when every part is given by its whole
+    content — a dataclass (field by field; its class named with its module) of such
+    parts, a numpy array of numbers or text, a number (a numpy scalar with its dtype), a
+    string, bool or None, a list or tuple of them, a dict of them by strings, or an
+    object's own ``content_key`` — else None: a part that only its ``repr`` could stand
+    for (a rounded or abridged text may be the same for two different inputs) gets no
+    key. For results kept beyond the process (:mod:`eyelab.core.diskcache`), where two
+    inputs sharing a key would read each other's results.
+
+    >>> complete_key(a=1.0) == complete_key(a="1.0")
+    False
+    >>> complete_key(f=len) is None
+    True
+    """
+    try:
+        return _key(parts, strict=True)
+    except Incomplete:
+        return None
+
+
+def _key(parts: dict, strict: bool) -> str:
     def enc(o):
         key = getattr(o, "content_key", None)
         if isinstance(key, str):
-            return {"_type": type(o).__name__, "_key": key}
+            return {"_type": _type_name(o, strict), "_key": key}
         if hasattr(o, "__dataclass_fields__"):
-            return {"_type": type(o).__name__, **{k: enc(getattr(o, k))
-                                                  for k in o.__dataclass_fields__}}
+            return {"_type": _type_name(o, strict),
+                    **{k: enc(getattr(o, k)) for k in o.__dataclass_fields__}}
         if isinstance(o, np.ndarray):
+            if strict and o.dtype.kind not in "biufcSU":     # object arrays: pointers
+                raise Incomplete(f"an array of {o.dtype}")
             return {"_array": array_digest(o), "shape": o.shape, "dtype": str(o.dtype)}
         if isinstance(o, (list, tuple)):
             return [enc(x) for x in o]
         if isinstance(o, dict):
+            if strict and not all(isinstance(k, str) for k in o):
+                raise Incomplete("a dict with keys other than strings")   # 1 and "1"
             return {str(k): enc(v) for k, v in sorted(o.items())}
-        if isinstance(o, (float, np.floating)):
-            return repr(float(o))
-        if isinstance(o, np.integer):
-            return int(o)
-        return o if isinstance(o, (int, str, bool, type(None))) else repr(o)
+        return _scalar(o, strict)
 
     blob = json.dumps(enc(parts), sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:24]
+
+
+def _type_name(o, strict: bool) -> str:
+    """A part's class: with its module when ``strict`` (two classes of one name apart)."""
+    t = type(o)
+    return f"{t.__module__}.{t.__qualname__}" if strict else t.__name__
+
+
+def _scalar(o, strict: bool):
+    """The encoding of a key's leaf: numbers exactly (a float by ``repr``, which reads back
+    to the same double), text, bools, None; anything else by ``repr`` (refused when
+    ``strict``)."""
+    if strict and isinstance(o, (np.floating, np.integer)) and not isinstance(o, float):
+        return {"_type": str(o.dtype), "value": repr(o.item())}   # a float32 computes so
+    if isinstance(o, (float, np.floating)):
+        return {"_float": repr(float(o))} if strict else repr(float(o))   # not the text
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, (int, str, bool, type(None))):
+        return o
+    if strict and not isinstance(o, np.bool_):
+        raise Incomplete(f"{type(o).__name__} has no content key")
+    return repr(o)
 
 
 def array_digest(a: np.ndarray) -> str:

@@ -1,7 +1,8 @@
 """Expensive deterministic results kept on disk, computed once per machine.
 
 Some results take seconds and depend only on their inputs and on eyelab's code (an
-as-worn optimised progressive design: :func:`eyelab.optics.optimise.optimised_progressive`).
+as-worn optimised progressive design: :func:`eyelab.optics.optimise.optimised_progressive`;
+a lens's as-worn maps and figures of merit: :mod:`eyelab.optics.mapcache`).
 The in-process LRU caches (:mod:`eyelab.core.cache`) forget them when the process ends;
 this cache keeps them between processes, Dask workers included.
 
@@ -58,7 +59,8 @@ DIR_ENV = "EYELAB_CACHE_DIR"
 OFF_ENV = "EYELAB_NO_CACHE"
 #: The size bound's environment variable, in MB (10^6 bytes).
 MAX_ENV = "EYELAB_CACHE_MAX_MB"
-#: The folder's size bound (bytes): 256 MB, a few hundred optimised designs (~17 kB each).
+#: The folder's size bound (bytes): 256 MB — tens of thousands of optimised designs (~5 kB
+#: each), or some 1800 ``eyelab maps`` runs' maps (31 x 31: ~130 kB) and figures (~8 kB).
 DEFAULT_MAX_BYTES = 256 * 10**6
 #: First bytes of every entry (the format's version is its last digit).
 MAGIC = b"eyelab-cache 1\n"

@@ -1,6 +1,7 @@
 """As-worn maps for a person: contour plots (matplotlib), a text summary of the maps
 computed by :mod:`eyelab.optics.asworn`, and the designer's figures of merit read off them
-(:mod:`eyelab.optics.figures`)."""
+(:mod:`eyelab.optics.figures`); both read from the on-disk cache when this eye and lens
+were mapped before (:mod:`eyelab.optics.mapcache`), and lines saying so."""
 
 from __future__ import annotations
 
@@ -9,8 +10,7 @@ import math
 import numpy as np
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.asworn import AsWornMaps, as_worn_maps
-from eyelab.optics.figures import as_worn_figures
+from eyelab.optics.asworn import AsWornMaps
 
 #: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.asworn.as_worn_maps`
 #: names in its errors.
@@ -54,21 +54,29 @@ DEFINITIONS = {
 }
 
 
-def named_maps(eye, lens, names: dict | None = None, **kw) -> AsWornMaps:
-    """:func:`~eyelab.optics.asworn.as_worn_maps` (``kw``: its keywords), an error in an
-    argument named as the caller's user wrote it: ``names`` maps the engine's field to that
-    name (e.g. :data:`MAPS_FLAGS`: ``--half-angle (maps.half_angle_deg)``)."""
+def named_maps(eye, lens, names: dict | None = None, **kw) -> tuple:
+    """(maps, origin): :func:`~eyelab.optics.asworn.as_worn_maps` (``kw``: its keywords)
+    through the on-disk cache (:func:`eyelab.optics.mapcache.maps`: read back bit for bit
+    when this eye, lens and grid were mapped before, for a lens with a complete content
+    key); ``origin`` where they came from (the cache's status: ``source`` "disk" or
+    "computed", ``path``, ``note``). An error in an argument is named as the caller's user
+    wrote it: ``names`` maps the engine's field to that name (e.g. :data:`MAPS_FLAGS`:
+    ``--half-angle (maps.half_angle_deg)``)."""
+    from eyelab.optics import mapcache
+
     try:
-        return as_worn_maps(eye, lens, **kw)
+        maps, status = mapcache.maps(eye, lens, **kw)
     except SpecError as e:
         if names and e.field in names:
             raise SpecError(f"{names[e.field]} ({e.field})", e.message) from None
         raise
+    return maps, status.to_json()
 
 
-def cli_maps(eye, lens, **kw) -> AsWornMaps:
+def cli_maps(eye, lens, **kw) -> tuple:
     """``eyelab maps``'s call of :func:`~eyelab.optics.asworn.as_worn_maps`: the same
-    arguments, an error naming the command's flag (:data:`MAPS_FLAGS`)."""
+    arguments, an error naming the command's flag (:data:`MAPS_FLAGS`); (maps, origin) as
+    :func:`named_maps`."""
     return named_maps(eye, lens, MAPS_FLAGS, **kw)
 
 
@@ -76,14 +84,16 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
     """Contour maps as lens designers read them: mean power error and cylinder (0.25 D
     steps), over eye rotations in degrees (the eye turning about its centre of rotation
     behind the lens; Fick angles), as a PNG at ``path``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # a Figure on its own Agg canvas: no pyplot (its import and global state), and no
+    # backend switched for the rest of the process
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     from eyelab.core.fileio import png_writer
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), constrained_layout=True)
+    fig = Figure(figsize=(10, 4.6), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, 2)
     for ax, key, label in ((axes[0], "mean_error_d", "mean power error (D)"),
                            (axes[1], "cylinder_d", "cylinder (D)")):
         z = np.ma.masked_invalid(getattr(maps, key))
@@ -114,7 +124,6 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
     fig.set_dpi(100)
     fig.canvas.draw()                    # the figure's pixels, written by eyelab's PNG writer
     rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()   # (sRGB chunk, no tool tag)
-    plt.close(fig)
     png_writer(rgb)(path)
 
 
@@ -164,16 +173,41 @@ def maps_figures(eye, lens, *, wavelength_nm: float = 587.56, maps: AsWornMaps |
                  **grid) -> dict:
     """The figures of merit of ``lens`` worn by ``eye``
     (:func:`~eyelab.optics.figures.as_worn_figures`), read off as-worn maps on
-    :data:`FIGURES_GRID` (``grid``: its half_angle_deg / n replaced); ``maps`` is used
-    instead when it already is on that grid. Ready for JSON (:func:`json_ready`)."""
+    :data:`FIGURES_GRID` (``grid``: its half_angle_deg / n replaced); ``maps`` (of this eye
+    and lens at ``wavelength_nm``) is used instead when it already is on that grid. Ready
+    for JSON (:func:`json_ready`). :func:`figures_and_origin` says where they came from."""
+    return figures_and_origin(eye, lens, wavelength_nm=wavelength_nm, maps=maps, **grid)[0]
+
+
+def figures_and_origin(eye, lens, *, wavelength_nm: float = 587.56,
+                       maps: AsWornMaps | None = None, **grid) -> tuple:
+    """(figures, origin): :func:`maps_figures`'s figures, through the on-disk cache
+    (:func:`eyelab.optics.mapcache.figures`: read back when this eye, lens, wavelength and
+    grid were measured before, for a lens with a complete content key — the same numbers
+    either way); ``origin`` where they came from (the cache's status: ``source`` "disk" or
+    "computed", ``path``, ``note``)."""
+    from eyelab.optics import mapcache
+
     g = dict(FIGURES_GRID, **grid)
-    if maps is None or len(maps.eye_rotation_x_deg) != g["n"] \
-            or maps.eye_rotation_x_deg[-1] != g["half_angle_deg"]:
-        maps = as_worn_maps(eye, lens, wavelength_nm=wavelength_nm, **g)
-    out = as_worn_figures(maps, eye, lens, wavelength_nm)
+    on_grid = maps is not None and len(maps.eye_rotation_x_deg) == g["n"] \
+        and maps.eye_rotation_x_deg[-1] == g["half_angle_deg"]
+    out, status = mapcache.figures(eye, lens, wavelength_nm=wavelength_nm,
+                                   maps_on_grid=maps if on_grid else None, **g)
     out["definitions"] = {k: v for k, v in DEFINITIONS.items()
                           if k.split(",")[0] in out or k in ("lens_mm", "power")}
-    return json_ready(out)
+    return json_ready(out), status.to_json()
+
+
+def origin_summary(what: str, origin: dict) -> list:
+    """The line saying where ``what`` (the maps, the figures of merit) came from: the
+    on-disk cache (``origin``: :func:`named_maps`'s or :func:`figures_and_origin`'s), or
+    this run, and whether it was kept."""
+    if origin["source"] == "disk":
+        return [f"{what}: from the on-disk cache ({origin['path']})"]
+    where = (f"cached in {origin['path']}" if origin["path"] and not origin["note"] else
+             origin["note"] if (origin["note"] or "").startswith("not cached") else
+             f"not cached: {origin['note']}" if origin["note"] else "not cached")
+    return [f"{what}: computed in this run; {where}"]
 
 
 def json_ready(obj):
