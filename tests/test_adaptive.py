@@ -1,17 +1,13 @@
 """Cost follows the scene, quality kept: colour channels drawn apart only where they
 differ (eyelab/render/channels.py), sub-rectangle renders equal to the whole view's pixels,
-small blurs carried whole by the reconstruction filter (its 3-tap kernel checked against
-an independent convolution), and the environment image's density from the lens's
-magnification."""
+and the environment image's density from the lens's magnification."""
 
 import dataclasses
 
 import numpy as np
 import pytest
-from scipy.ndimage import correlate
 
 import eyelab.render.channels as channels
-from eyelab.blur.reconstruct import TAP3_MAX_SIGMA, variable_gaussian
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
 from eyelab.optics.camera import fit_virtual_camera, lens_view_density
@@ -19,50 +15,10 @@ from eyelab.optics.eye import Eye
 from eyelab.optics.lens import SpectacleLens
 from eyelab.optics.materials import Material
 from eyelab.optics.prescription import Prescription
+from eyelab.optics.surfaces import Plane
 from eyelab.reference import compare_images
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import room_scene
-
-
-@pytest.mark.parametrize("sigma", [0.26, 0.5, TAP3_MAX_SIGMA])
-def test_three_tap_filter_is_the_separable_kernel_of_its_variance(sigma):
-    """Where every sigma is at most TAP3_MAX_SIGMA, the filter is [w, 1-2w, w] per axis
-    with w = sigma^2 / 2: equal to scipy's correlation with that 3 x 3 kernel (edges
-    mirrored), and a point's spread has variance sigma^2 per axis and sums to 1."""
-    rng = np.random.default_rng(4)
-    img = rng.random((40, 50, 3)).astype(np.float32)
-    w = sigma**2 / 2
-    k1 = np.array([w, 1 - 2 * w, w])
-    truth = correlate(img.astype(float), np.outer(k1, k1)[..., None], mode="nearest")
-    out = variable_gaussian(img, np.full((40, 50), sigma, np.float32))
-    np.testing.assert_allclose(out, truth, atol=2e-6)
-    dot = np.zeros((21, 21, 1), np.float32)
-    dot[10, 10] = 1.0
-    spread = variable_gaussian(dot, np.full((21, 21), sigma, np.float32))[..., 0]
-    x = np.arange(21) - 10
-    assert spread.sum() == pytest.approx(1.0, abs=1e-6)
-    assert (spread.sum(0) * x**2).sum() == pytest.approx(sigma**2, rel=1e-5)
-    assert (spread.sum(1) * x**2).sum() == pytest.approx(sigma**2, rel=1e-5)
-
-
-def test_per_channel_sigmas_filter_each_channel_by_its_own():
-    """An (h, w, 3) sigma map filters each channel as that channel alone with its own map
-    would be filtered, pixel by pixel: by the 3-tap kernel where every channel's sigma
-    allows it, by blended levels where the channel's own sigma needs them (a small sigma
-    beside a large one is blended too: another kernel of the same variance)."""
-    rng = np.random.default_rng(5)
-    img = rng.random((30, 36, 3)).astype(np.float32)
-    sig = rng.uniform(0.0, 2.0, (30, 36, 3)).astype(np.float32)
-    sig[:, :18] = np.minimum(sig[:, :18], TAP3_MAX_SIGMA)    # half of it the 3-tap's
-    sig[5:9, 5:9] = 0.0
-    out = variable_gaussian(img, sig)
-    big = sig.max(-1) > TAP3_MAX_SIGMA
-    for c in range(3):
-        own = variable_gaussian(img[..., c:c + 1], sig[..., c])
-        both = big & (sig[..., c] > TAP3_MAX_SIGMA)
-        np.testing.assert_allclose(out[~big, c], own[~big, 0], atol=2e-6)
-        np.testing.assert_allclose(out[both, c], own[both, 0], atol=2e-6)
-    np.testing.assert_array_equal(out[5:9, 5:9], img[5:9, 5:9])
 
 
 def test_a_rectangle_renders_what_the_whole_view_has_there():
@@ -93,26 +49,27 @@ def room():
 
 
 def test_channels_drawn_apart_only_where_they_differ(room, monkeypatch):
-    """The default eye's emmetrope (chromatic: red and blue sub-pixel blurs carried by the
-    filter) is drawn once per pass over most of the view; forcing every channel to be
-    drawn apart everywhere (a negative tolerance) gives the same image to within what the
-    tolerance allows: a residual sub-pixel displacement (<= CHANNEL_TOL_PX) drawn with
-    the first channel's instead of a channel's own (measured at 320 x 240: SSIM 0.99976,
-    PSNR 47.6 dB, mean 0.05 code values, 99.9 % of pixels within 13)."""
+    """A chromatic emmetrope in a 320 x 240 view of the room (its red and blue blurs below
+    half a pixel) is drawn once per pass; forcing every channel to be drawn apart
+    everywhere (a negative tolerance) gives the same image to within what the tolerance
+    allows: the channels' sub-pixel displacements drawn with the first channel's (measured:
+    SSIM 0.9988 between the two, mean 0.22 code values; against 256-spp references at
+    320 x 240 both score alike, e.g. the 6 m chart seen by an emmetropic presbyope 0.9949
+    and 0.9949, the room 0.9961 and 0.9962)."""
     eye = Eye.from_rx(Prescription(0.0), accommodation_max=5.0, pupil_diameter=4e-3)
     view = View(width=320, height=240)
     with RasterRenderer() as r:
         fast = r.render(room, eye, None, view)
     info = fast.report["details"]["channels"]["naked view"]
-    assert info["area_fraction"] < 0.5
+    assert info["area_fraction"] == 0.0 and info["renders_per_pass"] == 1
     assert any("colour channels" in s for s in fast.report["skipped"])
     monkeypatch.setattr(channels, "CHANNEL_TOL_PX", -1.0)
     with RasterRenderer() as r:
         full = r.render(room, eye, None, view)
     assert full.report["details"]["channels"]["naked view"]["area_fraction"] > 0.9
     d = np.abs(fast.image.astype(int) - full.image.astype(int))
-    assert d.mean() < 0.1 and np.mean(d <= 13) > 0.998
-    assert compare_images(fast.image, full.image)["ssim"] > 0.999
+    assert d.mean() < 0.3
+    assert compare_images(fast.image, full.image)["ssim"] > 0.998
 
 
 def test_channel_spread_is_the_blur_covariance_difference():
@@ -140,7 +97,7 @@ def test_environment_density_follows_the_lens():
 
     view = V(width=400, height=300)
     cam = view.camera(np.zeros(3))
-    air = SpectacleLens.from_rx(Prescription(-2.0), material=Material("air", 1.0, None))
+    air = SpectacleLens(Plane(), Plane(), 0.002, Material("vacuum", 1.0))
     vc = fit_virtual_camera(air, cam).camera
     dens = lens_view_density(air, cam, vc, view.width)
     assert dens == pytest.approx(cam.tan_half[0] / (vc.tan_half[0] * view.width), rel=1e-6)
@@ -149,4 +106,6 @@ def test_environment_density_follows_the_lens():
         lens = SpectacleLens.from_rx(Prescription(p))
         v2 = fit_virtual_camera(lens, cam).camera
         per[p] = lens_view_density(lens, cam, v2, view.width) * v2.tan_half[0] / cam.tan_half[0]
-    assert per[4.0] > 1.1 * per[-4.0]
+    inv_m = {p: v * view.width for p, v in per.items()}      # the smallest 1 / M
+    assert inv_m[-4.0] > 1.0
+    assert inv_m[4.0] < 1 / 1.05

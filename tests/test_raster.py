@@ -320,9 +320,7 @@ def test_texture_and_attribute_routes_agree():
 def test_reconstruction_filter_smooths_only_blurred_pixels():
     """The 6 m chart seen by an uncorrected myope is blurred by ~5 px: the reconstruction
     filter brings S = 8 closer to the converged reference (measured SSIM 0.963 -> 0.975); a
-    sharp view is left as it was wherever the field is zero (an eye without its own
-    chromatic aberration: with it, the red and blue channels' sub-pixel blurs are the
-    filter's, test_small_chromatic_blur_is_the_filters)."""
+    sharp (corrected) view is left as it was wherever the field is zero."""
     from eyelab.imaging.options import ReferenceQuality
     from eyelab.reference import ReferenceRenderer, compare_images
 
@@ -337,7 +335,7 @@ def test_reconstruction_filter_smooths_only_blurred_pixels():
     before = compare_images(out[False], truth)["ssim"]
     after = compare_images(out[True], truth)["ssim"]
     assert after > before + 0.006
-    sharp_eye = Eye(accommodation_max=5.0, chromatic=False)
+    sharp_eye = Eye(accommodation_max=5.0)
     imgs = []
     for rec in (False, True):
         # all 8 passes run (no skipping) so that the filter sees a zero field everywhere

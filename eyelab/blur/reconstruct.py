@@ -36,20 +36,6 @@ RECON_SIGMA = 0.7
 #: from 0.977 to 0.936).
 RECON_MAX_FRACTION = 0.4
 
-#: A colour channel's blur ellipse whose major semi-axis is at most this (px) is carried by
-#: the filter whole (its Gaussian has the blur's covariance) and its passes do not displace:
-#: an ellipse this small spans at most 4 px, where the disc and the Gaussian of equal
-#: second moments differ little next to the pixel's own footprint (checked against the
-#: converged references: docs/bench/quality_quick.json). Where every channel's
-#: displacement then agrees, a pass renders the view once for all channels
-#: (:mod:`eyelab.render.raster`).
-FULL_CARRY_PX = 2.0
-
-#: Pixels whose sigmas are all at most this (px) are filtered by a per-pixel 3-tap kernel
-#: [w, 1 - 2w, w] along each axis (variance 2w = sigma^2 exactly; w <= 0.32 keeps the
-#: centre the largest weight) instead of blended Gaussian levels: a few array operations.
-TAP3_MAX_SIGMA = 0.8
-
 #: Sigmas below this (px) are not filtered (and their voxels not compensated).
 MIN_SIGMA = 0.25
 
@@ -73,71 +59,49 @@ def pixel_svd(field, size) -> tuple:
 def sigma_volume(svds, passes: int) -> dict:
     """Per voxel, (nz, ny, nx) px arrays from the fields' :func:`pixel_svd` ``svds`` (one per
     field or colour channel, on one voxel grid): "major" / "minor" the reconstruction
-    sigmas along the blur ellipse's axes that every channel shares, "u" (nz, ny, nx, 2) the
-    major axis's unit direction (x right, y up), "reach" the largest semi-axis + 2 sigma
-    (how far blurred light spreads), "extra" (C, nz, ny, nx) each channel's own isotropic
-    sigma on top of the shared one, "applied" (C, nz, ny, nx, 2) the major and minor sigmas
-    the filter applies to each channel in all.
-
-    With spacing max(sqrt(pi a b / S), 2 a / S) of ``passes`` = S samples in an ellipse of
-    semi-axes a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2) (F =
-    RECON_MAX_FRACTION), minor = min(major, b / 2) (what the minor axis's variance can
+    sigmas along the blur ellipse's axes, "u" (nz, ny, nx, 2) the major axis's unit
+    direction (x right, y up), "reach" the largest semi-axis + 2 sigma (how far blurred
+    light spreads). With spacing max(sqrt(pi a b / S), 2 a / S) of ``passes`` = S samples
+    in an ellipse of semi-axes a >= b: major = min(RECON_SIGMA spacing, sqrt(F) a / 2)
+    (F = RECON_MAX_FRACTION), minor = min(major, b / 2) (what the minor axis's variance can
     give: the filter is round unless the ellipse is elongated); the smallest over the
-    fields (never over-filters a channel). A channel whose ellipse is no larger than
-    :data:`FULL_CARRY_PX` may be filtered up to its whole minor variance (b / 2, within its
-    major variance a / 2 beside the shared line part): its own "extra" isotropic sigma —
-    so that a round blur that small, however small, is the filter's alone and its passes
-    need not displace at all (the 3-tap kernel carries any sigma exactly). What the filter
-    would skip is not asked of it (a skip removes work, not variance): a shared minor sigma
-    below MIN_SIGMA becomes 0, and a line part sqrt(major^2 - minor^2) below MIN_LINE_SIGMA
-    becomes 0 — so the compensation removes exactly what the filter adds."""
+    fields (never over-filters a channel). What the filter would skip is not asked of it
+    (a skip removes work, not variance): a minor sigma below MIN_SIGMA becomes 0, and a
+    major one whose 1-D part sqrt(major^2 - minor^2) falls below MIN_LINE_SIGMA becomes
+    the minor one — so the compensation removes exactly what the filter adds."""
     root_f = np.sqrt(RECON_MAX_FRACTION)
-    mas, mis, owns = [], [], []
-    reach = None
+    major = minor = reach = None
     for _, sv, _ in svds:
         a, b = sv[..., 0], sv[..., 1]
         spacing = np.maximum(np.sqrt(np.pi * a * b / passes), 2 * a / passes)
         ma = np.minimum(RECON_SIGMA * spacing, root_f * a / 2)
-        mas.append(ma)
-        mis.append(np.minimum(ma, b / 2))
-        owns.append((a <= FULL_CARRY_PX, a / 2, b / 2))
+        mi = np.minimum(ma, b / 2)
+        major = ma if major is None else np.minimum(major, ma)
+        minor = mi if minor is None else np.minimum(minor, mi)
         reach = a if reach is None else np.maximum(reach, a)
-    major, minor = np.min(mas, 0), np.min(mis, 0)
     minor = np.where(minor < MIN_SIGMA, 0.0, minor)
-    line2 = np.maximum(major**2 - minor**2, 0.0)
-    line2 = np.where(line2 < MIN_LINE_SIGMA**2, 0.0, line2)
-    extra, applied = [], []
-    for full, half_a, half_b in owns:
-        # a small blur's own isotropic part beyond the shared filter, within its minor
-        # variance and, beside the shared line part, its major variance
-        room = np.minimum(half_b**2, half_a**2 - line2) - minor**2
-        e = np.where(full, np.sqrt(np.maximum(room, 0.0)), 0.0)
-        iso2 = minor**2 + e**2
-        extra.append(e)
-        applied.append(np.stack([np.sqrt(iso2 + line2), np.sqrt(iso2)], -1))
-    applied = np.stack(applied)
-    return {"major": np.sqrt(minor**2 + line2), "minor": minor,
-            "u": svds[0][0][..., :, 0], "reach": reach + 2 * applied[..., 0].max(0),
-            "extra": np.stack(extra), "applied": applied}
+    major = np.where(major**2 - minor**2 < MIN_LINE_SIGMA**2, minor, major)
+    return {"major": major, "minor": minor, "u": svds[0][0][..., :, 0],
+            "reach": reach + 2 * major}
 
 
-def compensated(field, svd, vol: dict, size, channel: int = 0):
+def compensated(field, svd, vol: dict, size):
     """A copy of ``field`` whose (nz, ny, nx, 2, 2) matrices B (NDC per unit seed) are
     shrunk so that, in pixels of a ``size`` = (w, h) window, B' (I/4) B'^T plus the
-    filter's covariance for colour channel ``channel`` (``vol["applied"]`` of
-    :func:`sigma_volume`: sigma major along the blur's major axis, minor across it) is
-    B (I/4) B^T: each singular value s of the pixel-scaled matrix (``svd``, the field's
-    :func:`pixel_svd`) becomes sqrt(max(s^2 - 4 sigma^2, 0)), axes kept (exact, as sigma
-    <= s / 2 by construction; for per-channel fields each channel's own axes, the
-    filter's from the first channel). The passes then displace by B' and the filter
-    supplies the rest of the blur's variance."""
+    filter's covariance (``vol`` of :func:`sigma_volume`: sigma "major" along the blur's
+    major axis, "minor" across it) is B (I/4) B^T: each singular value s of the
+    pixel-scaled matrix (``svd``, the field's :func:`pixel_svd`) becomes
+    sqrt(max(s^2 - 4 sigma^2, 0)), axes kept (exact, as sigma <= s / 2 by construction;
+    for per-channel fields each channel's own axes, the filter's from the first channel).
+    The passes then displace by B' and the filter supplies the rest of the blur's
+    variance."""
     import dataclasses
 
     from eyelab.core.cache import content_key
 
     px = np.array([size[0] / 2, size[1] / 2])
     u, s, vt = svd
-    sig = vol["applied"][channel]
+    sig = np.stack([vol["major"], vol["minor"]], -1)
     s2 = np.sqrt(np.maximum(s**2 - 4 * sig**2, 0.0))
     matrix = ((u * s2[..., None, :]) @ vt) / px[:, None]
     key = content_key(field=field.key, sigma=np.asarray(sig, np.float32),
@@ -189,35 +153,27 @@ def sigma_map(zbuf: np.ndarray, cam, field, vol: dict, voxels: dict | None = Non
     compensated blur would lose variance there."""
     v = pixel_voxels(zbuf, cam, field) if voxels is None else voxels
     h, w = v["shape"]
-    extra = np.moveaxis(vol["extra"], 0, -1)                     # (nz, ny, nx, C)
-    nc = extra.shape[-1]
     stack = np.concatenate([np.stack([vol["major"], vol["minor"], vol["reach"]], -1),
-                            vol["u"], extra], -1).reshape(-1, 5 + nc)
-    table = np.concatenate([np.zeros((1, stack.shape[1])), stack]).astype(np.float32)
-    small = table[v["voxel"]]                                    # 0: no voxel
+                            vol["u"]], -1).reshape(-1, 5)
+    table = np.concatenate([np.zeros((1, 5)), stack]).astype(np.float32)   # 0: no voxel
+    small = table[v["voxel"]]
     cand = table[v["near"]]
     spread = (v["voxel"] == 0) & (v["dist"] <= cand[..., 2])
     small[spread] = cand[spread]
     major, minor = small[..., 0], small[..., 1]
     line = np.sqrt(np.maximum(major**2 - minor**2, 0.0))
-    ex = small[..., 5:]
-    region = filtered_region(minor, line, scale=2, shape=(h, w), extra=ex.max(-1))
+    region = filtered_region(minor, line, scale=2, shape=(h, w))
     if region is None:
         return {"region": None}
     _, (py0, py1, px0, px1) = region
     # each evaluated pixel stands for its 2 x 2 block: repeated over the crop only
-    rows, cols = np.arange(py0, py1)[:, None] // 2, np.arange(px0, px1)[None, :] // 2
     crop = np.stack([minor, line, small[..., 3], -small[..., 4]], -1)[  # NDC y up -> down
-        rows, cols]
-    out = {"minor": crop[..., 0], "line": crop[..., 1], "u": crop[..., 2:],
-           "region": region}
-    if ex.any():          # small blurs carried whole: each channel its own round sigma
-        out["minor"] = np.sqrt(out["minor"][..., None] ** 2 + ex[rows, cols] ** 2)
-    return out
+        np.arange(py0, py1)[:, None] // 2, np.arange(px0, px1)[None, :] // 2]
+    return {"minor": crop[..., 0], "line": crop[..., 1], "u": crop[..., 2:],
+            "region": region}
 
 
-def filtered_region(minor, line, *, scale: int = 1, shape=None, extra=None
-                    ) -> tuple | None:
+def filtered_region(minor, line, *, scale: int = 1, shape=None) -> tuple | None:
     """((y0, y1, x0, x1), (py0, py1, px0, px1)) of sigma maps ``minor`` / ``line``: the rows
     and columns of every pixel the filters change, and that box padded by how far the
     filters read around a pixel — the largest sigma level's kernel radius (the level is at
@@ -225,17 +181,13 @@ def filtered_region(minor, line, *, scale: int = 1, shape=None, extra=None
     plus bilinear taps — clipped to the image; None when no pixel is filtered. Filtering
     the padded box alone gives the changed pixels the whole image's values. With
     ``scale`` the maps hold one value per ``scale`` x ``scale`` block of an image of
-    ``shape`` (h, w) pixels, and the boxes are in its pixels. ``extra``: the channels' own
-    isotropic sigmas (largest per pixel), filtered at any size."""
+    ``shape`` (h, w) pixels, and the boxes are in its pixels."""
     sel = (minor >= MIN_SIGMA) | (line >= MIN_LINE_SIGMA)
-    if extra is not None:                      # channels' own sigmas, filtered at any size
-        sel |= extra > 0
     rows, cols = np.flatnonzero(sel.any(1)), np.flatnonzero(sel.any(0))
     if not len(rows):
         return None
     h, w = minor.shape if shape is None else shape
-    top = float(minor.max()) if extra is None else max(float(minor.max()), float(extra.max()))
-    level = max(2.0 * top, 0.35)
+    level = max(2.0 * float(minor.max()), 0.35)
     pad = int(4.0 * level + 0.5) + 1 + int(np.ceil(4.0 * float(line.max()))) + 2
     box = (int(rows[0]) * scale, min((int(rows[-1]) + 1) * scale, h),
            int(cols[0]) * scale, min((int(cols[-1]) + 1) * scale, w))
@@ -245,10 +197,8 @@ def filtered_region(minor, line, *, scale: int = 1, shape=None, extra=None
 
 def reconstruct(img: np.ndarray, sig: dict) -> np.ndarray:
     """Filter an (h, w, 3) image of linear light (float, row 0 at the top) with the
-    per-pixel blur-shaped Gaussian of ``sig`` (:func:`sigma_map`): the isotropic part
-    ("minor": (h, w), or (h, w, C) where channels carried whole have their own) and the
-    1-D part along "u" ("line"; Gaussians compose: the variances add): float32, or the
-    image itself where no sigma reaches :data:`MIN_SIGMA`."""
+    per-pixel blur-shaped Gaussian of ``sig`` (:func:`sigma_map`): float32, or the image
+    itself where no sigma reaches :data:`MIN_SIGMA`."""
     return directional_gaussian(variable_gaussian(img, sig["minor"]), sig["line"], sig["u"])
 
 
@@ -313,96 +263,49 @@ def _kernel_variance(sigma: float) -> float:
 
 
 def variable_gaussian(img: np.ndarray, sig: np.ndarray) -> np.ndarray:
-    """Filter an (h, w, C) image of linear light (float) with a per-pixel Gaussian of sigma
-    ``sig`` px — (h, w), or (h, w, C): each channel its own — where every channel's sigma
-    is at most :data:`TAP3_MAX_SIGMA` by a 3-tap kernel of that variance
-    (:func:`_tap3_rows`), elsewhere by blending copies filtered at sigma levels 0, 0.35,
-    0.7, 1.4, ... (the two levels around each pixel's, weighted so that the blend's variance
-    is sigma^2 — a mixture of two Gaussians, exact in its second moments — where sigma^2 is
-    at least the first level's 0.033 px^2). Each level is filtered once for all channels,
-    only over the bounding box of the pixels that blend it (padded by its kernel's reach, so
-    the values there are those of the whole image filtered), in float32, in row bands on the
-    thread pool (scipy's filters release the GIL). Returns float32; the image itself where
-    every sigma of an (h, w) map is below :data:`MIN_SIGMA` (per-channel sigmas are the
-    channels' own, filtered at any size) or every sigma is 0.
-    """
+    """Filter an (h, w, 3) image of linear light (float) with a per-pixel Gaussian of sigma
+    ``sig`` (h, w) px, by blending copies filtered at sigma levels 0, 0.35, 0.7, 1.4, ...
+    (the two levels around each pixel's, weighted so that the blend's variance is
+    sigma^2 — a mixture of two Gaussians, exact in its second moments — where sigma^2 is
+    at least the first level's 0.033 px^2). Each level is filtered only over the bounding
+    box of the pixels that blend it (padded by its kernel's reach, so the values there are
+    those of the whole image filtered), in float32, in row bands on the thread pool
+    (scipy's filters release the GIL). Returns float32; the image itself where every
+    sigma is below :data:`MIN_SIGMA`."""
     from eyelab.core.parallel import split_rows
 
     smax = float(sig.max())
-    if smax <= 0 or (sig.ndim == 2 and smax < MIN_SIGMA):
+    if smax < MIN_SIGMA:
         return img
+    levels = [0.0]
+    while _kernel_variance(levels[-1]) < smax**2:
+        levels.append(0.35 if levels[-1] == 0 else levels[-1] * 2)
     src = np.asarray(img, np.float32)
     out = src.copy()
-    sig3 = sig if sig.ndim == 3 else sig[..., None]
-    if smax > TAP3_MAX_SIGMA:
-        levels = [0.0]
-        while _kernel_variance(levels[-1]) < smax**2:
-            levels.append(0.35 if levels[-1] == 0 else levels[-1] * 2)
-        split_rows(lambda a, b: _blend_rows(src, sig3, levels, a, b, out), sig.shape[0])
-    split_rows(lambda a, b: _tap3_rows(src, sig3, a, b, out), sig.shape[0])
+    split_rows(lambda a, b: _blend_rows(src, sig, levels, a, b, out), sig.shape[0])
     return out
 
 
-def _tap3_rows(src, sig, a, b, out) -> None:
-    """The 3-tap filter of :func:`variable_gaussian` for rows a:b: each pixel whose every
-    channel's sigma is at most :data:`TAP3_MAX_SIGMA` (and one above 0) is the separable
-    kernel [w, 1 - 2 w, w] x [w, 1 - 2 w, w] of its own w = sigma^2 / 2 (variance sigma^2
-    per axis, exactly) applied to its 3 x 3 neighbourhood — src + w (Lx + Ly) + w^2 Lx Ly
-    with the discrete Laplacians along x and y — the image's edges mirrored as
-    scipy.ndimage's "reflect" does."""
-    m = sig[a:b].max(-1)
-    sel = (m > 0) & (m <= TAP3_MAX_SIGMA)
-    rows, cols = np.flatnonzero(sel.any(1)), np.flatnonzero(sel.any(0))
-    if not len(rows):
-        return
-    h, w = src.shape[:2]
-    r0, r1 = a + int(rows[0]), a + int(rows[-1]) + 1
-    c0, c1 = int(cols[0]), int(cols[-1]) + 1
-    lo, hi, left, right = max(r0 - 1, 0), min(r1 + 1, h), max(c0 - 1, 0), min(c1 + 1, w)
-    p = np.pad(src[lo:hi, left:right], ((lo - r0 + 1, r1 + 1 - hi),
-                                        (left - c0 + 1, c1 + 1 - right), (0, 0)),
-               mode="edge")                                 # (r1 - r0 + 2, c1 - c0 + 2, C)
-    mid = p[1:-1, 1:-1]
-    lx = p[:, :-2] + p[:, 2:]
-    lx -= 2 * p[:, 1:-1]
-    res = p[:-2, 1:-1] + p[2:, 1:-1]
-    res -= 2 * mid
-    res += lx[1:-1]                                         # Lx + Ly
-    lxy = lx[:-2] + lx[2:]
-    lxy -= 2 * lx[1:-1]                                     # Ly of Lx
-    wt = sig[r0:r1, c0:c1].astype(np.float32) ** 2
-    wt *= np.float32(0.5)
-    lxy *= wt
-    res += lxy
-    res *= wt
-    res += mid                                              # src + w (Lx + Ly) + w^2 LxLy
-    keep = sel[r0 - a:r1 - a, c0:c1]
-    np.copyto(out[r0:r1, c0:c1], res, where=keep[..., None])
-
-
 def _blend_rows(src, sig, levels, a, b, out) -> None:
-    """:func:`variable_gaussian` for the pixels of rows a:b, written into ``out``; ``sig``
-    (h, w, 1 or C)."""
+    """:func:`variable_gaussian` for the pixels of rows a:b, written into ``out``."""
     from scipy.ndimage import gaussian_filter
 
     # each level's true variance: scipy's sampled kernel at 0.35 px has 0.033 px^2, not
     # 0.1225 (from 0.7 px up the two agree to 0.3 %)
     var = np.array([_kernel_variance(lv) for lv in levels])
-    # the pixels a 3-tap kernel cannot carry (:func:`_tap3_rows` does the others)
-    ys, xs = np.nonzero(sig[a:b].max(-1) > TAP3_MAX_SIGMA)
+    ys, xs = np.nonzero(sig[a:b] > 0)         # sigma 0 keeps the pixel (level 0, t = 0)
     if not len(ys):
         return
     ys += a
-    s2 = sig[ys, xs].astype(np.float64) ** 2                      # (n, 1 or C)
+    s2 = sig[ys, xs].astype(np.float64) ** 2
     idx = np.clip(np.searchsorted(var, s2) - 1, 0, len(levels) - 2)
     lo, hi = var[idx], var[idx + 1]
     # weights that keep the variance: (1 - t) var_lo + t var_hi = sigma^2
-    t = np.clip((s2 - lo) / (hi - lo), 0, 1).astype(np.float32)
-    acc = (1 - t) * src[ys, xs] * (idx == 0)
-    h, w = sig.shape[:2]
+    t = np.clip((s2 - lo) / (hi - lo), 0, 1).astype(np.float32)[:, None]
+    acc = (1 - t) * src[ys, xs] * (idx == 0)[:, None]
+    h, w = sig.shape
     for i in range(1, len(levels)):
-        uses = (idx == i) | ((idx == i - 1) & ((t > 0) if i == 1 else True))
-        need = uses.any(-1)
+        need = (idx == i) | ((idx == i - 1) & ((t[:, 0] > 0) if i == 1 else True))
         if not need.any():
             continue
         ny, nx = ys[need], xs[need]
@@ -414,7 +317,6 @@ def _blend_rows(src, sig, levels, a, b, out) -> None:
         # (at the image's edges the crop's edges are the image's: the same mode)
         filt = gaussian_filter(src[y0:y1, x0:x1], (levels[i], levels[i], 0))
         vals = filt[ny - y0, nx - x0]
-        k = idx[need]
-        wt = np.where(k == i, 1 - t[need], np.where(k == i - 1, t[need], 0.0))
+        wt = np.where(idx[need] == i, 1 - t[need, 0], t[need, 0])[:, None]
         acc[need] += wt * vals
     out[ys, xs] = acc

@@ -3,13 +3,15 @@
 Where the eye's chromatic aberration or a lens's dispersion gives each colour channel its
 own blur field, a pass displaces every vertex by each channel's own matrix, and so draws
 the view once per channel (Kakimoto et al. 2007, §4.5, per wavelength). But where every
-channel's pass displacement is the same — in focus, or where the reconstruction filter
-carries each channel's small blur whole (:data:`eyelab.blur.reconstruct.FULL_CARRY_PX`) —
-the channels' renders are the same image. A pass therefore draws the whole view once,
-with the first channel's field, and draws the other channels again only inside the
-rectangles where some channel's displacement differs from the first's by more than
-:data:`CHANNEL_TOL_PX`, widened by how far any displaced copy can reach. The rectangles
-are found once per frame, from the first pass's depth buffer.
+channel's pass displacement is the same — in focus, or where the channels' blurs differ by
+less than a pixel's footprint — the channels' renders are the same image. A pass therefore
+draws the whole view once, with the first channel's field, and draws the other channels
+again only inside the rectangles where some channel's displacement differs from the first's
+by more than :data:`CHANNEL_TOL_PX`, widened by how far any displaced copy can reach. The
+rectangles are found once per frame, from the first pass's depth buffer. A rectangle's
+render costs what the geometry inside it costs (the background is all but free): where the
+rectangles would hold most of the view's surfaces, each channel draws the whole view
+instead (:data:`RECTS_MAX_SHARE`).
 
 Pure numpy and scipy (the rectangles); the renders are :class:`~eyelab.render.window.
 OffscreenWindow`'s.
@@ -36,6 +38,11 @@ TILE_PX = 32
 #: rectangle, 4.95 ms for the 1024 x 192 band of floor, page and boxes (~20 ns per pixel of
 #: dense geometry), 7.6 ms for the whole view: a render's overhead is worth ~55k pixels.
 RENDER_COST_PX = 60_000
+
+#: The largest share of the view's surface pixels the rectangles may hold: beyond it each
+#: channel draws the whole view (measured as above: a rectangle holding 90 % of the room's
+#: surfaces, 1024 x 544 of 1024 x 768, took 6.7 ms against the whole view's 6.0 ms).
+RECTS_MAX_SHARE = 0.6
 
 
 def channel_spread(fields, size) -> dict | None:
@@ -75,7 +82,9 @@ def disagreeing_rects(spread: dict, voxels: dict) -> list:
     buffer), widened by the largest reach of those pixels (+ 2 px: jitter and rounding),
     each connected group of tiles one rectangle (its bounding box), rectangles merged where
     :data:`RENDER_COST_PX` says one render is cheaper (:func:`merge_boxes`; a pixel in two
-    rectangles is drawn twice, the same both times). Empty where the channels agree."""
+    rectangles is drawn twice, the same both times); the whole view alone where they would
+    hold more than :data:`RECTS_MAX_SHARE` of its surface pixels. Empty where the channels
+    agree."""
     from scipy.ndimage import find_objects, label, maximum_filter
 
     h, w = voxels["shape"]
@@ -96,8 +105,15 @@ def disagreeing_rects(spread: dict, voxels: dict) -> list:
     boxes = [[s[0].start, s[0].stop, s[1].start, s[1].stop] for s in find_objects(labels)]
     boxes = merge_boxes(boxes, RENDER_COST_PX / TILE_PX**2)
     t = TILE_PX
-    return [(c0 * t, max(h - r1 * t, 0), min(c1 * t, w), h - r0 * t)
-            for r0, r1, c0, c1 in boxes]
+    rects = [(c0 * t, max(h - r1 * t, 0), min(c1 * t, w), h - r0 * t)
+             for r0, r1, c0, c1 in boxes]
+    fg = vox > 0                                           # surface pixels, top row first
+    inside = np.zeros_like(fg)
+    for x0, y0, x1, y1 in rects:                           # GL order -> top-first rows
+        inside[(h - y1) // 2:-(-(h - y0) // 2), x0 // 2:-(-x1 // 2)] = True
+    if (fg & inside).sum() > RECTS_MAX_SHARE * max(int(fg.sum()), 1):
+        return [(0, 0, w, h)]
+    return rects
 
 
 def merge_boxes(boxes: list, cost: float) -> list:
@@ -150,12 +166,17 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
         st["zbuf"] = win.depth()
         st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
         st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
+    if not st["rects"]:                 # every channel is the first's: one render
+        return whole
     out = st["rgba"]
     np.copyto(out, whole)
+    h, w = out.shape[:2]
+    whole_view = st["rects"] == [(0, 0, w, h)]
     for c in range(1, len(fields)):     # the seed uniforms stay set across channels
-        if not st["rects"]:
-            break
         select_channel(st, c, route)
+        if whole_view:
+            out[..., c] = win.grab_rgba()[..., c]
+            continue
         for x0, y0, x1, y1 in st["rects"]:
             out[y0:y1, x0:x1, c] = win.grab_rect_rgba((x0, y0, x1, y1))[..., c]
     out[..., 3] = 255

@@ -11,9 +11,9 @@ Per frame (the orchestration lives here; the parts in their own modules):
    S passes averaged (``accumulate.PassAccumulator``); with per-channel fields a pass draws
    the other channels only where they differ from the first (``channels``);
 4. through the lens (only if the lens is in view): the same with the virtual camera and
-   the through-lens field -> the environment image, as dense as the lens needs; per-vertex ray tracing
-   (``eyelab.scene.pervertex``) gives every lens vertex its texture coordinates into it
-   (one set per colour channel when the lens disperses);
+   the through-lens field -> the environment image, as dense as the lens needs;
+   per-vertex ray tracing (``eyelab.scene.pervertex``) gives every lens vertex its
+   texture coordinates into it (one set per colour channel when the lens disperses);
 5. reconstruction (``eyelab.blur.reconstruct``; on by default, ``RasterQuality.reconstruct``):
    each stage's mean filtered by its pixels' blur-shaped Gaussians, over the box of
    pixels it changes, the passes having displaced by variance-compensated fields;
@@ -324,16 +324,16 @@ class RasterRenderer(Renderer):
         (:func:`eyelab.blur.reconstruct.compensated`: disc + Gaussian keep the blur's
         second moments), cached; otherwise the fields themselves."""
         if not (q.reconstruct and passes > 1):
-            spread, _ = self._cached("small", ("spread", tuple(size)) + tuple(
-                f.key for f in fields), lambda: channel_spread(fields, size), report,
-                "channel_spread")
+            spread, _ = self.caches["small"].get_or_create(   # derived from the fields:
+                ("spread", tuple(size)) + tuple(f.key for f in fields),   # not a recompute
+                lambda: channel_spread(fields, size))
             return fields, None, spread
 
         def build():
             svds = [pixel_svd(f, size) for f in fields]
             vol = sigma_volume(svds, passes)
-            shrunk = [compensated(f, svd, vol, size, c)
-                      for c, (f, svd) in enumerate(zip(fields, svds, strict=True))]
+            shrunk = [compensated(f, svd, vol, size)
+                      for f, svd in zip(fields, svds, strict=True)]
             return svds, vol, shrunk, channel_spread(shrunk, size)
 
         key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)

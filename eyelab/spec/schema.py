@@ -406,8 +406,8 @@ KEYS = [
         renderer="raster"),
     Key("render", "lens_grid_px", "integer", "px", None, "spacing of the lens mesh that "
         "carries texture coordinates", renderer="raster"),
-    Key("render", "env_oversample", "number", "", None, "environment-image density "
-        "relative to the eye view's", renderer="raster"),
+    Key("render", "env_oversample", "number", "", None, "environment-image pixels per "
+        "eye pixel where the lens magnifies most", renderer="raster"),
     Key("render", "rim_color", "triple", "sRGB 0–255", None, "the lens rim",
         renderer="raster", integers=True),
     Key("render", "invalid_color", "triple", "sRGB 0–255", None, "pixels "
