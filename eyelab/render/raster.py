@@ -80,10 +80,12 @@ from eyelab.scene.refine import refine_for_fields
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
 #: virtual cameras, masks, reconstruction sigma maps). Enough for an inspector toggling
-#: between a few eyes, lenses and views; memory stays bounded whatever is rendered.
+#: between a few eyes, lenses and views, and for the demo's three views of a chromatic eye
+#: (uncorrected 3 fields, through the lens 4, the emmetrope 3: with 8 fields, views taken
+#: in turn recomputed their fields every frame); memory stays bounded whatever is rendered.
 #: Entries per cache: a scene's meshes must fit "refined" and "prefiltered" (the room has
 #: 21, the ETDRS chart 15), or every frame rebuilds them.
-CACHE_SIZES = {"fields": 8, "refined": 48, "prefiltered": 48, "texcoords": 4, "small": 32}
+CACHE_SIZES = {"fields": 12, "refined": 48, "prefiltered": 48, "texcoords": 4, "small": 48}
 
 
 class RasterRenderer(Renderer):
