@@ -83,9 +83,10 @@ from eyelab.scene.refine import refine_for_fields
 #: between a few eyes, lenses and views, and for the demo's three views of a chromatic eye
 #: (uncorrected 3 fields, through the lens 4, the emmetrope 3: with 8 fields, views taken
 #: in turn recomputed their fields every frame); memory stays bounded whatever is rendered.
-#: Entries per cache: a scene's meshes must fit "refined" and "prefiltered" (the room has
-#: 21, the ETDRS chart 15), or every frame rebuilds them.
-CACHE_SIZES = {"fields": 12, "refined": 48, "prefiltered": 48, "texcoords": 4, "small": 48}
+#: Entries per cache: a scene's meshes must fit "refined" (per set of fields: the room's 21
+#: meshes for each of those three views) and "prefiltered" (the room has 21, the ETDRS
+#: chart 15), or every frame rebuilds them.
+CACHE_SIZES = {"fields": 12, "refined": 96, "prefiltered": 48, "texcoords": 4, "small": 48}
 
 
 class RasterRenderer(Renderer):
