@@ -210,7 +210,7 @@ def _analyze(args) -> int:
     from eyelab.jobs.analyze import analyze_spec, format_report
     from eyelab.spec import load_spec
 
-    if args.output:
+    if args.output is not None:
         from eyelab.core.fileio import check_output
 
         check_output("--output", args.output)
@@ -363,7 +363,7 @@ def _maps(args) -> int:
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     check_output("--output", args.output)
-    if args.json:
+    if args.json is not None:
         check_output("--json", args.json)
         check_distinct(**{"--output": args.output, "--json": args.json})
     if spec.lens is None:

@@ -13,6 +13,8 @@ view) are printed as ``eyelab render`` prints them.
 
 from __future__ import annotations
 
+import contextlib
+
 from eyelab.core.errors import SpecError
 
 
@@ -91,6 +93,13 @@ def run(args) -> int:
             raise SpecError(f"--{flag.replace('_', '-')}", f"must be a .png file, got {p!r}")
     if args.window_shot and not args.screenshot:
         raise SpecError("--window-shot", "only with --screenshot")
+    if args.mesh is not None:              # the scene table the flags make, checked now
+        from pathlib import Path
+
+        from eyelab.spec.render import parse_scene
+
+        with _mesh_flag_errors(args):
+            parse_scene(_scene(args), None, Path.cwd())
     from eyelab.render import has_display, use_offscreen
 
     offscreen = args.offscreen or (args.screenshot is not None and not has_display())
@@ -135,8 +144,15 @@ def _model(args, size):
     """The inspector's model; a bad ``--mesh-*`` value named by its flag."""
     from eyelab.jobs.inspector import InspectorModel
 
-    try:
+    with _mesh_flag_errors(args):
         return InspectorModel(args.spec, size=size, samples=args.samples, scene=_scene(args))
+
+
+@contextlib.contextmanager
+def _mesh_flag_errors(args):
+    """An error in a ``render.scene`` key that a ``--mesh-*`` flag set, named by the flag."""
+    try:
+        yield
     except SpecError as e:
         for flag, key in MESH_FLAGS.items():
             if args.mesh is not None and e.field.startswith(f"render.scene.{key}"):

@@ -77,6 +77,36 @@ def json_default(o):
     return str(o)
 
 
+def read_input(field: str, path, max_bytes: int, what: str = "file") -> bytes:
+    """The bytes of the input file at ``path``, or a one-line :class:`SpecError` naming
+    ``field``: it must exist and be a regular file — a FIFO would block the read forever
+    and a device (``/dev/zero``) never end it, so neither is opened — of at most
+    ``max_bytes`` bytes, which is all that is read (a file growing meanwhile included).
+    ``what`` names the kind of file in the messages."""
+    import stat
+
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except OSError as e:
+        raise SpecError(field, f"cannot read {str(path)[:80]!r}: {e.strerror}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise SpecError(field, f"{str(path)[:80]!r} is not a regular file (a folder, device, "
+                               f"pipe or socket); a {what} is read from a file")
+    if st.st_size > max_bytes:
+        raise SpecError(field, f"{p.name} is {st.st_size:,} bytes; a {what} has at most "
+                               f"{max_bytes:,}")
+    try:
+        with open(p, "rb") as f:
+            data = f.read(max_bytes + 1)
+    except OSError as e:
+        raise SpecError(field, f"cannot read {str(path)[:80]!r}: {e.strerror}") from None
+    if len(data) > max_bytes:
+        raise SpecError(field, f"{p.name} has more than {max_bytes:,} bytes; a {what} has at "
+                               f"most {max_bytes:,}")
+    return data
+
+
 def check_output(flag: str, path) -> Path:
     """Fail early, before any work: ``path`` must not be a folder, its parent must be a
     folder (or creatable) that this process may write in. Returns the path."""

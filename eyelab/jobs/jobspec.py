@@ -179,7 +179,10 @@ def _check_job(data: dict, origin: dict, where: str) -> None:
         spec = parse_spec(copy.deepcopy(data), "eyelab batch")
         check_memory(spec.render, memory_limit())
     except SpecError as e:
-        hit = [k for k in origin if e.field == k or e.field.startswith((k + ".", k + "["))]
+        # the key itself, a field under it, or a table on its path (a swept "eye.middle.rx"
+        # makes the table eye.middle)
+        hit = [k for k in origin if e.field == k or e.field.startswith((k + ".", k + "["))
+               or k.startswith(e.field + ".")]
         raise SpecError(f"{origin[hit[0]] if hit else where} ({e.field})", e.message) \
             from None
 

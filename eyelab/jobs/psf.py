@@ -30,9 +30,9 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     from eyelab.optics.paths import ObjectPoints
     from eyelab.optics.psf import ARCMIN, mtf, psf
     from eyelab.optics.trace import FATAL
+    from eyelab.spec.load import one_eye
 
-    if spec.binocular is not None:
-        raise SpecError("--eye", "a two-eye spec: analyze one eye's spec (its [eye] and [lens])")
+    spec = one_eye(spec, "eyelab psf")
     n = len(spec.points)
     if not 0 <= point < n:
         raise SpecError("--point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")

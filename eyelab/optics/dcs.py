@@ -77,14 +77,10 @@ def lines(text: str) -> list:
 def read_text(path, field: str) -> str:
     """The text of the DCS file at ``path`` (ASCII; UTF-8 accepted), or :class:`SpecError`
     naming ``field`` when it cannot be read, is too large or is not text."""
+    from eyelab.core.fileio import read_input
+
     p = Path(path)
-    try:
-        if p.stat().st_size > MAX_BYTES:
-            raise SpecError(field, f"{p.name} is {p.stat().st_size:,} bytes; at most "
-                                   f"{MAX_BYTES:,} are read")
-        raw = p.read_bytes()
-    except OSError as e:
-        raise SpecError(field, f"cannot read {str(path)!r}: {e.strerror}") from None
+    raw = read_input(field, p, MAX_BYTES, "DCS file")
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as e:

@@ -189,11 +189,13 @@ def _read_csv(p: Path, field: str) -> np.ndarray:
 
 
 def _read_npy(p: Path, field: str) -> np.ndarray:
+    import io
+
+    from eyelab.core.fileio import read_input
+
+    raw = read_input(field, p, MAX_BYTES, "points file")      # its own one-line errors
     try:
-        if p.stat().st_size > MAX_BYTES:
-            raise SpecError(field, f"{p.name} is {p.stat().st_size:,} bytes; at most "
-                                   f"{MAX_BYTES:,} are read")
-        z = np.load(p, allow_pickle=False)
+        z = np.load(io.BytesIO(raw), allow_pickle=False)
     except (OSError, ValueError, EOFError) as e:
         raise SpecError(field, f"{p.name}: not a NumPy array file ({e})") from None
     if not isinstance(z, np.ndarray) or z.ndim != 2 or z.dtype.kind not in "iuf":

@@ -46,31 +46,47 @@ def _from_table(tab: dict) -> np.ndarray:
 
 
 def _finite(v, field) -> float:
+    """A coefficient (um): a finite number in the aberrometer's range
+    (:data:`~eyelab.spec.aberrationkeys.ABERRATION_LIMITS`)."""
+    from eyelab.spec.aberrationkeys import ABERRATION_LIMITS
+
+    lo, hi = ABERRATION_LIMITS[f"{WHERE}.coefficients_um"]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise SpecError(field, f"must be finite numbers (um), got {v!r}")
+        raise SpecError(field, f"must be finite numbers (um), each in [{lo:g}, {hi:g}], "
+                               f"got {v!r}")
+    if not lo <= v <= hi:
+        raise SpecError(field, f"a coefficient must be in [{lo:g}, {hi:g}] um (what an "
+                               f"aberrometer reports), got {v!r}")
     return float(v)
+
+
+#: The largest coefficient file read (bytes): the 91 coefficients up to order 12 take under
+#: 2 kB as text; a file far larger is not one.
+COEFFICIENT_FILE_BYTES = 1_000_000
 
 
 def _from_file(value) -> np.ndarray:
     from eyelab.spec.surfacefile import spec_file
 
     field = f"{WHERE}.file"
-    path = spec_file(value, field)
-    vals = []
+    path = spec_file(value, field, "a coefficient file's path (text, OSA order)")
+    from eyelab.core.fileio import read_input
+
     try:
-        with open(path, newline="") as f:
-            for i, line in enumerate(f, 1):
-                line = line.split("#", 1)[0].strip()
-                if not line:
-                    continue
-                for cell in next(csv.reader([line.replace(";", ",")])):
-                    for tok in cell.split():
-                        try:
-                            vals.append(float(tok))
-                        except ValueError:
-                            raise SpecError(field, f"line {i}: not a number: {tok!r}") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise SpecError(field, f"cannot read {path}: {e}") from None
+        text = read_input(field, path, COEFFICIENT_FILE_BYTES, "coefficient file").decode()
+    except UnicodeDecodeError as e:
+        raise SpecError(field, f"{path.name} is not a text file (byte {e.start})") from None
+    vals = []
+    for i, line in enumerate(text.splitlines(), 1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        for cell in next(csv.reader([line.replace(";", ",")])):
+            for tok in cell.split():
+                try:
+                    vals.append(float(tok))
+                except ValueError:
+                    raise SpecError(field, f"line {i}: not a number: {tok!r}") from None
     if not vals:
         raise SpecError(field, f"no coefficients in {path}")
     return np.array([_finite(v, field) for v in vals])

@@ -49,7 +49,10 @@ def _for_side(where, side, own, fn):
     except SpecError as e:
         head, _, rest = e.field.partition(".")
         key = rest.split("[")[0].split(".")[0]
-        if head == where and key in own:
+        # a side's own [lens.<side>.front] without its back: the missing surface is the
+        # side's too
+        pair = key in ("front", "back") and bool({"front", "back"} & set(own))
+        if head == where and (key in own or pair):
             raise SpecError(f"{where}.{side}.{rest}", e.message) from None
         raise
 

@@ -60,11 +60,13 @@ def with_spec_folder(parse):
     return wrapper
 
 
-def spec_file(value, field: str) -> Path:
+def spec_file(value, field: str, what: str | None = None) -> Path:
     """A ``file`` key's path: absolute as written, or relative to the spec's folder (to
-    the working folder for a spec given as a table)."""
+    the working folder for a spec given as a table). ``what`` names the kind of file in
+    the error (default: a points file)."""
     if not isinstance(value, str) or not value.strip():
-        raise SpecError(field, f"must be a points file's path ({_FILES}), got {value!r}")
+        what = what or f"a points file's path ({_FILES})"
+        raise SpecError(field, f"must be {what}, got {value!r}")
     p = user_path(field, value)
     folder = SPEC_FOLDER.get()
     return p if p.is_absolute() or folder is None else folder / p

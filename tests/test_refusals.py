@@ -1,0 +1,169 @@
+"""Bad input refused cleanly, fourth round: each case is one line naming the field and what
+it takes, exit status 2, nothing written — inputs that used to hang (a FIFO), run without
+end (/dev/zero), pass with an impossible value, or be blamed on the wrong field."""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+
+import pytest
+
+from eyelab.apps.cli import main
+from eyelab.core.errors import SpecError
+from eyelab.spec import parse_spec
+
+ABERR = {"eye": {"aberrations": {"coefficients_um": [0, 0, 0, 0, 0, 0, 0, 0.1],
+                                 "pupil_mm": 6.0}}}
+
+
+def _parse_within(data, source, seconds=20.0):
+    """parse_spec on a thread, failing (instead of hanging the suite) after ``seconds``."""
+    out = {}
+
+    def run():
+        try:
+            out["spec"] = parse_spec(data, source)
+        except Exception as e:          # noqa: BLE001 - handed to the test below
+            out["error"] = e
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    assert not t.is_alive(), "parsing hung"
+    return out
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+@pytest.mark.parametrize("table", ["frame", "aberrations"])
+def test_a_fifo_or_a_device_is_refused_without_reading(tmp_path, table):
+    """A FIFO would block the read forever, /dev/zero never end it: both are refused before
+    anything is opened, naming the key."""
+    fifo = tmp_path / "job.oma"
+    os.mkfifo(fifo)
+    zero = tmp_path / "zero.oma"
+    zero.symlink_to("/dev/zero")
+    for path in (fifo, zero):
+        if table == "frame":
+            data, field = {"frame": {"file": str(path)}}, "frame.file"
+        else:
+            data = {"eye": {"aberrations": {"file": str(path), "pupil_mm": 6.0}}}
+            field = "eye.aberrations.file"
+        out = _parse_within(data, str(tmp_path / "x.toml"))
+        assert isinstance(out.get("error"), SpecError), out
+        assert out["error"].field == field and "not a regular file" in out["error"].message
+
+
+def test_zernike_coefficients_have_the_aberrometers_range(tmp_path):
+    """A coefficient beyond +-100 um (what a clinical aberrometer reports) is a typing or
+    unit error: refused naming the key, in the list, the table and the file alike."""
+    from eyelab.spec.aberrationkeys import ABERRATION_LIMITS
+
+    lo, hi = ABERRATION_LIMITS["eye.aberrations.coefficients_um"]
+    for big in (1e6, 1e300, -101.0):
+        data = json.loads(json.dumps(ABERR))
+        data["eye"]["aberrations"]["coefficients_um"][7] = big
+        with pytest.raises(SpecError, match=r"\[-100, 100\]") as e:
+            parse_spec(data, "<dict>")
+        assert e.value.field == "eye.aberrations.coefficients_um"
+    data = {"eye": {"aberrations": {"coefficients_um": {"Z3_-1": 1e6}, "pupil_mm": 6.0}}}
+    with pytest.raises(SpecError, match="coefficients_um"):
+        parse_spec(data, "<dict>")
+    f = tmp_path / "z.csv"
+    f.write_text("0 0 0 0 0 0 0 5e5\n")
+    data = {"eye": {"aberrations": {"file": str(f), "pupil_mm": 6.0}}}
+    with pytest.raises(SpecError) as e:
+        parse_spec(data, "<dict>")
+    assert e.value.field == "eye.aberrations.file" and str(int(hi)) in e.value.message
+    data = json.loads(json.dumps(ABERR))
+    data["eye"]["aberrations"]["coefficients_um"][7] = lo   # the range's edge is accepted
+    assert parse_spec(data, "<dict>").eye.aberrations is not None
+
+
+def test_a_coefficient_files_path_is_named_as_such():
+    with pytest.raises(SpecError, match="coefficient file's path") as e:
+        parse_spec({"eye": {"aberrations": {"file": 5, "pupil_mm": 6.0}}}, "<dict>")
+    assert "points" not in e.value.message
+
+
+@pytest.mark.parametrize("shape, box", [("oval", [80, 80]), ("aviator", [40, 10]),
+                                        ("rectangle", [10, 10])])
+def test_a_shapes_box_at_its_limits_is_the_box_asked_for(shape, box):
+    """frame.box_mm at the documented limits [10, 80] is the box asked for, not refused by
+    the outline's rounding (80.00000000000001, 9.99991): the frame is made; what can
+    still refuse it is the lens it must hold (an 80 mm oval needs a 116 mm blank)."""
+    from eyelab.optics.frame import Frame, shape_outline
+
+    right = shape_outline(shape, box[0] * 1e-3, box[1] * 1e-3)
+    frame = Frame({"right": right, "left": right.mirrored()}, 0.018)
+    assert frame.box("right") == pytest.approx((box[0] * 1e-3, box[1] * 1e-3), abs=1e-6)
+    try:
+        parse_spec({"lens": {"rx": "-2.00 DS"},
+                    "frame": {"shape": shape, "box_mm": box, "dbl_mm": 18,
+                              "monocular_pd_mm": box[0] / 2 + 9}}, "<dict>")
+    except SpecError as e:
+        assert not e.field.startswith("frame.box_mm"), e
+
+
+def test_psf_of_two_eyes_names_the_binocular_table(tmp_path, capsys):
+    spec = tmp_path / "two.toml"
+    spec.write_text('[eye.right]\nrx = "-2.00 DS"\n[eye.left]\nrx = "-2.50 DS"\n')
+    assert main(["psf", str(spec), "-o", str(tmp_path / "p.npy")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "binocular" in err and "--eye" not in err
+
+
+def test_empty_output_paths_are_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["analyze", "-o", ""]) == 2
+    assert "--output" in capsys.readouterr().err
+    assert main(["maps", "--json", "", "-o", str(tmp_path / "m.png")]) == 2
+    assert "--json" in capsys.readouterr().err
+    assert not (tmp_path / "m.png").exists()
+
+
+def test_a_sides_lens_without_its_back_names_the_side():
+    data = {"eye": {"right": {"rx": "-2.00 DS"}, "left": {"rx": "-2.00 DS"}},
+            "lens": {"left": {"front": {"type": "sphere", "radius_mm": 500.0},
+                              "center_thickness_mm": 2.0}}}
+    with pytest.raises(SpecError) as e:
+        parse_spec(data, "<dict>")
+    assert e.value.field == "lens.left.back"
+
+
+@pytest.mark.parametrize("key", ["eye.middle.rx", "eye.Right.rx", "lens.centre.material"])
+def test_a_sweep_over_a_table_that_does_not_exist_is_the_sweeps(tmp_path, capsys, key):
+    job = tmp_path / "job.toml"
+    job.write_text(f'[output]\ndir = "out"\n[sweep]\n"{key}" = ["-1.00 DS", "-2.00 DS"]\n')
+    assert main(["batch", str(job)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f'jobspec.sweep."{key}"' in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_mesh_flags_are_checked_before_the_display(tmp_path, capsys, monkeypatch):
+    """Without a display, a bad --mesh-* value is named before "no display" is said."""
+    import trimesh
+
+    stl = tmp_path / "box.stl"
+    trimesh.creation.box(extents=(0.25, 0.25, 0.25)).export(stl)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["inspect", "--mesh", str(stl), "--mesh-scale", "-2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--mesh-scale" in err and "display" not in err
+
+
+def test_a_large_npy_is_named_once(tmp_path):
+    """A points .npy over the size limit: one message, the key named once."""
+    from eyelab.optics.dcs import MAX_BYTES
+    from eyelab.optics.pointsfile import read_points
+
+    big = tmp_path / "big.npy"
+    with open(big, "wb") as f:
+        f.truncate(MAX_BYTES + 1)
+    with pytest.raises(SpecError) as e:
+        read_points(big, "lens.front.file", spacing_mm=1.0)
+    assert e.value.field == "lens.front.file"
+    assert "lens.front.file" not in e.value.message and "bytes" in e.value.message
