@@ -127,6 +127,13 @@ def run(args) -> int:
     for line in res["summary"]:
         print(line)
     print(f"wrote {output}")
+    failed = res.get("failed_checks") or []
+    if failed:           # the measurement is written; its own checks say it falls short
+        import sys
+
+        print(f"eyelab: bench {args.what}: checks failed: {', '.join(failed)}",
+              file=sys.stderr)
+        return 1
     return 0
 
 

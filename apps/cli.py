@@ -18,7 +18,15 @@ from eyelab.core.fileio import report_text, write_report
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (the usage is what ``--help`` is for)."""
+    """argparse with one-line errors (the usage is what ``--help`` is for), and negative
+    numbers in scientific notation (``--mesh-position 0 0 -1e0``) taken as numbers, not
+    as options (argparse's own pattern knows ``-1`` and ``-1.5`` only)."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        import re
+
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 
     def error(self, message):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

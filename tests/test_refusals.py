@@ -167,3 +167,28 @@ def test_a_large_npy_is_named_once(tmp_path):
         read_points(big, "lens.front.file", spacing_mm=1.0)
     assert e.value.field == "lens.front.file"
     assert "lens.front.file" not in e.value.message and "bytes" in e.value.message
+
+
+def test_negative_numbers_in_scientific_notation_are_numbers():
+    from eyelab.apps.cli import _build_parser
+
+    args = _build_parser().parse_args(["inspect", "--mesh", "m.stl", "--mesh-position", "0",
+                                       "0", "-1e0"])
+    assert args.mesh_position == [0.0, 0.0, -1.0]
+    assert _build_parser().parse_args(["render", "--gaze", "-1.5E1", "-2"]).gaze == [-15.0,
+                                                                                    -2.0]
+
+
+def test_a_benchmark_whose_checks_fail_exits_1(tmp_path, capsys, monkeypatch):
+    """The measurement is written and printed; its failed checks are named on one line of
+    stderr and the exit status is 1 (2 stays bad input)."""
+    import eyelab.apps.bench as bench
+
+    monkeypatch.setitem(bench._BENCH_RUNS, "design", lambda args: {
+        "benchmark": "design", "summary": ["soft: checks FAIL: peak_cylinder"],
+        "failed_checks": ["soft: peak_cylinder"]})
+    out = tmp_path / "d.json"
+    assert main(["bench", "design", "-o", str(out)]) == 1
+    assert json.loads(out.read_text())["failed_checks"] == ["soft: peak_cylinder"]
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["eyelab: bench design: checks failed: soft: peak_cylinder"]
