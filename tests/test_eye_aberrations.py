@@ -160,7 +160,7 @@ def test_the_psf_command_writes_the_psf_and_its_report(tmp_path, capsys):
     assert img.shape == (3, 65, 65) and rep["pitch_arcmin"] == 0.25
     ch = rep["channels"][1]
     again = psf(np.array(ch["coefficients_um"]), rep["pupil_mm"], ch["wavelength_nm"],
-                0.25 * ARCMIN, 65)
+                0.25 * ARCMIN, 65, integrate=True)    # the command's pixels: integrated
     np.testing.assert_allclose(again["psf"], img[1], atol=1e-12)
     assert again["strehl"] == pytest.approx(ch["strehl"])
     for argv, field in ((["psf", "-o", str(tmp_path / "q.npy"), "--point", "9"], "--point"),

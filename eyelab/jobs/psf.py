@@ -53,14 +53,16 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
             raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
-                  field="--pitch-arcmin")
+                  field="--pitch-arcmin", integrate=True)
         images.append(out["psf"])
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],
             "rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
             "energy_inside": float(out["psf"].sum()),
+            "outside_window": out["outside_window"],
             "mtf": {str(f): (float(v) if np.isfinite(v) else None) for f, v in zip(
-                MTF_FREQUENCIES_CPD, mtf(out["psf"], out["pitch_rad"], MTF_FREQUENCIES_CPD),
+                MTF_FREQUENCIES_CPD, mtf(out["psf"], out["pitch_rad"], MTF_FREQUENCIES_CPD,
+                                         integrated=True),
                 strict=True)},    # None: beyond the sampling's Nyquist frequency
             "coefficients_um": [float(v) for v in c],
             "fft": out["fft"], "pupil_samples": out["pupil_samples"]})
