@@ -10,7 +10,6 @@ import json
 import os
 import subprocess
 import sys
-import textwrap
 import time
 
 import numpy as np
@@ -265,11 +264,9 @@ print(json.dumps({"source": rep["optimised"]["source"], "z": lens.front.z.tolist
 
 
 def _fresh_process(folder) -> dict:
-    env = dict(os.environ, **{diskcache.DIR_ENV: str(folder)})
-    r = subprocess.run([sys.executable, "-c", textwrap.dedent(FRESH)], capture_output=True,
-                       text=True, env=env, timeout=120)
-    assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)
+    from freshproc import run_fresh
+
+    return run_fresh(FRESH, folder)
 
 
 def test_a_design_from_disk_in_a_fresh_process_is_the_computed_lens(folder, monkeypatch):

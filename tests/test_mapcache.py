@@ -6,11 +6,7 @@ is computed again, and an eye or lens without a complete content key is never ca
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
-import subprocess
-import sys
-import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -62,11 +58,9 @@ def lens():
 
 
 def _fresh_process(folder) -> dict:
-    env = dict(os.environ, **{diskcache.DIR_ENV: str(folder)})
-    r = subprocess.run([sys.executable, "-c", textwrap.dedent(FRESH)], capture_output=True,
-                       text=True, env=env, timeout=120)
-    assert r.returncode == 0, r.stderr
-    return json.loads(r.stdout)
+    from freshproc import run_fresh
+
+    return run_fresh(FRESH, folder)
 
 
 def test_a_fresh_process_reads_the_same_maps_and_figures(folder, lens):

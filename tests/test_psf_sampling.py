@@ -1,14 +1,14 @@
-"""The PSF's sampling against a converged PSF computed another way: the Fraunhofer
-integral evaluated directly at every point of the output window (a matrix Fourier
-transform: no periodic field to fold light back, whatever the wavefront's slope), on a
-512-sample pupil with a 4 x 4 supersampled edge, each output pixel integrated from 7 x 7
-points. At `eyelab psf`'s defaults (0.25' pixels, 129 a side), eyelab's PSF (its FFT
-field 16 lambda/D wider than the geometric spread, each pixel integrated exactly) is within 0.5 % L1 for the keratoconus-like example (0.28-0.30 % measured); for
-smaller aberrations the Airy tails beyond the FFT field (about 1 / (pi^2 rho) of the
-light beyond rho lambda/D) fold back into it: 0.52 % L1 with 0.15 um SA + 0.10 um
-coma, 1.0-1.07 % with 1 D of defocus and 0.3 um SA, whose window holds 0.19 % more light
-than the converged PSF's (was 1-2.7 % with 3 x 3 point samples per pixel and a field of
-just the geometric spread)."""
+"""The PSF's sampling against a converged PSF computed another way: the Fraunhofer integral
+evaluated directly at every point of the output window (a matrix Fourier transform: no
+periodic field to fold light back, whatever the wavefront's slope), on a 512-sample pupil
+with a 4 x 4 supersampled edge, each output pixel integrated from 7 x 7 points. At `eyelab
+psf`'s defaults (0.25' pixels, 129 a side), eyelab's PSF (its FFT field 16 lambda/D wider
+than the geometric spread, each pixel integrated exactly) is within 0.5 % L1 for the
+keratoconus-like example (0.28-0.30 % measured); for smaller aberrations the Airy tails
+beyond the FFT field (about 1 / (pi^2 rho) of the light beyond rho lambda/D) fold back
+into it: 0.52 % L1 with 0.15 um SA + 0.10 um coma, 1.0-1.07 % with 1 D of defocus and 0.3
+um SA, whose window holds 0.19 % more light than the converged PSF's (was 1-2.7 % with 3 x
+3 point samples per pixel and a field of just the geometric spread)."""
 
 import numpy as np
 import pytest
