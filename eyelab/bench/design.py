@@ -13,8 +13,6 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
 from eyelab.core.progress import bar as progress_bar
 
 #: The limits a lab's design is held to here: powers at the reference points (D), the
@@ -29,15 +27,16 @@ LIMITS = {"reference_power_d": 0.03, "path_cylinder_d": 0.25, "width_share": 0.8
 def lens_figures(lens) -> dict:
     """The figures of one lens (model eye :class:`~eyelab.optics.eye.Eye`): the figures
     of :func:`~eyelab.optics.figures.as_worn_figures` over ±40° plus the peak cylinder
-    within ±30° (D and x the add), compacted."""
-    from eyelab.optics.asworn import as_worn_maps
+    within ±30° (D and x the add; found between the grid's points:
+    :func:`~eyelab.optics.asworn.peak_cylinder`), compacted."""
+    from eyelab.optics.asworn import as_worn_maps, peak_cylinder
     from eyelab.optics.eye import Eye
     from eyelab.optics.figures import as_worn_figures
 
     eye = Eye()
     f = as_worn_figures(as_worn_maps(eye, lens, half_angle_deg=40.0, n=41), eye, lens)
     m30 = as_worn_maps(eye, lens, half_angle_deg=30.0, n=31)
-    peak30 = float(np.nanmax(np.abs(m30.cylinder_d)))
+    peak30 = peak_cylinder(m30, eye, lens)[0]        # found between the grid's points
     c, um = f["corridor"], f["corridor_umbilic"]
     length = c["length_mm"]
     bound = 2 * length * 0.5 / (abs(f["add_as_worn_d"]) * math.log(9))

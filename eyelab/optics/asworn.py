@@ -184,16 +184,8 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     check_range("maps.near_rotation_deg", near_rotation_deg, 1.0, 60.0)
     g = np.linspace(-half, half, n)
     gx, gy = np.meshgrid(g, g)
-    vg = object_vergence(gy, near_vergence_d, near_rotation_deg).ravel()
-    objects, passes = objects_on_lines_of_sight(eye, lens, fick_lines(gx, gy), vg,
-                                                wavelength_nm)
-    res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
-                         fixation="rotating")
-    err = power_error(res, lens.rx, objects,
-                      add_fraction=vg / near_vergence_d if near_vergence_d > 0 else None)
-    ok = passes & ((res.status & np.uint8(FATAL)) == 0)
-    for v in err.values():
-        v[~ok] = np.nan
+    objects, vg, res, err, ok = _errors_at(eye, lens, gx.ravel(), gy.ravel(), near_vergence_d,
+                                           near_rotation_deg, wavelength_nm)
     prism = np.where(ok, chief_prism(res)[0], np.nan)
     axis_tabo = tabo_axis(err["axis_wearer_deg"])
     surf = _surface_maps(lens, res, ok, wavelength_nm)
@@ -223,6 +215,75 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
                        "near_rotation_deg": near_rotation_deg},
                       marks, np.where(ok, ox, np.nan).reshape(n, n),
                       np.where(ok, oy, np.nan).reshape(n, n), objects)
+
+
+def _errors_at(eye, lens, rotation_x_deg, rotation_y_deg, near_vergence_d,
+               near_rotation_deg, wavelength_nm) -> tuple:
+    """(objects, vergences, analysis, power errors (NaN where no path), passes) of the
+    lens worn by the eye turned to the Fick angles (n,) (deg) — the maps' points, or any
+    others (:func:`peak_cylinder`)."""
+    vg = object_vergence(rotation_y_deg, near_vergence_d, near_rotation_deg)
+    objects, passes = objects_on_lines_of_sight(eye, lens, fick_lines(rotation_x_deg,
+                                                                      rotation_y_deg),
+                                                vg, wavelength_nm)
+    res = analyze_points(eye, lens, objects, wavelength_nm=wavelength_nm,
+                         fixation="rotating")
+    err = power_error(res, lens.rx, objects,
+                      add_fraction=vg / near_vergence_d if near_vergence_d > 0 else None)
+    ok = passes & ((res.status & np.uint8(FATAL)) == 0)
+    for v in err.values():
+        v[~ok] = np.nan
+    return objects, vg, res, err, ok
+
+
+def peak_cylinder(maps: AsWornMaps, eye, lens, *, half_angle_deg: float | None = None,
+                  starts: int = 6, wavelength_nm: float = 587.56) -> tuple:
+    """(D, (rotation x, y) deg): the largest unwanted cylinder of the lens as worn within
+    +-``half_angle_deg`` (default: the maps' extent) — found, not sampled: from each of the
+    ``starts`` largest local maxima of ``maps``' grid, a patch of rotations a quarter grid
+    step apart is traced, and the best point is refined in continuous rotation
+    (Nelder-Mead to 0.005 deg), each traced as the maps are (their vergence model) and kept
+    in the square — so a peak between grid points is not read low."""
+    from scipy.optimize import minimize
+
+    gx, gy = maps.eye_rotation_x_deg, maps.eye_rotation_y_deg
+    half = float(max(abs(gx[0]), abs(gx[-1]))) if half_angle_deg is None else half_angle_deg
+    prog = (maps.model["near_vergence_d"], maps.model["near_rotation_deg"])
+    xx, yy = np.meshgrid(gx, gy)
+    c = np.abs(maps.cylinder_d)
+    c = np.where(np.isfinite(c) & (np.abs(xx) <= half + 1e-9) & (np.abs(yy) <= half + 1e-9),
+                 c, -np.inf)
+    from scipy.ndimage import maximum_filter
+
+    local = np.isfinite(c) & (c >= maximum_filter(c, size=3, mode="nearest"))
+    order = [k for k in np.argsort(c.ravel())[::-1] if local.ravel()[k]][:starts]
+    step = float(gx[1] - gx[0]) if len(gx) > 1 else 1.0
+
+    def cyl(rx, ry):
+        rx, ry = np.clip(rx, -half, half), np.clip(ry, -half, half)
+        e = np.abs(_errors_at(eye, lens, rx, ry, *prog, wavelength_nm)[3]["cylinder_d"])
+        return np.where(np.isfinite(e), e, -np.inf), rx, ry
+
+    # around each of the largest local maxima, a 9 x 9 patch a quarter step apart (one
+    # trace each), then the best point refined in continuous rotation
+    o = np.linspace(-step, step, 9)
+    best = (-np.inf, np.array([np.nan, np.nan]))
+    for k in order:
+        px, py = np.meshgrid(xx.ravel()[k] + o, yy.ravel()[k] + o)
+        v, rx, ry = cyl(px.ravel(), py.ravel())
+        m = int(np.argmax(v))
+        if v[m] > best[0]:
+            best = (float(v[m]), np.array([rx[m], ry[m]]))
+    if not np.isfinite(best[0]):
+        return best[0], (float("nan"), float("nan"))
+    r0 = best[1]
+    simplex = r0 + step / 8 * np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    res = minimize(lambda r: -float(cyl(r[:1], r[1:])[0][0]), r0, method="Nelder-Mead",
+                   options={"initial_simplex": simplex, "xatol": 0.005, "fatol": 1e-6,
+                            "maxiter": 100})
+    if -res.fun > best[0]:
+        best = (float(-res.fun), np.clip(res.x, -half, half))
+    return best[0], (float(best[1][0]), float(best[1][1]))
 
 
 def _surface_maps(lens, res, ok, wavelength_nm) -> dict:

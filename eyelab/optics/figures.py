@@ -452,13 +452,14 @@ def point_powers(eye, lens, rotation_deg, model: dict, wavelength_nm=587.56) -> 
 
 
 def map_peak_cylinder(maps, eye, lens, wavelength_nm=587.56) -> dict:
-    """The largest unwanted cylinder (D, magnitude) at the maps' grid points (traced, not
-    interpolated), with its eye rotation (deg) and lens point (mm)."""
-    c = np.where(np.isfinite(maps.cylinder_d), np.abs(maps.cylinder_d), -np.inf)
-    j, i = np.unravel_index(int(np.argmax(c)), c.shape)
-    rot = [float(maps.eye_rotation_x_deg[i]), float(maps.eye_rotation_y_deg[j])]
+    """The largest unwanted cylinder (D, magnitude) within the maps' extent — found between
+    their grid points, traced (:func:`eyelab.optics.asworn.peak_cylinder`) — with its eye
+    rotation (deg) and lens point (mm)."""
+    from eyelab.optics.asworn import peak_cylinder
+
+    d, rot = peak_cylinder(maps, eye, lens, wavelength_nm=wavelength_nm)
     x, y = front_points(eye, lens, np.array(rot[:1]), np.array(rot[1:]), wavelength_nm)
-    return {"d": float(c[j, i]), "eye_rotation_deg": rot, "lens_mm": [float(x[0]), float(y[0])]}
+    return {"d": d, "eye_rotation_deg": list(rot), "lens_mm": [float(x[0]), float(y[0])]}
 
 
 def as_worn_figures(maps, eye, lens, wavelength_nm=587.56) -> dict:
