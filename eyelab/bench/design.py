@@ -116,7 +116,9 @@ def run_design_bench() -> dict:
             f"{f['minkwitz_at_path']:.2f}; checks "
             + ("all pass" if all(row["checks"].values()) else
                "FAIL: " + ", ".join(k for k, v in row["checks"].items() if not v)))
-    failed = [f"{name}: {k}" for name, row in rows.items()
+    # the optimised presets are what the limits accept; the analytic design is the
+    # reference they improve on (its checks are shown, not required)
+    failed = [f"{name}: {k}" for name, row in rows.items() if "optimiser" in row
               for k, v in row.get("checks", {}).items() if not v]
     return {"benchmark": "design", "case": {"rx": rx.format(), "add_d": 2.0, "corridor_mm": 14.0,
                                             "inset_mm": 2.5, "material": "cr39"},
