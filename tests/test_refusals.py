@@ -192,3 +192,15 @@ def test_a_benchmark_whose_checks_fail_exits_1(tmp_path, capsys, monkeypatch):
     assert json.loads(out.read_text())["failed_checks"] == ["soft: peak_cylinder"]
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["eyelab: bench design: checks failed: soft: peak_cylinder"]
+
+
+def test_the_naked_wave_modes_sharp_passes_are_not_reported_as_a_zero_blur():
+    """An aberrated naked eye is drawn sharp and spread by the wave PSF after: its report
+    says so instead of "blur field all zero" (which read as if its blur were lost)."""
+    import eyelab
+    from eyelab.imaging.eyepsf import WAVE_SHARP_NOTE
+
+    res = eyelab.render({"eye": {"rx": "-0.50 DS", **ABERR["eye"]}}, no_lens=True,
+                        scene="chart", width=64, height=48, samples=2)
+    assert WAVE_SHARP_NOTE in res.report["skipped"]
+    assert not any("blur field all zero" in s for s in res.report["skipped"])
