@@ -204,3 +204,20 @@ def test_the_naked_wave_modes_sharp_passes_are_not_reported_as_a_zero_blur():
                         scene="chart", width=64, height=48, samples=2)
     assert WAVE_SHARP_NOTE in res.report["skipped"]
     assert not any("blur field all zero" in s for s in res.report["skipped"])
+
+
+def test_an_aberrometers_refraction_is_the_eyes_rx():
+    """With [eye.aberrations] giving the refraction (its second order), eye.vertex_distance_mm
+    moves that Rx to the spectacle plane (no longer refused), and a [lens] without rx is
+    made for it, as for eye.rx (one eye and each of two)."""
+    ab = {"coefficients_um": [0, 0, 0, 0, -1.2, 0, 0, 0.1], "pupil_mm": 6.0}
+    near = parse_spec({"eye": {"aberrations": ab, "vertex_distance_mm": 10.0}}, "<dict>")
+    far = parse_spec({"eye": {"aberrations": ab, "vertex_distance_mm": 20.0}}, "<dict>")
+    assert near.eye.power_min == pytest.approx(far.eye.power_min, abs=1e-9)  # one eye
+    s = parse_spec({"eye": {"aberrations": ab}, "lens": {"material": "cr39"}}, "<dict>")
+    written = parse_spec({"eye": {"rx": s.lens.rx.format()}}, "<dict>")
+    assert s.lens.rx.sphere > 0 and s.eye.power_min == pytest.approx(
+        written.eye.power_min, abs=0.01)
+    two = parse_spec({"eye": {"right": {"aberrations": ab}, "left": {"rx": "-1.00 DS"}},
+                      "lens": {"material": "cr39"}}, "<dict>")
+    assert two.binocular.lens("right").rx.format() == s.lens.rx.format()

@@ -78,10 +78,9 @@ def parse_eye(t: dict) -> Eye:
         check_choice("eye.kind", t["kind"], EYE_KINDS)
     if "vertex_distance_mm" in t:
         number(t, "vertex_distance_mm", "eye")          # a bad value first
-    check_rules(t, "eye")
-    kw = _eye_options(t)
-    t, kw["aberrations"] = eye_aberrations(t, number(t, "vertex_distance_mm", "eye",
-                                                      EYE_VERTEX_MM))
+    t, aberrations = eye_aberrations(t, number(t, "vertex_distance_mm", "eye", EYE_VERTEX_MM))
+    check_rules(t, "eye")      # the aberrations' Rx is eye.rx here (its vertex distance, kind)
+    kw = dict(_eye_options(t), aberrations=aberrations)
     if "rx" in t:
         return _eye_from_rx(t, kw)
     for key, attr in (("power_min_d", "power_min"), ("astigmatism_d", "astigmatism"),

@@ -98,6 +98,9 @@ def parse_binocular(data: dict, frame=None):
             where = _written("eye", side, eye_sides[side], "rx")
             eye_rx = rx_value(et["rx"], where)
             _check_side(eye_rx, side, where)
+        else:                                # from the side's aberrations, if they give one
+            eye_rx = eye_rx_of(et)
+            where = f"eye.{side}.aberrations.coefficients_um"
         own = lens_sides.get(side, {})
         lt = None if lens_shared is None else _side_lens_table(lens_shared, own, side, fpd,
                                                                 mpd)
@@ -140,6 +143,22 @@ def _check_side(rx: Prescription, side: str, where: str, why: str = "") -> None:
                                f"{why}")
 
 
+def eye_rx_of(t: dict):
+    """The Rx of an ``[eye]`` table: ``eye.rx`` as written, else the one its aberrations'
+    second order gives (:mod:`eyelab.spec.aberrationparse`); None where it has neither —
+    what a ``[lens]`` without ``rx`` is made for."""
+    from eyelab.spec.aberrationparse import eye_aberrations
+    from eyelab.spec.schema import EYE_VERTEX_MM
+    from eyelab.spec.tables import number
+
+    if "rx" in t:
+        return rx_value(t["rx"], "eye.rx")
+    if isinstance(t.get("aberrations"), dict):
+        derived, _ = eye_aberrations(t, number(t, "vertex_distance_mm", "eye", EYE_VERTEX_MM))
+        return derived.get("rx")
+    return None
+
+
 def parse_one_eye(data: dict, frame=None) -> tuple:
     """(eye, lens or None) of a spec with one eye. The eye has a side only where its Rx
     names one (R/OD, L/OS): a lens Rx naming the other side is refused, and a progressive
@@ -149,7 +168,7 @@ def parse_one_eye(data: dict, frame=None) -> tuple:
     from eyelab.spec.frame import fitted_lens, frame_for, one_eye_pd
     eye_t = data.get("eye", {})
     eye = parse_eye(eye_t)
-    eye_rx = rx_value(eye_t["rx"], "eye.rx") if "rx" in eye_t else None
+    eye_rx = eye_rx_of(eye_t)                # as written, or from the aberrations
     lens_t = data.get("lens")
     check_eye_add(eye_rx, lens_t, "eye.rx")
     frame_for(frame, lens_t)
