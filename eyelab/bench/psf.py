@@ -92,7 +92,8 @@ def chart_against_full_wave(width: int, height: int, spp: int = 64) -> dict:
     coef[:len(hoa)] = hoa
     coef[4] += second_order(m, 0.0, m, pupil)[0]
     pitch = view_pitch_rad(view)
-    ks = [psf(coef, pupil, wl, pitch, 81)["psf"] for wl in channel_wavelengths()]
+    ks = [psf(coef, pupil, wl, pitch, 81, strehl=False)["psf"]
+          for wl in channel_wavelengths()]
     truth = encode_srgb(convolve_linear(sharp, [k / k.sum() for k in ks]))
     out = {"size": [width, height], "pitch_arcmin": pitch * 180 * 60 / np.pi,
            "defocus_d": m, "truth_s": time.perf_counter() - t}

@@ -128,7 +128,8 @@ def _psf_kernel(c: tuple, pupil_mm, wavelength_nm, pitch_rad, stiles_crawford):
     half = math.ceil((max_slope(c, d / 2) + 3 * 1.22 * lam / d) / pitch_rad) + 1
     while True:
         size = min(2 * half + 1, MAX_KERNEL)
-        out = psf(c, pupil_mm, wavelength_nm, pitch_rad, size, stiles_crawford=stiles_crawford)
+        out = psf(c, pupil_mm, wavelength_nm, pitch_rad, size, stiles_crawford=stiles_crawford,
+                  strehl=False)
         k = out["psf"]
         if k.sum() >= KERNEL_ENERGY or size == MAX_KERNEL:
             k = k / k.sum()

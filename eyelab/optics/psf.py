@@ -64,17 +64,18 @@ def max_slope(coefficients_um, radius_m: float) -> float:
 
 def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float, size: int,
         *, stiles_crawford: bool = False, field: str = "eye.aberrations",
-        integrate: bool = False) -> dict:
+        integrate: bool = False, strehl: bool = True) -> dict:
     """The PSF (``size`` x ``size``, odd; sums to the energy inside it, of 1 in all) at
     ``pitch_rad`` per pixel for the wave aberration ``coefficients_um`` (OSA order from
-    j = 0, wearer frame, over the pupil of ``pupil_mm``), at ``wavelength_nm``. Returns
+    j = 0, wearer frame, over the pupil of ``pupil_mm``), at ``wavelength_nm``. With
     ``integrate``: each pixel the light falling on its whole area (:func:`_pixel_integrated`:
     what `eyelab psf` shows); else the sum of k x k samples around its centre (the kernel
     a render convolves its own pixel-integrated image with, which must not add a second
     pixel footprint). Returns
     {"psf", "pitch_rad", "strehl" (the PSF's true peak, :func:`peak_intensity`, over the
-    diffraction-limited peak), "rms_um" (piston removed), "pupil_samples", "fft",
-    "block"}."""
+    diffraction-limited peak; None with ``strehl`` false: a render's kernel), "rms_um"
+    (piston removed), "pupil_samples", "fft", "block", "outside_window" (the light beyond
+    the window)}."""
     if size % 2 == 0 or size < 3:
         raise SpecError("psf.size", f"must be odd and >= 3, got {size}")
     lam = wavelength_nm * 1e-9
@@ -102,11 +103,13 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
     w = np.where(inside, zk.wavefront(coefficients_um, x / (d / 2), y / (d / 2)), 0.0) * 1e-6
     field = amp * np.exp(2j * np.pi * w / lam)
     fine = _intensity(field)
-    strehl = peak_intensity(field, x, y, lam, fine, lam / (n_fft * dx)) / float(amp.sum()) ** 2
+    # the true peak's search costs more than the PSF itself: only where it is asked for
+    ratio = (peak_intensity(field, x, y, lam, fine, lam / (n_fft * dx))
+             / float(amp.sum()) ** 2) if strehl else None
     total = float(fine.sum())
     out = (_blocks(_pixel_integrated(fine / total, k), k, size, centres=True) if integrate
            else _blocks(fine / total, k, size))
-    return {"psf": out[::-1], "pitch_rad": pitch_rad, "strehl": strehl,
+    return {"psf": out[::-1], "pitch_rad": pitch_rad, "strehl": ratio,
             "rms_um": zk.rms(coefficients_um), "pupil_samples": int(round(d / dx)),
             "fft": n_fft, "block": k, "outside_window": max(0.0, 1.0 - float(out.sum()))}
 

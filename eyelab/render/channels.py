@@ -162,19 +162,21 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
         return win.grab_rgba()
     select_channel(st, 0, route)
     whole = win.grab_rgba()
+    out = st["rgba"]
     if "rects" not in st:
         st["zbuf"] = win.depth()
         st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
         st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
+        st["whole_view"] = st["rects"] == [(0, 0, out.shape[1], out.shape[0])]
     if not st["rects"]:                 # every channel is the first's: one render
         return whole
-    out = st["rgba"]
-    np.copyto(out, whole)
-    h, w = out.shape[:2]
-    whole_view = st["rects"] == [(0, 0, w, h)]
+    if st["whole_view"]:                # the others are drawn whole: only the first kept
+        out[..., 0] = whole[..., 0]
+    else:
+        np.copyto(out, whole)
     for c in range(1, len(fields)):     # the seed uniforms stay set across channels
         select_channel(st, c, route)
-        if whole_view:
+        if st["whole_view"]:
             out[..., c] = win.grab_rgba()[..., c]
             continue
         for x0, y0, x1, y1 in st["rects"]:
