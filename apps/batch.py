@@ -31,6 +31,7 @@ def run(args) -> int:
     from eyelab.apps.common import apply_max_memory
     from eyelab.core.errors import SpecError
     from eyelab.jobs.batch import load_job_spec, run_batch, validate_jobs
+    from eyelab.jobs.jobspec import fixed_lens_note
 
     if not 1 <= args.max_jobs <= 10**7:
         raise SpecError("--max-jobs", f"must be in [1, 10000000], got {args.max_jobs}")
@@ -46,6 +47,9 @@ def run(args) -> int:
     apply_max_memory(args)       # the jobs (and Dask workers, via the environment) check it
     js = load_job_spec(args.jobspec, out_dir=args.output, max_jobs=args.max_jobs)
     validate_jobs(js)            # what would fail every job: refused before anything is written
+    note = fixed_lens_note(js)   # said before the run: a sweep's lens that stays fixed
+    if note:
+        print(note, file=sys.stderr)
     res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
                     progress=not args.quiet and sys.stderr.isatty())
     print(f"{res['jobs']} jobs: {res['run']} run, {res['skipped_done']} already done, "

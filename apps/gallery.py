@@ -1,4 +1,4 @@
-"""Offscreen gallery of blur-field views for the README (``python -m eyelab.apps.gallery OUT``).
+"""Offscreen gallery of blur-field views for the docs (``python -m eyelab.apps.gallery OUT``).
 
 Writes: ``blurfield_volume.png`` (the naked field of a myopic presbyope as a volume over
 the view frustum), ``blurfield_glyphs.png`` (Sturm-conoid ellipses of an astigmatic

@@ -1,6 +1,6 @@
 """Sample wearers: named eye + lens specs used by examples, tests and benchmarks.
 
-Each entry is a spec dict in the format of :mod:`eyelab.spec` (see the README), so it can
+Each entry is a spec dict in the format of :mod:`eyelab.spec` (docs/reference/spec.md), so it can
 be written to TOML with :func:`write_specs` or parsed directly with
 ``eyelab.spec.parse_spec``. Ages and adds follow docs/SCIENCE.md §3 (typical adds by age).
 """

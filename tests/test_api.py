@@ -16,7 +16,7 @@ import pytest
 import eyelab
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text()
+GUIDE = (ROOT / "docs" / "guide" / "python-api.md").read_text()
 HEAVY = ("vtk", "vtkmodules", "pyvista", "embreex", "trimesh", "pymeshlab")
 
 
@@ -28,13 +28,14 @@ def test_import_eyelab_loads_no_vtk_and_no_embree():
     assert r.returncode == 0, r.stdout + r.stderr
 
 
-def test_the_readme_api_example_runs_with_one_import(tmp_path, monkeypatch):
-    section = README[README.index("## Python API"):]
-    code = section[section.index("```python") + 9: section.index("```\n", 10)]
+def test_the_guide_api_example_runs_with_one_import(tmp_path, monkeypatch):
+    section = GUIDE
+    start = section.index("```python") + 9
+    code = section[start: section.index("```\n", start)]
     assert len(re.findall(r"^(?:import|from) ", code, flags=re.M)) <= 3
     monkeypatch.chdir(tmp_path)
     scope = {}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "python-api.md", "exec"), scope)
     assert scope["result"].srgb.shape == (240, 320, 3)
     assert (tmp_path / "view.png").stat().st_size > 0 and (tmp_path / "view.json").exists()
     assert scope["through_chart"].srgb.shape == (120, 160, 3)

@@ -449,3 +449,26 @@ def test_a_changed_input_file_makes_a_new_job(tmp_path):
     np.save(tmp_path / "front.npy", np.full((77, 77), 1e-3))
     assert load_job_spec(tmp_path / "jobs.toml", out_dir=tmp_path / "out").jobs[0].key \
         != before
+
+
+def test_a_sweep_over_the_eyes_rx_says_when_the_lens_stays_fixed(tmp_path):
+    """The built-in spec's lens has its own Rx: a sweep over eye.rx keeps it, and says so
+    before the run; a base spec whose [lens] has no rx makes each job's lens for its eye (the spec's
+    own eye.rx in the resolved job), and sweeping lens.rx too is silent."""
+    from eyelab.jobs.jobspec import fixed_lens_note
+    from eyelab.spec.load import parse_spec
+
+    def grid(text):
+        p = tmp_path / "g.toml"
+        p.write_text(text)
+        return load_job_spec(p, out_dir=tmp_path / "out")
+
+    sweep = '[sweep]\n"eye.rx" = ["-1.00 DS", "-2.00 DS"]\n'
+    note = fixed_lens_note(grid(sweep))
+    assert note and "lens.rx = '-3.00 -1.00 x 180'" in note and "eye.rx" in note
+    assert fixed_lens_note(grid(sweep + '"lens.rx" = ["-1.00 DS", "-2.00 DS"]\n')) is None
+    (tmp_path / "base.toml").write_text('[lens]\nmaterial = "cr39"\n')
+    follows = grid('spec = "base.toml"\n' + sweep)
+    assert fixed_lens_note(follows) is None
+    specs = [parse_spec(job.data, base=tmp_path) for job in follows.jobs]
+    assert [round(s.lens.rx.sphere, 6) for s in specs] == [-1.0, -2.0]

@@ -1,7 +1,7 @@
 """The schema (eyelab/spec/schema.py) is what the validator derives from: the same keys,
 every declared range accepted at its ends and refused just beyond (naming the key), every
 choice accepted and a wrong one refused, no range written a second time anywhere in the
-package; the README's tables are generated from it."""
+package; the spec reference's tables (docs/reference/spec.md) are generated from it."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from eyelab.spec import (
 from eyelab.spec.docs import markdown
 from eyelab.spec.schema import KEYS
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+REFERENCE = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "spec.md").read_text()
 
 
 def _keys(*tables):
@@ -108,11 +108,12 @@ def test_booleans(key):
     assert (_field_refused(key, 1) or "").startswith(_names(key))
 
 
-def test_the_readme_tables_are_generated():
+def test_the_reference_tables_are_generated():
     begin, end = "<!-- spec-reference: begin", "<!-- spec-reference: end -->"
-    block = README[README.index(begin):README.index(end)]
+    block = REFERENCE[REFERENCE.index(begin):REFERENCE.index(end)]
     block = block[block.index("\n") + 1:].strip()
-    assert block == markdown().strip(), "run: python -m eyelab.spec.docs --readme README.md"
+    assert block == markdown().strip(), ("run: python -m eyelab.spec.docs --write "
+                                         "docs/reference/spec.md")
 
 
 def _literal(node):

@@ -167,6 +167,31 @@ def validate_jobs(js: JobSpec) -> None:
             _check_job(job.data, {}, f"jobspec.cases[{i}]")
 
 
+def fixed_lens_note(js: JobSpec) -> str | None:
+    """One line for a grid whose jobs change the eye's Rx while their lens keeps a
+    prescription of its own (the base spec's ``lens.rx`` or surfaces, e.g. the built-in
+    default's): such a lens is not made for each job's eye. None where every lens follows
+    its eye (a ``[lens]`` without ``rx``) or the jobs set the lens themselves."""
+    for job in js.jobs:
+        eye_keys = [k for k in job.params if k == "eye" or (k.startswith("eye.")
+                                                            and k.endswith(".rx"))]
+        if not eye_keys or any(k == "lens" or k.startswith("lens.rx") or
+                               k.startswith(("lens.right", "lens.left", "lens.front",
+                                             "lens.back")) for k in job.params):
+            continue
+        lens = job.data.get("lens")
+        if not isinstance(lens, dict):
+            continue
+        own = [k for k in ("rx", "front", "back") if k in lens]
+        if own:
+            what = (f"lens.rx = {lens['rx']!r}" if "rx" in lens else
+                    "its lens.front / lens.back surfaces")
+            return (f"note: the jobs change {eye_keys[0]} but keep {what} from the base "
+                    f"spec: the lens is not made for each eye (sweep \"lens.rx\" too, or "
+                    f"name a base spec = \"FILE\" whose [lens] has no rx)")
+    return None
+
+
 def _check_job(data: dict, origin: dict, where: str) -> None:
     """Parse one job's spec as the job would; a :class:`SpecError` is re-raised naming
     where the bad value came from — ``origin[key]`` when the field is under a dotted key

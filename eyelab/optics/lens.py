@@ -95,7 +95,7 @@ class LensPose:
 
     vertex_distance : m, back vertex to corneal vertex, in [0.005, 0.03]
     pantoscopic_tilt_deg, wrap_deg : in [-30, 30]
-    decentration : (x, y) m, optical centre relative to the pupil centre, |.| <= 0.02
+    decentration : (x, y) m, optical centre relative to the pupil centre, at most 0.02 from it
     """
 
     vertex_distance: float = 0.012

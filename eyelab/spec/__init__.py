@@ -3,7 +3,7 @@
 :mod:`.tables` reads one table, :mod:`.parse` the eye, the lens and the object points,
 :mod:`.render` the ``[render]`` table, :mod:`.sides` the eyes' sides (one eye or two),
 :mod:`.load` the whole document; :mod:`.eyerx` derives the powers ``eye.rx`` takes from the
-eye's limits; :mod:`.docs` writes the README's reference tables.
+eye's limits; :mod:`.docs` writes the spec reference's tables.
 """
 
 from eyelab.spec.load import Spec, dump_spec, load_spec, one_eye, parse_spec, read_spec_data

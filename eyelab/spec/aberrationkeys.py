@@ -29,7 +29,7 @@ ALLOWED = {"coefficients_um", "file", "pupil_mm", "wavelength_nm", "stiles_crawf
 BASE = {"eye": {"aberrations": {"coefficients_um": [0, 0, 0, 0, 0, 0, 0, 0.05, 0, 0, 0, 0,
                                                     0.1], "pupil_mm": 6.0}}}
 ABERRATION_TABLE = ("`[eye.aberrations]` (the eye's higher-order aberrations, an aberrometer's "
-         "OSA/ANSI Zernike coefficients; README: the patient's own eye)")
+         "OSA/ANSI Zernike coefficients; docs/guide/patient-eye.md)")
 ABERRATION_KEYS = (
     (("eye", "aberrations", "text", "", "none", "the eye's higher-order aberrations and the "
       "pupil's diffraction in renders, `eyelab psf` and `analyze`: table `[eye.aberrations]`"),

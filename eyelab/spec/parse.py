@@ -1,7 +1,7 @@
 """Spec files (TOML): the eye, the lens and the object points for ``eyelab analyze``.
 
 Every field is validated; an error names the field (dotted path) and the allowed range.
-See ``eyelab/data/default.toml`` and the README for the format. Units: mm for lengths
+See ``eyelab/data/default.toml`` and docs/reference/spec.md for the format. Units: mm for lengths
 unless a key ends in ``_m``; D for powers; degrees for angles.
 """
 

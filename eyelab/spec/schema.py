@@ -7,7 +7,7 @@ the view and each renderer's options (``LIMITS`` of :class:`~eyelab.imaging.cont
 and of the quality classes, whose defaults too) — the schema takes the range from there
 (``eye.rx``'s powers derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows
 are :data:`SPEC_LIMITS`.
-The parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the README's
+The parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the spec reference's
 tables are generated from :data:`KEYS` (:mod:`eyelab.spec.docs`), and so is the bad-spec
 corpus (``tests/badspecs.py``); ``tests/test_specdoc.py`` checks that every key is
 accepted at both ends of its range and refused just beyond, naming itself.

@@ -1,0 +1,162 @@
+"""Docs are code: the README is a short front door whose commands and Python run as
+written, the guide's specs parse, the generated references are current, the example files
+are what the pages show, and the documentation site builds with warnings as errors."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+PAGES = sorted((ROOT / "docs" / "guide").glob("*.md")) + sorted(
+    (ROOT / "docs" / "reference").glob("*.md"))
+
+#: The README's front-door limits (lines; the line by which a spec has appeared).
+README_MAX_LINES = 250
+SPEC_BY_LINE = 60
+
+
+def _blocks(text: str, lang: str) -> list:
+    return re.findall(rf"^```{lang}\n(.*?)^```", text, flags=re.S | re.M)
+
+
+def _workdir(tmp_path: Path) -> Path:
+    """A folder holding what the README's commands read: examples/ and the gallery's specs
+    (``docs/gallery/*.toml``), as in a clone."""
+    work = tmp_path / "clone"
+    shutil.copytree(ROOT / "examples", work / "examples")
+    (work / "docs" / "gallery").mkdir(parents=True)
+    for f in (ROOT / "docs" / "gallery").glob("*.toml"):
+        shutil.copy(f, work / "docs" / "gallery" / f.name)
+    return work
+
+
+def readme_commands() -> list:
+    """Every ``eyelab ...`` command the README shows, fenced or inline, that can run here
+    as written: not a placeholder (``COMMAND``), not the window (``inspect``) and not a
+    benchmark (their own tests run them); the install line is CI's (.ci/run)."""
+    fenced = [ln.strip() for b in _blocks(README, "bash") for ln in b.splitlines()]
+    inline = re.findall(r"`(eyelab [^`]+)`", README)
+    out = []
+    for cmd in fenced + inline:
+        if not cmd.startswith("eyelab ") or re.search(r"\b[A-Z]{3,}\b", cmd):
+            continue
+        if cmd.split()[1] in ("inspect", "bench", "demo") or cmd in out:
+            continue
+        out.append(cmd)
+    return out
+
+
+def test_the_readme_is_a_front_door():
+    lines = README.splitlines()
+    assert len(lines) <= README_MAX_LINES, len(lines)
+    first_spec = next(i for i, ln in enumerate(lines, 1) if ln.startswith("```toml"))
+    assert first_spec <= SPEC_BY_LINE, first_spec
+    assert _blocks(README, "toml")[0] == (ROOT / "examples" / "first.toml").read_text()
+
+
+def test_the_readme_links_resolve():
+    links = re.findall(r"\]\(([^)#\s]+)\)", README)
+    missing = [t for t in links if "://" not in t and not (ROOT / t).exists()]
+    assert not missing and len(links) > 20, missing
+
+
+def test_the_readme_commands_run_as_written(tmp_path):
+    work = _workdir(tmp_path)
+    cmds = readme_commands()
+    assert {c.split()[1] for c in cmds} >= {"render", "analyze", "maps", "surface", "psf",
+                                            "batch"}, cmds
+    env = dict(os.environ, COLUMNS="100")
+    for cmd in cmds:
+        r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli",
+                            *shlex.split(cmd)[1:]], cwd=work, env=env,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, f"{cmd}: {r.stdout[-800:]}{r.stderr[-800:]}"
+    assert (work / "first.png").stat().st_size and (work / "first.json").exists()
+    assert (work / "batch-out" / "summary.csv").exists()
+
+
+def test_the_readme_python_runs(tmp_path, monkeypatch):
+    work = _workdir(tmp_path)
+    monkeypatch.chdir(work)
+    (code,) = _blocks(README, "python")
+    exec(compile(code, "README.md", "exec"), {})
+    assert (work / "first-api.png").stat().st_size > 0
+
+
+def _is_jobspec(data: dict) -> bool:
+    return bool({"sweep", "cases", "output", "base"} & set(data)) or "spec" in data
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_every_spec_in_the_docs_is_valid(page, tmp_path):
+    """Every TOML block of the guide and the references is a spec (or job spec) that
+    eyelab accepts, its files read from examples/ (where the page names its example file,
+    the block is that file)."""
+    from eyelab.jobs.batch import load_job_spec, validate_jobs
+    from eyelab.spec.load import parse_spec
+
+    text = page.read_text()
+    for block in _blocks(text, "toml"):
+        named = re.search(r"This is\s+`examples/(\w+\.toml)`", text[:text.index(block)][-300:])
+        if named:
+            assert block == (ROOT / "examples" / named.group(1)).read_text(), named.group(1)
+        data = tomllib.loads(block)
+        if _is_jobspec(data):
+            p = ROOT / "examples" / "base.toml"
+            job = tmp_path / "job.toml"
+            job.write_text(block)
+            if "spec" in data:
+                shutil.copy(p, tmp_path / data["spec"])
+            validate_jobs(load_job_spec(job, out_dir=tmp_path / "out"))
+        else:
+            parse_spec(data, base=ROOT / "examples")
+
+
+def test_the_examples_are_valid():
+    from eyelab.spec.load import load_spec
+
+    for f in sorted((ROOT / "examples").glob("*.toml")):
+        if f.name != "batch.toml":
+            load_spec(f)
+
+
+def test_the_command_reference_is_generated():
+    from eyelab.apps.clidoc import markdown
+
+    have = (ROOT / "docs" / "reference" / "cli.md").read_text()
+    assert have == markdown(), "run: python -m eyelab.apps.clidoc --write docs/reference/cli.md"
+
+
+@pytest.mark.skipif(importlib.util.find_spec("sphinx") is None
+                    and not os.environ.get("EYELAB_REQUIRE_DOCS"),
+                    reason="the docs extra is not installed (CI sets EYELAB_REQUIRE_DOCS)")
+def test_the_documentation_builds_without_warnings(tmp_path):
+    r = subprocess.run([sys.executable, "-P", "-m", "sphinx", "-W", "--keep-going", "-q",
+                        "-b", "html", str(ROOT / "docs"), str(tmp_path / "html")],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    for page in ("index", "guide/commands", "reference/spec", "reference/cli",
+                 "reference/api", "_generated/benchmarks"):
+        assert (tmp_path / "html" / f"{page}.html").exists(), page
+    api = (tmp_path / "html" / "reference" / "api.html").read_text()
+    assert "eyelab.jobs.api.render" in api and "Session" in api
+
+
+def test_the_corpus_size_the_guide_quotes_is_the_generators():
+    sys.path.insert(0, str(ROOT / "tests"))
+    import badspecs
+
+    text = (ROOT / "docs" / "guide" / "commands.md").read_text()
+    quoted = re.search(r"generated corpus of ([\d,]+)\s+bad specs", text).group(1)
+    assert int(quoted.replace(",", "")) == len(badspecs.corpus())
