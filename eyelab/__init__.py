@@ -57,7 +57,7 @@ def __getattr__(name: str):
     if name in _API:
         value = getattr(importlib.import_module(_API[name]), name)
         if name == "render":
-            value = _RenderEntry(value)
+            value = RenderFunction(value)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'eyelab' has no attribute {name!r}")
@@ -67,7 +67,7 @@ def __dir__():
     return sorted(set(globals()) | set(_API))
 
 
-class _RenderEntry:
+class RenderFunction:
     """``eyelab.render``: the function :func:`eyelab.jobs.api.render` when called, the GL
     package :mod:`eyelab.render` for attributes — so ``eyelab.render(spec)``, ``import
     eyelab.render.raster as m``, ``from eyelab.render import raster`` and
@@ -78,6 +78,11 @@ class _RenderEntry:
 
     def __call__(self, *args, **kwargs):
         return self.__wrapped__(*args, **kwargs)
+
+    def __get__(self, obj, objtype=None):
+        # a (non-data) descriptor is a routine to inspect and pydoc: help(eyelab.render)
+        # documents the function, with its signature (inspect follows __wrapped__)
+        return self
 
     def __getattr__(self, name: str):
         if name.startswith("__"):
@@ -92,7 +97,7 @@ class _Package(types.ModuleType):
     """``eyelab`` itself: importing the subpackage ``eyelab.render`` (the GL renderers)
     binds it as an attribute of the package, which would hide the function
     :func:`render`; the function stays and reaches the package's attributes
-    (:class:`_RenderEntry`)."""
+    (:class:`RenderFunction`)."""
 
     def __setattr__(self, name, value):
         if name in _API and isinstance(value, types.ModuleType):

@@ -33,16 +33,34 @@ DUBOIS_RIGHT = np.array([[-0.011, -0.032, -0.007],
 
 
 # ---------------------------------------------------------------------- rendering
-@dataclass
+@dataclass(repr=False)
 class BinocularResult:
     """Both eyes' :class:`~eyelab.imaging.contract.RenderResult` and the composed image.
 
     right, left : RenderResult; report : {"binocular": {...}, "right": ..., "left": ...}.
+    Jupyter shows the spec's output (:attr:`output`: side by side unless the spec says
+    otherwise); ``srgb(output)`` / ``linear(output)`` give any other.
     """
 
     right: object
     left: object
     report: dict
+
+    @property
+    def output(self) -> str:
+        """The spec's ``binocular.output`` (:data:`OUTPUTS`)."""
+        return self.report.get("binocular", {}).get("output", "side-by-side")
+
+    def _repr_png_(self) -> bytes:
+        """The :attr:`output` image as PNG bytes: how Jupyter shows a two-eye result."""
+        from eyelab.core.fileio import png_bytes
+
+        return png_bytes(self.srgb(self.output))
+
+    def __repr__(self) -> str:
+        h, w = self.right.srgb.shape[:2]
+        return (f"<BinocularResult {self.output}: two eyes, {w}x{h} px each; .right, .left, "
+                f".srgb(output), .report>")
 
     def linear(self, output: str) -> np.ndarray:
         """(h, w', 3) float32 linear image for ``output`` (:data:`OUTPUTS`)."""

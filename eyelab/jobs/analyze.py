@@ -67,12 +67,7 @@ def eye_table(eye) -> dict:
     ``[eye.aberrations]`` keys) only where the eye has them."""
     import dataclasses
 
-    out = {"power_min_d": eye.power_min, "astigmatism_d": eye.astigmatism,
-           "astigmatism_axis_deg": eye.astigmatism_axis_deg,
-           "accommodation_max_d": eye.accommodation_max,
-           "pupil_diameter_mm": eye.pupil_diameter * 1e3,
-           "retina_distance_mm": eye.retina_distance * 1e3, "n_vitreous": eye.n_vitreous,
-           "rotation_centre_mm": eye.rotation_centre * 1e3, "chromatic": eye.chromatic}
+    out = eye.spec_keys()
     if eye.aberrations is not None:
         a = dataclasses.asdict(eye.aberrations)
         out["aberrations"] = dict(a, coefficients_um=list(a["coefficients_um"]))

@@ -25,8 +25,15 @@ __all__ = ["analyze", "as_spec", "builtin_scene", "maps", "psf", "render", "with
 def render(spec=None, *, no_lens: bool = False, session: Session | None = None,
            **overrides):
     """What the spec's eye sees (through its lens unless ``no_lens``), or both eyes' images
-    for a two-eye spec. ``overrides``: ``[render]`` keys, e.g. ``width=320, samples=8,
-    renderer="reference", scene="chart", gaze_deg=(10, -20)``. ``session``: the
+    for a two-eye spec.
+
+    ``spec`` is any of: None (the built-in default, ``eyelab/data/default.toml``); a spec
+    file's path (str or Path); a dict of its tables (``{"eye": {"rx": "-2.00 DS"}}``,
+    read as a file of those tables: a table left out takes its defaults, and without
+    ``"lens"`` there is no lens); a :class:`~eyelab.spec.Spec` (``eyelab.load_spec(path)``).
+    ``overrides``: ``[render]`` keys, e.g. ``width=320, samples=8,
+    renderer="reference", scene="chart", gaze_deg=(10, -20)``, checked as the file's
+    are (a bad one raises :class:`~eyelab.core.errors.SpecError` naming it). ``session``: the
     :class:`~eyelab.jobs.session.Session` whose renderers and scenes to reuse (None: the
     default one); the report's ``cache.session`` says what was reused. Returns a
     :class:`~eyelab.imaging.contract.RenderResult` (one eye; ``.save(path)``, shown by

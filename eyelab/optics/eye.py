@@ -158,6 +158,25 @@ class Eye:
     chromatic: bool = True
     aberrations: object = None
 
+    def spec_keys(self) -> dict:
+        """The ``[eye]`` spec keys that make this eye, in the spec's units (D, degrees, mm;
+        its aberrations apart): how reports write an eye, and what its repr shows."""
+        return {"power_min_d": self.power_min, "astigmatism_d": self.astigmatism,
+                "astigmatism_axis_deg": self.astigmatism_axis_deg,
+                "accommodation_max_d": self.accommodation_max,
+                "pupil_diameter_mm": self.pupil_diameter * 1e3,
+                "retina_distance_mm": self.retina_distance * 1e3,
+                "n_vitreous": self.n_vitreous,
+                "rotation_centre_mm": self.rotation_centre * 1e3, "chromatic": self.chromatic}
+
+    def __repr__(self) -> str:
+        from eyelab.core.reprs import spec_repr
+
+        keys = self.spec_keys()
+        if self.aberrations is not None:
+            keys["aberrations"] = f"{len(self.aberrations.coefficients_um)} Zernike terms"
+        return spec_repr("Eye", keys)
+
     def __post_init__(self):
         check_in("eye.power_min_d", self.power_min, LIMITS)
         check_in("eye.astigmatism_d", self.astigmatism, LIMITS)

@@ -16,6 +16,7 @@ rotation is about the back vertex. The front surface's vertex is at z_l = -cente
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -103,6 +104,17 @@ class LensPose:
     wrap_deg: float = 0.0
     decentration: tuple = (0.0, 0.0)
 
+    def spec_keys(self) -> dict:
+        """The ``[lens]`` pose keys that place the lens so, in the spec's units (mm, deg)."""
+        return {"vertex_distance_mm": self.vertex_distance * 1e3,
+                "pantoscopic_tilt_deg": self.pantoscopic_tilt_deg, "wrap_deg": self.wrap_deg,
+                "decentration_mm": tuple(v * 1e3 for v in self.decentration)}
+
+    def __repr__(self) -> str:
+        from eyelab.core.reprs import spec_repr
+
+        return spec_repr("LensPose", self.spec_keys())
+
     def __post_init__(self):
         check_in("lens.vertex_distance_mm", self.vertex_distance * 1e3, LIMITS)
         check_in("lens.pantoscopic_tilt_deg", self.pantoscopic_tilt_deg, LIMITS)
@@ -159,6 +171,25 @@ class SpectacleLens:
     design: object = field(default=None, compare=False, repr=False)
     #: The frame's outline the lens is cut to (lens frame), or None: the round blank.
     outline: object = field(default=None, repr=False)
+
+    def __repr__(self) -> str:
+        from eyelab.core.reprs import Raw, spec_repr, value
+
+        def surface(s):
+            if not dataclasses.is_dataclass(s):
+                return repr(s)
+            keys = {f.name: getattr(s, f.name) for f in dataclasses.fields(s) if f.repr}
+            return spec_repr(type(s).__name__, keys)
+
+        keys = {"rx": None if self.rx is None else self.rx.format(),
+                "material": self.material.name,
+                "center_thickness_mm": self.center_thickness * 1e3,
+                "diameter_mm": self.diameter * 1e3, **self.pose.spec_keys(),
+                "coating": self.coating, "front": Raw(surface(self.front)),
+                "back": Raw(surface(self.back))}
+        if self.outline is not None:
+            keys["outline"] = Raw("frame")
+        return "SpectacleLens(" + ", ".join(f"{k}={value(v)}" for k, v in keys.items()) + ")"
 
     def __post_init__(self):
         check_in("lens.center_thickness_mm", self.center_thickness * 1e3, LIMITS)

@@ -270,7 +270,7 @@ class Prescription:
         the input; nothing is guessed.
 
         >>> Prescription.parse("-2.25 -1.00 x 180")
-        Prescription(sphere=-2.25, cylinder=-1.0, axis=180.0, add=0.0, eye=None)
+        Prescription(sphere=-2.25, cylinder=-1, axis=180, add=0, eye=None)
         >>> Prescription.parse("-0.25 DC x 45").format()
         'plano / -0.25 x 045'
         >>> Prescription.parse("R -1,00 -0,50 x 180 Add: +2.50").format()
@@ -307,6 +307,13 @@ class Prescription:
         except SpecError as e:
             raise SpecError(field + e.field[2:], f"{e.message} (in prescription {text!r})") \
                 from None
+
+    def __repr__(self) -> str:
+        from eyelab.core.reprs import spec_repr
+
+        return spec_repr("Prescription", {"sphere": self.sphere, "cylinder": self.cylinder,
+                                          "axis": self.axis, "add": self.add,
+                                          "eye": self.eye})
 
     def format(self, *, plus_cylinder: bool | None = None) -> str:
         """Clinical string, e.g. ``'-2.25 / -1.00 x 010'`` (axis in three digits);

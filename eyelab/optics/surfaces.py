@@ -291,8 +291,9 @@ class FreeForm(Surface):
     def __repr__(self):
         from eyelab.core.cache import array_digest
 
-        return (f"FreeForm({len(self.x)}x{len(self.y)} grid, x [{self.x[0]:g}, {self.x[-1]:g}]"
-                f", y [{self.y[0]:g}, {self.y[-1]:g}] m, sag {array_digest(self.z)[:12]})")
+        mm = [round(float(v) * 1e3, 3) for v in (self.x[0], self.x[-1], self.y[0], self.y[-1])]
+        return (f"FreeForm({len(self.x)}x{len(self.y)} grid, x [{mm[0]:g}, {mm[1]:g}], "
+                f"y [{mm[2]:g}, {mm[3]:g}] mm, sag {array_digest(self.z)[:12]})")
 
     @property
     def content_key(self) -> str:
