@@ -472,3 +472,18 @@ def test_a_sweep_over_the_eyes_rx_says_when_the_lens_stays_fixed(tmp_path):
     assert fixed_lens_note(follows) is None
     specs = [parse_spec(job.data, base=tmp_path) for job in follows.jobs]
     assert [round(s.lens.rx.sphere, 6) for s in specs] == [-1.0, -2.0]
+
+
+def test_workers_without_dask_are_one_line_and_nothing_written(tmp_path, monkeypatch):
+    """Dask is the `dask` extra: without it, --workers 2 (or --scheduler) is refused by
+    name before anything is created; one worker runs without it."""
+    monkeypatch.setitem(sys.modules, "distributed", None)       # import fails
+    p = tmp_path / "g.toml"
+    p.write_text('[base]\nrender = {width = 32, height = 24, samples = 1}\n')
+    js = load_job_spec(p, out_dir=tmp_path / "out")
+    with pytest.raises(SpecError, match=r"^--workers: .*pip install 'eyelab\[dask\]'"):
+        run_batch(js, workers=2, progress=False)
+    with pytest.raises(SpecError, match=r"^--scheduler: "):
+        run_batch(js, scheduler="tcp://127.0.0.1:1", progress=False)
+    assert not (tmp_path / "out").exists()
+    assert run_batch(js, workers=1, progress=False)["errors"] == []

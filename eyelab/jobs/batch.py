@@ -282,8 +282,14 @@ class _Cluster:
 def _connect(scheduler: str | None, workers: int) -> _Cluster:
     """A client of the scheduler at ``scheduler`` (an unreachable one is a one-line
     :class:`SpecError` naming ``--scheduler``), or of a new ``LocalCluster`` of ``workers``
-    single-threaded processes."""
-    from distributed import Client, LocalCluster
+    single-threaded processes. Without Dask (the ``dask`` extra) a one-line
+    :class:`SpecError` naming the option that asked for it."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise SpecError("--scheduler" if scheduler is not None else "--workers",
+                        "runs jobs on Dask, which is not installed: pip install "
+                        "'eyelab[dask]' (one worker needs no Dask)") from None
 
     if scheduler is not None:
         try:

@@ -1,0 +1,55 @@
+"""A newcomer's first hour, as the README gives it: a fresh clone, the install line and
+the demo exactly as written, then the first spec's commands in the activated environment
+(slow: a new virtual environment installs every dependency; `pytest -m slow`)."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+
+
+def _bash_blocks():
+    return [b.strip().splitlines() for b in
+            re.findall(r"^```bash\n(.*?)^```", README, flags=re.S | re.M)]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("git") is None or shutil.which("apt-get") is None
+                    or os.geteuid() != 0, reason="needs git, apt-get and root (the README's "
+                    "install line)")
+def test_a_newcomer_installs_runs_the_demo_and_renders_their_spec(tmp_path):
+    clone = tmp_path / "eyelab"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(clone)], check=True)
+    for path in ("README.md", "examples"):              # this tree, committed or not
+        src = ROOT / path
+        if src.is_dir():
+            shutil.rmtree(clone / path)
+            shutil.copytree(src, clone / path)
+        else:
+            shutil.copy(src, clone / path)
+    install, first = _bash_blocks()[0], _bash_blocks()[1]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("VIRTUAL_ENV", "PYTHON"))}
+    times = {}
+    for line in install:
+        t = time.perf_counter()
+        r = subprocess.run(["bash", "-c", line], cwd=clone, env=env, capture_output=True,
+                           text=True, timeout=1800)
+        times[line.split()[0]] = time.perf_counter() - t
+        assert r.returncode == 0, f"{line}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+    assert (clone / "eyelab-demo.png").stat().st_size > 0
+    env["PATH"] = f"{clone / '.venv' / 'bin'}:{env['PATH']}"       # . .venv/bin/activate
+    for line in first:
+        r = subprocess.run(["bash", "-c", line], cwd=clone, env=env, capture_output=True,
+                           text=True, timeout=600)
+        assert r.returncode == 0, f"{line}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+    assert (clone / "first.png").stat().st_size and (clone / "naked.png").stat().st_size
+    print("newcomer's path (s):", {k: round(v, 1) for k, v in times.items()})
