@@ -160,3 +160,14 @@ def test_the_corpus_size_the_guide_quotes_is_the_generators():
     text = (ROOT / "docs" / "guide" / "commands.md").read_text()
     quoted = re.search(r"generated corpus of ([\d,]+)\s+bad specs", text).group(1)
     assert int(quoted.replace(",", "")) == len(badspecs.corpus())
+
+
+def test_the_install_numbers_the_readme_quotes_are_the_measured_ones():
+    import json
+
+    bench = json.loads((ROOT / "docs" / "bench" / "newcomer.json").read_text())
+    size = re.search(r"The environment holds ([\d,]+) MB", README).group(1)
+    assert int(size.replace(",", "")) == round(bench["venv_size_mb"])
+    line, demo = re.search(r"install line took (\d+) s.*?demo\s+(\d+) s", README, re.S).groups()
+    steps = bench["steps_s"]
+    assert (int(line), int(demo)) == (round(steps["apt-get"]), round(steps[".venv/bin/eyelab"]))

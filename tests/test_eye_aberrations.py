@@ -2,8 +2,9 @@
 full-wave answer: a flat ETDRS chart at 4 m, its sharp image (the reference renderer, an
 eye that focuses every point, 64 spp) convolved per channel with the FFT PSF of the pupil
 function — the eye's defocus for the chart plus the higher orders over the render's pupil
-(eyelab/optics/psf.py, itself checked against a direct Fraunhofer integral in tests/test_wave_psf.py). Also the
-spec's [eye.aberrations]: the second order as the Rx, conflicts refused by name."""
+(eyelab/optics/psf.py, itself checked against a direct Fraunhofer integral in
+tests/test_wave_psf.py). Also the spec's [eye.aberrations]: the second order as the Rx,
+conflicts refused by name."""
 
 from __future__ import annotations
 

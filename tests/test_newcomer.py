@@ -4,6 +4,7 @@ the demo exactly as written, then the first spec's commands in the activated env
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -43,7 +44,7 @@ def test_a_newcomer_installs_runs_the_demo_and_renders_their_spec(tmp_path):
         t = time.perf_counter()
         r = subprocess.run(["bash", "-c", line], cwd=clone, env=env, capture_output=True,
                            text=True, timeout=1800)
-        times[line.split()[0]] = time.perf_counter() - t
+        times[line.split()[0]] = time.perf_counter() - t       # apt-get ..., .venv/bin/...
         assert r.returncode == 0, f"{line}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
     assert (clone / "eyelab-demo.png").stat().st_size > 0
     env["PATH"] = f"{clone / '.venv' / 'bin'}:{env['PATH']}"       # . .venv/bin/activate
@@ -52,4 +53,15 @@ def test_a_newcomer_installs_runs_the_demo_and_renders_their_spec(tmp_path):
                            text=True, timeout=600)
         assert r.returncode == 0, f"{line}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
     assert (clone / "first.png").stat().st_size and (clone / "naked.png").stat().st_size
-    print("newcomer's path (s):", {k: round(v, 1) for k, v in times.items()})
+    size = sum(f.stat().st_size for f in (clone / ".venv").rglob("*")
+               if f.is_file() and not f.is_symlink())
+    record = {"units": "s for times, MB (10^6 bytes) for sizes",
+              "benchmark": "newcomer", "steps_s": times,
+              "venv_size_mb": size / 1e6, "summary": [
+                  f"the README's install line {times[install[0].split()[0]]:.0f} s, "
+                  f"eyelab demo {times[install[1].split()[0]]:.0f} s; the virtual "
+                  f"environment holds {size / 1e6:.0f} MB"]}
+    print(record["summary"][0])
+    out = os.environ.get("EYELAB_BENCH_OUT")            # docs/bench/newcomer.json
+    if out:
+        Path(out).write_text(json.dumps(record, indent=1) + "\n")
