@@ -13,7 +13,8 @@ Functions: :func:`render`, :func:`analyze`, :func:`maps`, :func:`psf`, :func:`lo
 :class:`Session` (open renderers and built scenes kept between calls; the functions use a
 shared default one unless given ``session=``), :class:`Eye`, :class:`Prescription`,
 :class:`SpectacleLens`, :class:`LensPose`, :class:`Material`, :class:`Scene`,
-:class:`View`, :class:`RenderResult`, :class:`Spec`, :class:`SpecError`. The packages
+:class:`View`, :class:`RenderResult`, :class:`Spec`, :class:`SpecError`,
+:class:`NotebookInspector` (the live view with sliders in Jupyter). The packages
 below are the layers (docs/ARCHITECTURE.md).
 """
 
@@ -48,6 +49,7 @@ _API = {
     "maps": "eyelab.jobs.api",
     "psf": "eyelab.jobs.api",
     "Session": "eyelab.jobs.session",
+    "NotebookInspector": "eyelab.apps.notebook",
     "builtin_scene": "eyelab.jobs.api",
 }
 __all__ = ["__version__", *_API]

@@ -171,3 +171,18 @@ def test_the_install_numbers_the_readme_quotes_are_the_measured_ones():
     line, demo = re.search(r"install line took (\d+) s.*?demo\s+(\d+) s", README, re.S).groups()
     steps = bench["steps_s"]
     assert (int(line), int(demo)) == (round(steps["apt-get"]), round(steps[".venv/bin/eyelab"]))
+
+
+def test_the_notebook_page_runs(tmp_path, monkeypatch):
+    """The notebook guide's code, executed as written (then its inspector closed)."""
+    pytest.importorskip("ipywidgets")
+    work = _workdir(tmp_path)
+    monkeypatch.chdir(work)
+    (code,) = _blocks((ROOT / "docs" / "guide" / "notebook.md").read_text(), "python")
+    scope = {}
+    exec(compile(code, "notebook.md", "exec"), scope)
+    ins = scope["inspector"]
+    try:
+        assert ins.image.value[:8] == b"\x89PNG\r\n\x1a\n"
+    finally:
+        ins.close()

@@ -63,3 +63,31 @@ def test_help_shows_the_render_signature_and_the_spec_forms():
     flat = " ".join(doc.split())
     assert "a spec file's path" in flat and "a dict of its tables" in flat
     assert "_RenderEntry" not in doc
+
+
+def test_the_notebook_inspector_shows_what_eyelab_render_gives(tmp_path):
+    """A slider moved from Python: the image shown last is eyelab.render's for the spec
+    the inspector holds; a refused value says why and leaves the image as it was."""
+    import pytest
+
+    pytest.importorskip("ipywidgets")
+    from pathlib import Path
+
+    spec = Path(__file__).resolve().parents[1] / "examples" / "first.toml"
+    ins = eyelab.NotebookInspector(spec, size=(96, 72), samples=2)
+    try:
+        first = ins.image.value
+        ins.sliders["sphere"].value = -2.0
+        data = ins.spec_data()
+        assert data["eye"]["rx"].startswith("-2.00") and data["lens"]["rx"].startswith("-2.50")
+        want = eyelab.render(data).srgb
+        shown = np.asarray(Image.open(io.BytesIO(ins.image.value)).convert("RGB"))
+        assert np.array_equal(shown, want) and ins.image.value != first
+        assert "data-state='done'" in ins.status.value
+        before = ins.image.value
+        assert "pupil_diameter_mm" in ins.set("pupil_mm", 99.0)
+        assert ins.image.value == before and "must be in" in ins.status.value
+        ins.toggles["lens"].value = False
+        assert "lens" not in ins.spec_data()
+    finally:
+        ins.close()
