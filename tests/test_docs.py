@@ -146,9 +146,14 @@ def test_the_documentation_builds_without_warnings(tmp_path):
                         "-b", "html", str(ROOT / "docs"), str(tmp_path / "html")],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    for page in ("index", "guide/commands", "reference/spec", "reference/cli",
-                 "reference/api", "_generated/benchmarks"):
+    pages = ["index", "guide/commands", "reference/spec", "reference/cli", "reference/api",
+             "_generated/benchmarks", "gallery_examples/index"]
+    pages += [f"gallery_examples/{p.stem}" for p in (ROOT / "examples" / "gallery").glob(
+        "plot_*.py")]
+    for page in pages:
         assert (tmp_path / "html" / f"{page}.html").exists(), page
+    images = list((tmp_path / "html" / "_images").glob("sphx_glr_plot_*.png"))
+    assert len(images) >= len(pages) - 7, images          # every example drew its figure
     api = (tmp_path / "html" / "reference" / "api.html").read_text()
     assert "eyelab.jobs.api.render" in api and "Session" in api
 

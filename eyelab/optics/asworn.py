@@ -43,7 +43,7 @@ GRID = ("eye rotation about the centre of rotation, Fick angles in deg: azimuth 
         "rotation along (cos y sin x, sin y, -cos y cos x)")
 
 
-@dataclass
+@dataclass(repr=False)
 class AsWornMaps:
     """Maps over eye rotations (ny, nx): eye_rotation_x_deg (nx,) to the wearer's right
     (Fick azimuth), eye_rotation_y_deg (ny,) up (Fick elevation), the line of sight turning
@@ -70,6 +70,20 @@ class AsWornMaps:
     marks: dict = field(default_factory=dict)
     object_x_deg: np.ndarray | None = None
     object_y_deg: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        """One line: the grid, the rotations it spans and the maps' extremes (D)."""
+        ny, nx = self.mean_error_d.shape
+        x, y = self.eye_rotation_x_deg, self.eye_rotation_y_deg
+
+        def span(a):
+            a = np.asarray(a, float)
+            a = a[np.isfinite(a)]
+            return "none" if not a.size else f"{a.min():+.2f} to {a.max():+.2f} D"
+
+        return (f"<AsWornMaps {ny}x{nx}: right {x[0]:+.0f} to {x[-1]:+.0f} deg, up "
+                f"{y[0]:+.0f} to {y[-1]:+.0f} deg; mean error {span(self.mean_error_d)}, "
+                f"cylinder {span(self.cylinder_d)}>")
     objects: ObjectPoints | None = None
 
     def to_json(self) -> dict:
