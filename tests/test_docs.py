@@ -14,6 +14,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -191,3 +192,42 @@ def test_the_notebook_page_runs(tmp_path, monkeypatch):
         assert ins.image.value[:8] == b"\x89PNG\r\n\x1a\n"
     finally:
         ins.close()
+
+
+#: The share of a gallery picture's pixels that may differ by more than 2 levels from what
+#: its documented command writes now (the rasteriser's last-bit differences between
+#: machines; a stale picture differs in 1-12 % of its pixels).
+GALLERY_TOLERANCE = 0.005
+
+
+def gallery_commands() -> list:
+    """(command, picture) for every documented command that draws a docs/gallery picture
+    (``eyelab demo|render ... -o docs/gallery/NAME.png``), from the README and the guide."""
+    texts = [README] + [p.read_text() for p in PAGES]
+    found = []
+    for text in texts:
+        for cmd in re.findall(r"`(eyelab (?:demo|render)\s[^`]*-o\s+docs/gallery/\w+\.png)`",
+                              text):
+            cmd = " ".join(cmd.split())
+            if cmd not in [c for c, _ in found]:
+                found.append((cmd, cmd.split("-o ")[1].split()[0]))
+    return found
+
+
+def test_the_gallery_pictures_are_what_their_commands_draw(tmp_path):
+    from PIL import Image
+
+    found = gallery_commands()
+    assert {Path(p).name for _, p in found} >= {"demo.png", "etdrs_demo.png", "binocular.png",
+                                                 "binocular_anaglyph.png"}, found
+    for cmd, picture in found:
+        out = tmp_path / Path(picture).name
+        argv = shlex.split(cmd.replace(f"-o {picture}", f"-o {out}"))[1:]
+        r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", *argv], cwd=ROOT,
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, f"{cmd}: {r.stderr[-800:]}"
+        have = np.asarray(Image.open(ROOT / picture).convert("RGB"), np.int16)
+        now = np.asarray(Image.open(out).convert("RGB"), np.int16)
+        assert have.shape == now.shape, (cmd, have.shape, now.shape)
+        differ = float((np.abs(have - now).max(-1) > 2).mean())
+        assert differ <= GALLERY_TOLERANCE, f"{picture} is stale ({differ:.1%}): run {cmd}"
