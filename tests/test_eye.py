@@ -72,3 +72,16 @@ def test_bad_eye_parameters_name_the_field():
         Eye(pupil_diameter=0.02)
     with pytest.raises(SpecError, match="eye.kind"):
         Eye.from_rx(Prescription(-1.0), kind="lenticular")
+
+
+def test_power_min_is_the_mean_power_as_the_spec_reference_says():
+    """eye.power_min_d is the relaxed eye's mean power and astigmatism_d the meridians'
+    difference: a spec eye of 60 D with 2 D has meridians of 61 and 59 D, and its far
+    point's mean vergence is what the mean power alone gives."""
+    from eyelab.spec.load import parse_spec
+    from eyelab.spec.schema import KEYS
+
+    eye = parse_spec({"eye": {"power_min_d": 60.0, "astigmatism_d": 2.0}}).eye
+    assert eye.principal_powers() == pytest.approx((61.0, 59.0))
+    meaning = next(k.meaning for k in KEYS if (k.table, k.key) == ("eye", "power_min_d"))
+    assert "mean power" in meaning

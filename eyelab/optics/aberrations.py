@@ -72,8 +72,12 @@ class Aberrations:
         return _wearer(self.coefficients_um, self.pupil_mm, round(float(pupil_mm), 12)).copy()
 
     def rms_um(self, pupil_mm: float) -> float:
-        """RMS wavefront error (um) of the higher orders over ``pupil_mm``."""
-        return zk.rms(self.wearer(pupil_mm))
+        """RMS wavefront error (um) of the measured higher orders as they read over
+        ``pupil_mm``: from the second order up, so what they leak into defocus and
+        astigmatism over a smaller pupil counts, and the tilt coma leaks into does not (it
+        moves the image without blurring it) — the same rule as ``eyelab analyze``'s
+        ``rms_um``."""
+        return zk.rms(self.wearer(pupil_mm), from_order=2)
 
     def slopes(self, x_m, y_m, pupil_mm: float) -> tuple:
         """(dW/dx, dW/dy) (dimensionless) at pupil points (m, wearer frame) of a render

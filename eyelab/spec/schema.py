@@ -202,10 +202,10 @@ KEYS = [
         choices=EYE_KINDS, base=RX_EYE),
     Key("eye", "vertex_distance_mm", "number", "mm", "12", "with `rx`: where the Rx is "
         "worn", base=RX_EYE),
-    Key("eye", "power_min_d", "number", "D", "58.635", "without `rx`: the weaker "
-        "meridian's relaxed power"),
+    Key("eye", "power_min_d", "number", "D", "58.635", "without `rx`: the relaxed eye's "
+        "mean power (its meridians: this ± `astigmatism_d` / 2)"),
     Key("eye", "astigmatism_d", "number", "D", "0", "without `rx`: the stronger meridian's "
-        "excess"),
+        "excess over the weaker"),
     Key("eye", "astigmatism_axis_deg", "number", "deg", "0", "without `rx`: the stronger "
         "meridian's direction, counter-clockwise from the wearer's right seen from behind"),
     Key("eye", "age", "number", "years", "none", "accommodation amplitude by Hofstetter's "
