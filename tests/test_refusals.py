@@ -221,3 +221,39 @@ def test_an_aberrometers_refraction_is_the_eyes_rx():
     two = parse_spec({"eye": {"right": {"aberrations": ab}, "left": {"rx": "-1.00 DS"}},
                       "lens": {"material": "cr39"}}, "<dict>")
     assert two.binocular.lens("right").rx.format() == s.lens.rx.format()
+
+
+@pytest.mark.parametrize("surface,field", [
+    ({"type": "points", "file": "plano.csv", "spacing_mm": 2.0, "radius_mm": 90.0},
+     "lens.front.radius_mm"),
+    ({"type": "sphere", "radius_mm": 100.0, "file": "plano.csv"}, "lens.front.file"),
+    ({"type": "sphere", "radius_mm": 100.0, "spacing_mm": 2.0}, "lens.front.spacing_mm"),
+    ({"type": "plane", "curvature": 5.0}, "lens.front.curvature"),
+    ({"type": "plane", "conic": -1.0}, "lens.front.conic"),
+    ({"type": "toric", "radius_x_mm": 80.0, "radius_y_mm": 70.0, "conic": 0.5},
+     "lens.front.conic"),
+    ({"type": "asphere", "radius_mm": 100.0, "axis_deg": 30.0}, "lens.front.axis_deg"),
+])
+def test_a_surface_refuses_the_keys_of_another_type(surface, field, tmp_path):
+    """Nothing is ignored silently: a key that the surface's type does not read is
+    refused by name, with the keys that type reads."""
+    from eyelab.spec.surfacefile import SAMPLE
+
+    surface = {k: (SAMPLE if v == "plano.csv" else v) for k, v in surface.items()}
+    data = {"lens": {"front": surface, "back": {"type": "plane"}, "center_thickness_mm": 2.0}}
+    with pytest.raises(SpecError) as e:
+        parse_spec(data)
+    assert e.value.field == field and "not read by a type =" in str(e.value), str(e.value)
+
+
+def test_an_outputs_missing_folders_are_created_only_when_it_is_written(tmp_path, capsys):
+    """The documented rule: -o under folders that do not exist makes them, with the output;
+    a refused spec makes none of them (the check before any work creates nothing)."""
+    out = tmp_path / "new" / "deeper" / "view.png"
+    assert main(["render", "-o", str(out), "--width", "32", "--height", "24",
+                 "--samples", "1", "--quiet"]) == 0
+    assert out.stat().st_size > 0
+    bad = tmp_path / "other" / "view.png"
+    assert main(["render", "-o", str(bad), "--width", "0"]) == 2
+    assert not (tmp_path / "other").exists()
+    assert "render.width" in capsys.readouterr().err

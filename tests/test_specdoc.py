@@ -47,7 +47,8 @@ def test_the_reference_has_exactly_the_validators_keys():
 
 
 def _spec(key, value):
-    spec = copy.deepcopy(key.base)
+    spec = copy.deepcopy(key.choice_base.get(value, key.base)
+                         if isinstance(value, str) else key.base)
     node = spec
     for part in key.table.split("."):
         if part.endswith("]"):

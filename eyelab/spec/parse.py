@@ -33,6 +33,7 @@ from eyelab.spec.eyerx import dioptres, eye_rx_ranges
 from eyelab.spec.schema import (
     EYE_VERTEX_MM,
     LENS_DESIGNS,
+    SURFACE_TYPE_KEYS,
     SURFACE_TYPES,
     SYMMETRIC_SURFACES,
     check,
@@ -50,9 +51,7 @@ LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_
              "softness_mm", "optimise"}
 #: Keys only a progressive design takes.
 PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm", "optimise")
-SURFACE_KEYS = {"type", "curvature", "radius_mm", "conic", "coefficients", "curvature_x",
-                "curvature_y", "radius_x_mm", "radius_y_mm", "axis_deg", "revolve", "file",
-                "spacing_mm", "first_row"}
+SURFACE_KEYS = {k for keys in SURFACE_TYPE_KEYS.values() for k in keys}
 ANALYSIS_KEYS = {"wavelength_nm", "fixation", "vertex_sphere"}
 POINT_KEYS = {"distance_m", "field_deg", "position_m", "field_polar_deg"}
 BINOCULAR_KEYS = {"pd_mm", "monocular_pd_mm", "frame_pd_mm", "fixation_distance_m", "output"}
@@ -152,6 +151,11 @@ def _surface(t, where, diameter: float = 0.06, side=None) -> Surface:
     eye ``side`` ("R"/"L"/None)."""
     check_keys(t, SURFACE_KEYS, where)
     kind = t.get("type", "points" if "file" in t else "sphere")
+    if isinstance(kind, str) and kind in SURFACE_TYPE_KEYS:
+        other = sorted(set(t) - set(SURFACE_TYPE_KEYS[kind]))
+        if other:
+            raise SpecError(f"{where}.{other[0]}", f"not read by a type = {kind!r} surface "
+                            f"(its keys: {', '.join(SURFACE_TYPE_KEYS[kind])})")
     if kind == "points":
         return _points(t, where, diameter, side)
 

@@ -46,7 +46,7 @@ from eyelab.spec.aberrationkeys import ABERRATION_KEYS, ABERRATION_LIMITS, ABERR
 from eyelab.spec.eyerx import eye_rx_text
 from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
 from eyelab.spec.scenekeys import SCENE_LIMITS, SCENE_TABLE, scene_keys
-from eyelab.spec.surfacefile import POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
+from eyelab.spec.surfacefile import POINTS_BASE, POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
 from eyelab.spec.valuetext import number_text, option_default
 
 #: The doublet's f-number at full aperture (the lower end of render.camera_f_number).
@@ -64,9 +64,17 @@ FIXATION_MEANINGS = {
 DEFAULT_FIXATION = "rotating"
 EYE_VERTEX_MM = 12.0       #: where eye.rx is worn unless eye.vertex_distance_mm says
 #: Rotationally symmetric surface types (all parsed as an :class:`Asphere`: a plane has
-#: curvature 0, a sphere conic 0 and no coefficients — each key still allowed).
+#: curvature 0; a sphere's conic and coefficients default to 0 and none, and are read).
 SYMMETRIC_SURFACES = ("sphere", "plane", "asphere", "conic")
 SURFACE_TYPES = (*SYMMETRIC_SURFACES, "toric", "points")   # of [lens.front] / [lens.back]
+_CONICOID = ("type", "curvature", "radius_mm", "conic", "coefficients")
+#: The keys each surface type reads; a surface table with another type's key is refused
+#: (a plane's curvature and conic would change nothing: a plane reads its coefficients).
+SURFACE_TYPE_KEYS = {**dict.fromkeys(("sphere", "asphere", "conic"), _CONICOID),
+                     "plane": ("type", "coefficients"),
+                     "toric": ("type", "curvature_x", "curvature_y", "radius_x_mm",
+                               "radius_y_mm", "axis_deg", "revolve"),
+                     "points": ("type", "file", "spacing_mm", "first_row")}
 #: Ranges only the spec knows (what a user may write where the engine takes another form,
 #: or checks nothing), by field, in the spec's units.
 SPEC_LIMITS = {
@@ -169,6 +177,8 @@ class Key:
     lo_open: bool = False
     choices: tuple = ()
     base: dict = field(default_factory=dict)
+    #: a choice's own base where it needs other keys than ``base`` gives (choice -> spec)
+    choice_base: dict = field(default_factory=dict)
     edges: bool = True
     renderer: str = "all"
     range_text: str = ""
@@ -289,7 +299,9 @@ KEYS = [
     Key("lens", "back", "text", "", "none", "see `front`", range_text="a surface table"),
     # ------------------------------------------------ [lens.front] / [lens.back]
     Key("lens.front", "type", "choice", "", '`"sphere"` (`"points"` with `file`)',
-        "surface shape", choices=SURFACE_TYPES, base=TYPE_BASE),
+        "surface shape; each type reads its own keys (below: `toric:`, `points:`; a plane "
+        "only `coefficients`) and refuses the others'", choices=SURFACE_TYPES,
+        base=TYPE_BASE, choice_base={"points": POINTS_BASE}),
     Key("lens.front", "curvature", "number", "1/m", "0", "vertex curvature (or "
         "`radius_mm`)", base={"lens": {"front": {"type": "sphere"},
                                                   "back": {"type": "plane"},

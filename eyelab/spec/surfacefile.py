@@ -25,9 +25,9 @@ _BASE_FRONT = {"file": SAMPLE, "spacing_mm": 2.0}
 #: A spec whose front is the sample grid.
 POINTS_BASE = {"lens": {"front": {"type": "points", **_BASE_FRONT},
                         "back": {"type": "plane"}, "center_thickness_mm": 2.0}}
-#: The base of ``type``: a spec read whichever the type (each ignores the others' keys).
-TYPE_BASE = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0, **_BASE_FRONT},
-                      "back": {"type": "sphere", "radius_mm": 80.0},
+#: The base of ``type`` (a points surface's is :data:`POINTS_BASE`): a front surface with
+#: no key but its type, read by every formula type.
+TYPE_BASE = {"lens": {"front": {"type": "sphere"}, "back": {"type": "sphere", "radius_mm": 80.0},
                       "center_thickness_mm": 2.0}}
 _FILES = ", ".join(FORMATS)
 #: The schema's keys of a points surface: (positional, keyword) arguments of its ``Key``.
