@@ -228,7 +228,10 @@ def _analyze(args) -> int:
                         "has a camera lens: render it with eyelab render")
     if args.fixation:
         spec = replace(spec, fixation=args.fixation)
+    warn(spec.warnings)
     rep = analyze_spec(spec, no_lens=args.no_lens)
+    if spec.warnings:
+        rep["warnings"] = list(spec.warnings)
     text = report_text(rep).rstrip("\n") if args.json else format_report(rep)
     if args.output:
         write_report(args.output, rep)
@@ -365,6 +368,7 @@ def _maps(args) -> int:
     from eyelab.spec import load_spec, one_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
+    warn(spec.warnings)
     if spec.render.camera is not None:
         raise SpecError("render.camera", "maps show a spectacle lens as worn; this spec has "
                         "a camera lens: render it with eyelab render")

@@ -29,6 +29,7 @@ def run(args) -> int:
 
     import numpy as np
 
+    from eyelab.apps.common import warn
     from eyelab.core.errors import SpecError
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
     from eyelab.jobs.psf import point_psf
@@ -43,6 +44,7 @@ def run(args) -> int:
     spec = load_spec(args.spec)
     if spec.render.camera is not None:
         raise SpecError("render.camera", "psf is the eye's; this spec has a camera lens")
+    warn(spec.warnings)
     img, rep = point_psf(spec, point=args.point, no_lens=args.no_lens,
                          pitch_arcmin=args.pitch_arcmin, size=args.size)
 

@@ -49,6 +49,7 @@ def _lens(spec, eye: str):
 
 
 def run(args) -> int:
+    from eyelab.apps.common import warn
     from eyelab.core.checks import check_range
     from eyelab.core.errors import SpecError
     from eyelab.core.fileio import check_output
@@ -69,7 +70,9 @@ def run(args) -> int:
     spacing = check_range("--spacing-mm", args.spacing_mm, *LIMITS["lens.front.spacing_mm"])
     if args.size_mm is not None:
         check_range("--size-mm", args.size_mm, *LIMITS["surface.size_mm"])
-    lens, letter = _lens(load_spec(args.spec), args.eye)
+    spec = load_spec(args.spec)
+    warn(spec.warnings)
+    lens, letter = _lens(spec, args.eye)
     surface = getattr(lens, args.side)
     size = args.size_mm if args.size_mm is not None else default_size_mm(lens, spacing, surface)
     if size < lens.diameter * 1e3 - 1e-9:

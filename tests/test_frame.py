@@ -369,3 +369,30 @@ def test_the_demo_shows_a_frame(tmp_path, capsys):
     rep = json.loads(out.with_suffix(".json").read_text())
     lens = rep["panels"]["with the lens"]["details"]["lens"]
     assert 0 < lens["pixels_inside"] < 96 * 72                       # the frame, in view
+
+
+def test_a_trace_whose_box_records_contradict_its_radii_is_warned_about(tmp_path, capsys):
+    """A public WECO sample's records say 52.40 x 35.20 mm while its radii span 55.00 x
+    38.01 mm: the radii are used, and every command says so in one warning line per eye
+    (the render report's warnings keep it); a file whose records agree says nothing."""
+    from eyelab.apps.cli import main
+    from eyelab.spec.load import parse_spec
+
+    (tmp_path / "job.oma").write_text(TRACE.read_text().replace("HBOX=53.99;53.99",
+                                                                "HBOX=51.00;51.00"))
+    frame = {"file": "job.oma", "monocular_pd_mm": 31.5, "fitting_height_mm": 20}
+    spec = parse_spec({"lens": {"rx": "-3.00"}, "frame": frame}, base=tmp_path)
+    assert len(spec.warnings) == 2, spec.warnings
+    assert "HBOX/VBOX records say 51.00 x 37.00" in spec.warnings[0], spec.warnings
+    agree = parse_spec({"lens": {"rx": "-3.00"}, "frame": {**frame, "file": str(TRACE)}})
+    assert agree.warnings == ()
+    p = tmp_path / "spec.toml"
+    p.write_text('[lens]\nrx = "-3.00"\n[frame]\nfile = "job.oma"\nmonocular_pd_mm = 31.5\n'
+                 'fitting_height_mm = 20\n[render]\nwidth = 32\nheight = 24\nsamples = 1\n')
+    capsys.readouterr()
+    assert main(["analyze", str(p)]) == 0
+    assert capsys.readouterr().err.count("eyelab: warning: frame.file: the") == 2
+    report = tmp_path / "r.json"
+    assert main(["render", str(p), "-o", str(tmp_path / "r.png"), "--report", str(report),
+                 "--quiet"]) == 0
+    assert "HBOX/VBOX" in " ".join(json.loads(report.read_text())["warnings"])

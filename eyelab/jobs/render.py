@@ -53,9 +53,18 @@ def render_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None
     observer = spec.eye if rs.camera is None else rs.camera
     lens = None if no_lens or rs.camera is not None else spec.lens
     if renderer is not None:
-        return renderer.render(scene, observer, lens, rs.view, rs.quality)
+        return _with_spec_warnings(renderer.render(scene, observer, lens, rs.view,
+                                                   rs.quality), spec)
     with make_renderer(rs.renderer, rs.quality) as r:
-        return r.render(scene, observer, lens, rs.view)
+        return _with_spec_warnings(r.render(scene, observer, lens, rs.view), spec)
+
+
+def _with_spec_warnings(result, spec):
+    """``result`` with the spec's own warnings first in its report's ``warnings``."""
+    if spec.warnings:
+        result.report["warnings"] = list(dict.fromkeys([*spec.warnings,
+                                                        *result.report["warnings"]]))
+    return result
 
 
 def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | None = None,
@@ -69,10 +78,14 @@ def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | N
     rs = spec.render
     scene = build_scene(rs.scene) if scene is None else scene
     if renderer is not None:
-        return render_binocular(renderer, scene, spec.binocular, rs.view, rs.quality,
-                                no_lens=no_lens)
-    with make_renderer(rs.renderer, rs.quality) as r:
-        return render_binocular(r, scene, spec.binocular, rs.view, no_lens=no_lens)
+        res = render_binocular(renderer, scene, spec.binocular, rs.view, rs.quality,
+                               no_lens=no_lens)
+    else:
+        with make_renderer(rs.renderer, rs.quality) as r:
+            res = render_binocular(r, scene, spec.binocular, rs.view, no_lens=no_lens)
+    for side in (res.right, res.left):
+        _with_spec_warnings(side, spec)
+    return res
 
 
 def _emmetrope(eye):

@@ -342,6 +342,30 @@ def read_dcs(text: str) -> tuple:
     return outlines, records
 
 
+#: A DCS file's box records (HBOX, VBOX) and its trace's own box may differ by this much
+#: (mm) without a word: the trace's resolution (0.01 mm radii) and the box's rounding by
+#: the tracer; beyond it the file contradicts itself.
+BOX_RECORD_TOL_MM = 0.5
+
+
+def box_record_notes(frame, records: dict) -> list:
+    """Warnings, one line each, where a trace file's HBOX / VBOX records disagree with the
+    box of its own radii by more than :data:`BOX_RECORD_TOL_MM` (the radii are used)."""
+    notes = []
+    for side in SIDES:
+        have = [v * 1e3 for v in frame.box(side)]
+        said = [record_value(records, label, side) for label in ("HBOX", "VBOX")]
+        if all(s is None for s in said):
+            continue
+        off = [abs(h - s) for h, s in zip(have, said, strict=True) if s is not None]
+        if max(off) > BOX_RECORD_TOL_MM:
+            rec = " x ".join("?" if s is None else f"{s:.2f}" for s in said)
+            notes.append(f"frame.file: the {side} trace's radii span a {have[0]:.2f} x "
+                         f"{have[1]:.2f} mm box, its HBOX/VBOX records say {rec} mm: the "
+                         "radii are used")
+    return notes
+
+
 def record_value(records: dict, label: str, side: str | None = None) -> float | None:
     """A numeric record's value (mm as written): ``side``'s of a right;left record (one
     value: both), or the first; None where absent or empty ("?")."""

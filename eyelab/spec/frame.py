@@ -21,6 +21,7 @@ from eyelab.core.errors import SpecError
 from eyelab.optics.frame import (
     FRAME_SHAPES,
     Frame,
+    box_record_notes,
     cut_lens,
     minimum_blank_size,
     read_dcs,
@@ -48,6 +49,8 @@ class FrameSpec:
     pd_mm: float | None = None
     height_mm: float | None = None
     records: dict = field(default_factory=dict, compare=False)
+    #: warnings about the input (one line each; the spec's ``warnings``)
+    notes: tuple = field(default=(), compare=False)
 
     @property
     def from_file(self) -> bool:
@@ -88,7 +91,8 @@ def parse_frame(t, base: Path | None = None) -> FrameSpec:
         if dbl is None:
             raise SpecError("frame.dbl_mm", "required (the bridge, mm)"
                             + (": the trace file has no DBL record" if "file" in t else ""))
-    return FrameSpec(Frame(outlines, dbl * 1e-3, source, records), pd, height, records)
+    frame = Frame(outlines, dbl * 1e-3, source, records)
+    return FrameSpec(frame, pd, height, records, tuple(box_record_notes(frame, records)))
 
 
 def _record(records: dict, label: str, side, checker, field_name: str):

@@ -42,6 +42,10 @@ class Spec:
     #: Two eyes (:class:`eyelab.optics.binocular.Binocular`) when the spec has [binocular] or
     #: per-eye tables; ``eye`` and ``lens`` are then the right eye's.
     binocular: Binocular | None = None
+    #: What the input says that eyelab did not take as given, one line each (e.g. a trace
+    #: file whose box records contradict its radii); printed by the commands, kept in the
+    #: render reports' ``warnings``.
+    warnings: tuple = ()
 
 
 @with_spec_folder    # relative points files (lens.front.file) are the spec's
@@ -75,7 +79,8 @@ def parse_spec(data: dict, source: str = "<dict>", base: Path | None = None) -> 
             raise SpecError("render.camera", "a camera lens sees the scene; [eye] has no "
                                              "meaning with it")
     render = dataclasses.replace(render, view=dataclasses.replace(render.view, focus_d=acc))
-    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino)
+    notes = () if frame is None else frame.notes
+    return Spec(eye, lens, points, wl, fix, acc, source, render, vsph, bino, notes)
 
 
 def one_eye(spec: Spec, what: str) -> Spec:
