@@ -2,8 +2,10 @@
 ``eyelab inspect --screenshot`` command, and a real window under Xvfb."""
 
 import os
+import signal
 import subprocess
 import sys
+import time
 import tomllib
 
 import numpy as np
@@ -427,3 +429,37 @@ def test_window_without_a_lens_has_no_map_panel(tmp_path):
         assert win.model.gaze_maps.computed == 0
     finally:
         win.close()
+
+
+@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                    reason="Xvfb is not installed (CI installs it and sets "
+                           "EYELAB_REQUIRE_XVFB)")
+@pytest.mark.parametrize("signum,code,word", [(signal.SIGINT, 130, "interrupted"),
+                                              (signal.SIGTERM, 143, "terminated")])
+def test_the_live_window_ends_on_ctrl_c_and_sigterm_like_every_command(tmp_path, signum,
+                                                                       code, word):
+    """A real window in its event loop: Ctrl-C or SIGTERM ends it with the one line and
+    the status every command gives (not VTK's own exit 1, not a traceback)."""
+    xvfb, display = start_xvfb()
+    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
+    env["DISPLAY"] = display
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    try:
+        proc = subprocess.Popen([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
+                                 str(spec), "--size", "160x120", "--samples", "2"], env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(15)                  # the window open, its frames done: the event loop
+        assert proc.poll() is None, proc.communicate()[1][-2000:]
+        proc.send_signal(signum)
+        try:
+            out, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise AssertionError(f"the window did not end on {signum.name}") from None
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=30)
+    assert proc.returncode == code, err[-2000:]
+    assert err.strip().splitlines()[-1] == f"eyelab: {word}", err[-2000:]
+    assert "Traceback" not in err and "Caught a Ctrl-C" not in out + err

@@ -91,6 +91,30 @@ def deferred():
                 signal.raise_signal(signum)
 
 
+@contextlib.contextmanager
+def recorded():
+    """SIGINT and SIGTERM only recorded for the block, never raised in it: for an event
+    loop run by native code (VTK's interactor) whose Python callbacks must not be left by
+    an exception — VTK ends the process itself on a KeyboardInterrupt inside one, and
+    prints and ignores any other. The loop's own callback polls :func:`requested` and ends
+    the loop; :func:`check` after the block raises the request as :func:`handling` would.
+    Main thread only; elsewhere a no-op."""
+    global _REQUESTED
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def record(signum, frame):
+        global _REQUESTED
+        _REQUESTED = signum
+
+    previous = _install(record)
+    try:
+        yield
+    finally:
+        _restore(previous)
+
+
 def _install(handler) -> dict:
     """``handler`` for SIGINT and SIGTERM; returns {signal: the handler it replaced}."""
     return {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}

@@ -360,6 +360,11 @@ class InspectorWindow:
                                max(-60.0, min(60.0, g[1] + dy))))
 
     def _on_timer(self, obj, event):
+        from eyelab.core import interrupt
+
+        if interrupt.requested() is not None:     # Ctrl-C / SIGTERM: end the event loop
+            self.plotter.iren.terminate_app()
+            return
         if self.step():
             self.plotter.render()
 
@@ -456,10 +461,17 @@ class InspectorWindow:
         self.refresh()
 
     def show(self) -> None:
-        """Open the window and run until it is closed."""
+        """Open the window and run until it is closed. Ctrl-C or SIGTERM ends the event
+        loop at the next timer tick (never inside VTK's callbacks) and is raised here
+        after it (:func:`eyelab.core.interrupt.recorded`): the command then says
+        ``eyelab: interrupted`` / ``terminated`` and exits 130 / 143 as every other."""
+        from eyelab.core import interrupt
+
         self.plotter.iren.initialize()
         self.plotter.iren.create_timer(TICK_MS, repeating=True)
-        self.plotter.show()
+        with interrupt.recorded():
+            self.plotter.show()
+        interrupt.check()
 
     def close(self) -> None:
         self.plotter.close()
