@@ -463,3 +463,25 @@ def test_the_live_window_ends_on_ctrl_c_and_sigterm_like_every_command(tmp_path,
     assert proc.returncode == code, err[-2000:]
     assert err.strip().splitlines()[-1] == f"eyelab: {word}", err[-2000:]
     assert "Traceback" not in err and "Caught a Ctrl-C" not in out + err
+
+
+def test_what_a_change_recomputed_is_said_in_words():
+    from eyelab.jobs.inspector import recomputed_words
+
+    names = ["field_through_lens_486.13nm", "field_through_lens_546.07nm", "lens_texcoords",
+             "compensated_fields", "reconstruction_sigma", "refined_floor",
+             "refined_chart_row_+0.1", "prefiltered_chart_board", "something_new"]
+    assert recomputed_words(names) == (
+        "blur field through the lens (2 fields), rays through the lens, reconstruction "
+        "filter, mesh refinement (2 meshes), texture prefiltering, something new")
+    assert recomputed_words([]) == "passes only"
+
+
+def test_the_blur_field_panel_says_which_depth_it_shows():
+    from eyelab.render.sideviews import field_title
+
+    assert field_title(None, 4.09, 6.0, 546.07) == (
+        "blur field (slice 4.09 m, nearest the gaze point at 6.00 m; 546.07 nm)")
+    assert field_title("right", 6.05, 6.0, 546.07) == (
+        "blur field (right eye, 6.05 m, the gaze point; 546.07 nm)")
+    assert field_title(None, 90.0, None, 587.56).startswith("blur field (farthest slice")

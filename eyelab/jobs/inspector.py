@@ -292,21 +292,16 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         return (2 * w if self.output in ("side-by-side", "crossed") else w), h
 
     def recomputed(self) -> str:
-        """What the last change recomputed (the report's cache misses) or 'passes only'."""
+        """What the last change recomputed, in words (the report's cache misses grouped by
+        :data:`RECOMPUTED_WORDS`, with their counts), or 'passes only'."""
         if self.result is None:
             return ""
-        import re
-        from collections import Counter
-
         prepared = getattr(self, "_prepared", None)
         reports = [self.result.report] if not self.two_eyes else [
             self.result.right.report, self.result.left.report]
         names = [m for r in reports for m in r["cache"]["misses"]] + (
             prepared["cache"]["misses"] if prepared else [])
-        misses = Counter(re.sub(r"_[\d.]+nm$", "", m) for m in names)
-        if not misses:
-            return "passes only"
-        return ", ".join(k if n == 1 else f"{k} x{n}" for k, n in sorted(misses.items()))
+        return recomputed_words(names)
 
     def warnings(self) -> list:
         """The current frame's warnings (each eye's), as ``eyelab render`` reports them."""
@@ -383,6 +378,42 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         self.renderer.close()
         if self._left_renderer is not None:
             self._left_renderer.close()
+
+
+#: The renderer's cache entries in a user's words: (name prefix, words, what it counts),
+#: in the order the status line gives them; an entry none of them names is written with
+#: its underscores as spaces.
+RECOMPUTED_WORDS = (
+    ("field_through_lens", "blur field through the lens", "fields"),
+    ("field_naked", "naked-eye blur field", "fields"),
+    ("field", "blur field", "fields"),
+    ("lens_texcoords", "rays through the lens", ""),
+    ("compensated_fields", "reconstruction filter", ""),
+    ("reconstruction_sigma", "reconstruction filter", ""),
+    ("refined_", "mesh refinement", "meshes"),
+    ("prefiltered_", "texture prefiltering", "textures"),
+)
+
+
+def recomputed_words(names) -> str:
+    """Cache-miss names (``field_naked_546.07nm``, ``refined_floor``, ...) as one line of
+    words with counts ("blur field through the lens (4 fields), mesh refinement (21
+    meshes)"), or 'passes only' for none."""
+    from collections import Counter
+
+    groups = Counter()
+    for name in names:
+        hit = next(((w, unit) for prefix, w, unit in RECOMPUTED_WORDS
+                    if name.startswith(prefix)), (name.replace("_", " "), ""))
+        groups[hit] += 1
+    if not groups:
+        return "passes only"
+    order = [(w, u) for _, w, u in RECOMPUTED_WORDS]
+    parts = []
+    for (words, unit), n in sorted(groups.items(), key=lambda kv: (
+            order.index(kv[0]) if kv[0] in order else len(order), kv[0][0])):
+        parts.append(words if n == 1 or not unit else f"{words} ({n} {unit})")
+    return ", ".join(dict.fromkeys(parts))
 
 
 def _lens_text(lens, on: bool) -> str:

@@ -12,6 +12,20 @@ from eyelab.optics.eye import EYE_REFERENCE_NM
 from eyelab.render.legend import RAMP_PX
 
 
+def field_title(side, slice_m: float, gaze_m, wavelength_nm: float) -> str:
+    """The blur-field panel's title: the depth of the slice its ellipses are drawn at and,
+    where that is not the gaze point's (the field's slices are uniform in NDC z, sparse
+    far away), the gaze point's depth beside it."""
+    eye = f"{side} eye, " if side else ""
+    if gaze_m is None or not np.isfinite(gaze_m):
+        where = f"farthest slice {slice_m:.2f} m"
+    elif abs(slice_m - gaze_m) <= 0.02 * gaze_m:
+        where = f"{slice_m:.2f} m, the gaze point"
+    else:
+        where = f"slice {slice_m:.2f} m, nearest the gaze point at {gaze_m:.2f} m"
+    return f"blur field ({eye}{where}; {wavelength_nm:g} nm)"
+
+
 def _draw_eye(win, tag: str, cam, lens, offset) -> None:
     """One eye (a small sphere at its camera), its lens, view frustum and line of
     sight, moved by ``offset`` (3,) m into the head frame."""
@@ -62,14 +76,16 @@ def draw_side(win) -> None:
     # the view's own field (the last stage's), its green channel when per channel
     fields = [f for f in fields if f.camera == fields[-1].camera] if fields else []
     if fields:
-        field = min(fields, key=lambda f: abs(f.report.get("wavelength_nm", EYE_REFERENCE_NM)
-                                              - 546.07))
-        depth = getattr(m, "gaze_distance_m", None) or 1.0
+        finest = max(f.nz for f in fields)          # the full field, not a change's preview
+        field = min((f for f in fields if f.nz == finest),
+                    key=lambda f: abs(f.report.get("wavelength_nm", EYE_REFERENCE_NM) - 546.07))
+        gaze = getattr(m, "gaze_distance_m", None)
+        depth = 1.0 if gaze is None else gaze
         depths = field.slice_depths()
         k = int(np.argmin(np.abs(depths - depth))) if np.isfinite(depth) else len(depths) - 1
-        eye = f"{m.side} eye, " if m.two_eyes else ""
-        win.set_top_text("field", f"blur field ({eye}{depths[k]:.2f} m depth, "
-                                  f"{field.report.get('wavelength_nm', EYE_REFERENCE_NM):g} nm)")
+        win.set_top_text("field", field_title(m.side if m.two_eyes else None, depths[k], gaze,
+                                              field.report.get("wavelength_nm",
+                                                               EYE_REFERENCE_NM)))
         # ellipses magnified to fill about half the column spacing (Kakimoto Fig. 12)
         w = depths[k]
         tx, ty = field.camera.tan_half
