@@ -480,8 +480,8 @@ def test_what_a_change_recomputed_is_said_in_words():
 def test_the_blur_field_panel_says_which_depth_it_shows():
     from eyelab.render.sideviews import field_title
 
-    assert field_title(None, 4.09, 6.0, 546.07) == (
-        "blur field (slice 4.09 m, nearest the gaze point at 6.00 m; 546.07 nm)")
+    assert field_title(None, 4.09, 6.0, 546.07) == "blur field at 4.09 m (gaze 6.00 m; 546 nm)"
     assert field_title("right", 6.05, 6.0, 546.07) == (
-        "blur field (right eye, 6.05 m, the gaze point; 546.07 nm)")
-    assert field_title(None, 90.0, None, 587.56).startswith("blur field (farthest slice")
+        "blur field at 6.05 m (right eye, gaze point; 546 nm)")
+    assert field_title(None, 90.0, None, 587.56) == (
+        "blur field at 90.00 m (farthest slice; 588 nm)")

@@ -79,24 +79,63 @@ def _problems(win) -> list:
         if x0 < v[0] - 1 or x1 > v[1] + 1 or y0 < v[2] - 1 or y1 > v[3] + 1:
             bad.append(("outside", b["box"], v, b["text"]))
     bad.extend(("overlap", a, b) for a, b in overlaps(boxes))
+    for plotted, port in _plotted_boxes(win):        # text over plotted content
+        for b in boxes:
+            if b["viewport"] == port and _boxes_cross(plotted, b["box"]):
+                bad.append(("over the plot", b["text"], plotted))
     return bad
 
 
+def _plotted_boxes(win) -> list:
+    """(box (x0, x1, y0, y1) px, viewport) of the blur-field panel's ellipses, as drawn:
+    their bounds' corners projected to the window."""
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    out = []
+    for ren in win.plotter.renderers:
+        actor = ren.actors.get("glyphs")
+        if actor is None or not actor.GetVisibility():
+            continue
+        b = actor.GetBounds()
+        coord = vtkCoordinate()
+        coord.SetCoordinateSystemToWorld()
+        xs, ys = [], []
+        for x in b[0:2]:
+            for y in b[2:4]:
+                for z in b[4:6]:
+                    coord.SetValue(x, y, z)
+                    px, py = coord.GetComputedDoubleDisplayValue(ren)
+                    xs.append(px)
+                    ys.append(py)
+        ox, oy = ren.GetOrigin()
+        w, h = ren.GetSize()
+        out.append(((min(xs), max(xs), min(ys), max(ys)), (ox, ox + w, oy, oy + h)))
+    return out
+
+
+def _boxes_cross(a, b, slack: float = 1.0) -> bool:
+    return (a[0] < b[1] - slack and b[0] < a[1] - slack and a[2] < b[3] - slack
+            and b[2] < a[3] - slack)
+
+
 @pytest.mark.parametrize("window,spec", [(None, ONE), ((960, 710), ONE), ((1280, 800), ONE),
-                                         ((1920, 1200), ONE), ((960, 710), "TWO")])
+                                         ((1920, 1200), ONE), ((960, 710), "TWO"),
+                                         ((800, 560), "DEFAULT"), ((960, 710), "DEFAULT"),
+                                         ((1280, 800), "DEFAULT")])
 def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window, spec):
     from eyelab.render.inspector import InspectorWindow
 
     spec = TWO if spec == "TWO" else spec
-    win = InspectorWindow(InspectorModel(_file(tmp_path, spec)), off_screen=True,
-                          window_size=window)
+    path = None if spec == "DEFAULT" else _file(tmp_path, spec)     # the built-in default
+    win = InspectorWindow(InspectorModel(path), off_screen=True, window_size=window)
     try:
         win.run_to_target()
         win.plotter.render()
         boxes = text_boxes(win.plotter.ren_win)
         texts = " ".join(b["text"] for b in boxes)
         # the pieces the issue found unreadable or clipped are among those checked
-        for piece in ("eye sphere (D)", "-2.00", "changed:", "blur field", "as worn", "D"):
+        sphere = "-3.00" if path is None else "-2.00"
+        for piece in ("eye sphere (D)", sphere, "changed:", "blur field", "as worn", "D"):
             assert piece in texts
         assert _problems(win) == []
         win._toggle_help()                       # the help, over the window: not checked

@@ -372,10 +372,10 @@ class InspectorWindow:
     def step(self) -> bool:
         """One tick of the model; the display refreshed when its image changed, the map
         panel brought up to the model. Returns whether the window needs a render."""
-        before = self.model.last_change
+        before, was_done = self.model.last_change, self.model.done
         changed = self.model.tick()
-        if self.model.last_change != before:
-            self._update_side = True
+        if self.model.last_change != before or (self.model.done and not was_done):
+            self._update_side = True            # and once more with the finished frame's
         if changed:
             self.refresh()
         return self._maps.sync(self.model) or changed
@@ -459,6 +459,7 @@ class InspectorWindow:
             self.model.wait_maps()
             self._maps.sync(self.model)
         self.refresh()
+        self.plotter.render()       # the window shows the finished state (a shot reads it)
 
     def show(self) -> None:
         """Open the window and run until it is closed. Ctrl-C or SIGTERM ends the event

@@ -18,12 +18,12 @@ def field_title(side, slice_m: float, gaze_m, wavelength_nm: float) -> str:
     far away), the gaze point's depth beside it."""
     eye = f"{side} eye, " if side else ""
     if gaze_m is None or not np.isfinite(gaze_m):
-        where = f"farthest slice {slice_m:.2f} m"
+        where = "farthest slice"
     elif abs(slice_m - gaze_m) <= 0.02 * gaze_m:
-        where = f"{slice_m:.2f} m, the gaze point"
+        where = "gaze point"
     else:
-        where = f"slice {slice_m:.2f} m, nearest the gaze point at {gaze_m:.2f} m"
-    return f"blur field ({eye}{where}; {wavelength_nm:g} nm)"
+        where = f"gaze {gaze_m:.2f} m"
+    return f"blur field at {slice_m:.2f} m ({eye}{where}; {wavelength_nm:.0f} nm)"
 
 
 def _draw_eye(win, tag: str, cam, lens, offset) -> None:
@@ -96,22 +96,28 @@ def draw_side(win) -> None:
         if glyphs.n_points:
             actor = p.add_mesh(glyphs, scalars="blur_arcmin", cmap="viridis",
                                name="glyphs", show_scalar_bar=False)
-            _show_legend(win, actor)
+            x0 = _show_legend(win, actor)
             p.view_vector(-np.asarray(field.camera.basis[2]), np.asarray(
                 field.camera.basis[1]))
             p.reset_camera()
-            p.renderer.camera.Zoom(0.8)       # room for the title and the legend
+            # the ellipses in the panel's part left of the legend (x0: its left edge, a
+            # fraction of the panel), below the title: shrunk to that part and moved into it
+            part = max(0.3, x0 - 0.04)
+            p.renderer.camera.Zoom(0.8 * part)
+            p.renderer.camera.SetWindowCenter(1.0 - part, 0.0)
         else:
             p.remove_actor("glyphs")
             win._field_legend.hide()
     p.subplot(0, 0)
 
-def _show_legend(win, actor) -> None:
-    """The blur legend at the field panel's right edge, its labels' room measured."""
+def _show_legend(win, actor) -> float:
+    """The blur legend at the field panel's right edge, its labels' room measured; returns
+    its left edge as a fraction of the panel's width."""
     legend = win._field_legend
     vw, _ = legend.renderer.GetSize()
     lo, hi = actor.mapper.scalar_range
     x0 = max(0.5, 1.0 - legend.room_px((lo, hi), "arcmin", win.font) / max(vw, 1))
     legend.show(actor.mapper.lookup_table, (lo, hi), "arcmin",
                 box=(x0, 0.1, x0 + RAMP_PX / max(vw, 1), 0.62), size=win.font)
+    return x0
 
