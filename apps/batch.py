@@ -47,9 +47,9 @@ def run(args) -> int:
     apply_max_memory(args)       # the jobs (and Dask workers, via the environment) check it
     js = load_job_spec(args.jobspec, out_dir=args.output, max_jobs=args.max_jobs)
     validate_jobs(js)            # what would fail every job: refused before anything is written
-    note = fixed_lens_note(js)   # said before the run: a sweep's lens that stays fixed
-    if note:
-        print(note, file=sys.stderr)
+    note = fixed_lens_note(js)   # said before the run (with the output, not the errors):
+    if note:                     # a sweep's lens that stays fixed
+        print(note, flush=True)
     res = run_batch(js, workers=args.workers, scheduler=args.scheduler,
                     progress=not args.quiet and sys.stderr.isatty())
     print(f"{res['jobs']} jobs: {res['run']} run, {res['skipped_done']} already done, "

@@ -201,8 +201,9 @@ GALLERY_TOLERANCE = 0.005
 
 
 def gallery_commands() -> list:
-    """(command, picture) for every documented command that draws a docs/gallery picture
-    (``eyelab demo|render ... -o docs/gallery/NAME.png``), from the README and the guide."""
+    """(command, picture) for every documented command that draws a picture of the
+    gallery folder (``eyelab demo`` or ``render`` with ``-o`` there), from the README and
+    the guide."""
     texts = [README] + [p.read_text() for p in PAGES]
     found = []
     for text in texts:

@@ -1,8 +1,8 @@
 """Spec files (TOML): the eye, the lens and the object points for ``eyelab analyze``.
 
 Every field is validated; an error names the field (dotted path) and the allowed range.
-See ``eyelab/data/default.toml`` and docs/reference/spec.md for the format. Units: mm for lengths
-unless a key ends in ``_m``; D for powers; degrees for angles.
+See ``eyelab/data/default.toml`` and docs/reference/spec.md for the format. Units: mm for
+lengths unless a key ends in ``_m``; D for powers; degrees for angles.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from eyelab.optics.paths import ObjectPoints
 from eyelab.optics.pointsfile import FIRST_ROWS, check_covers, read_points
 from eyelab.optics.prescription import Prescription
 from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
+from eyelab.spec import tables
 from eyelab.spec.aberrationparse import eye_aberrations
 from eyelab.spec.eyerx import dioptres, eye_rx_ranges
 from eyelab.spec.schema import (
@@ -151,11 +152,7 @@ def _surface(t, where, diameter: float = 0.06, side=None) -> Surface:
     eye ``side`` ("R"/"L"/None)."""
     check_keys(t, SURFACE_KEYS, where)
     kind = t.get("type", "points" if "file" in t else "sphere")
-    if isinstance(kind, str) and kind in SURFACE_TYPE_KEYS:
-        other = sorted(set(t) - set(SURFACE_TYPE_KEYS[kind]))
-        if other:
-            raise SpecError(f"{where}.{other[0]}", f"not read by a type = {kind!r} surface "
-                            f"(its keys: {', '.join(SURFACE_TYPE_KEYS[kind])})")
+    tables.check_type_keys(t, kind, SURFACE_TYPE_KEYS, where)
     if kind == "points":
         return _points(t, where, diameter, side)
 

@@ -87,3 +87,15 @@ def check_rules(table: dict, where: str) -> None:
     if anchor in table and mutex:
         raise SpecError(f"{where}.{sorted(mutex)[0]}", f"give either {where}.{anchor} or the "
                         f"explicit {' / '.join(EXCLUSIVE_WITH[where]['others'])}, not both")
+
+
+def check_type_keys(t: dict, kind, keys_of: dict, where: str) -> None:
+    """Refuse a key of table ``t`` that its ``kind`` (a type with an entry in ``keys_of``:
+    type -> the keys it reads) does not read, by name, with the keys it does; an unknown
+    kind is left to the type's own check."""
+    if not isinstance(kind, str) or kind not in keys_of:
+        return
+    other = sorted(set(t) - set(keys_of[kind]))
+    if other:
+        raise SpecError(f"{where}.{other[0]}", f"not read by a type = {kind!r} surface "
+                        f"(its keys: {', '.join(keys_of[kind])})")
