@@ -227,3 +227,37 @@ def test_the_fons_pattern_reading_changes_the_mean_not_the_spread():
     np.testing.assert_allclose(cov(ours[1:]), cov(both[1:]), atol=1e-12)
     np.testing.assert_allclose(both.mean(axis=0), 0.0, atol=1e-12)
     assert 0.0 < np.linalg.norm(ours.mean(axis=0)) < 0.1
+
+
+def _dot_light(dist, renderer, n=65, fov=1.0):
+    """The light (linear, green, summed over the image) of a white square exactly one pixel
+    wide at ``dist`` m, centred, against a black background at infinity, seen by a
+    relaxed emmetrope with a 4 mm pupil: 1.0 where light is conserved."""
+    from eyelab.scene.library import grid_quad
+    from eyelab.scene.scene import Scene
+
+    side = 2 * math.tan(math.radians(fov / 2)) / n * dist
+    dot = grid_quad("dot", (0.0, 0.0, -dist), (1, 0, 0), (0, 1, 0), side, side, nu=1, nv=1,
+                    colors=np.array([255, 255, 255], np.uint8))
+    eye = Eye(pupil_diameter=4e-3, chromatic=False)
+    res = renderer.render(Scene([dot], background=(0, 0, 0)), eye, None,
+                          View(width=n, height=n, fov_y_deg=fov, near=0.1, far=2 * dist))
+    return float(res.linear[..., 1].sum())
+
+
+def test_the_reference_gathers_each_pixel_in_its_own_focus_and_so_adds_light_at_depth_edges():
+    """The documented rule: each reference pixel focuses on its own surface (Eq. 13 per
+    pixel), so at a depth edge light is not conserved. A one-pixel dot at 50 m before a
+    background at infinity (0.92' pixels) comes out 1.13x as bright: the dot's pixel
+    gathers all its light, and its neighbours, focused at infinity, gather some of it
+    again through their 0.28' blur (0.02 D over 4 mm); at 1000 m the excess is gone. The
+    raster renderer scatters each point's light with its own blur, and conserves it."""
+    from eyelab.imaging.options import RasterQuality
+    from eyelab.render.raster import RasterRenderer
+
+    ref = ReferenceRenderer(ReferenceQuality(samples=256))
+    near, far = _dot_light(50.0, ref), _dot_light(1000.0, ref)
+    assert 1.08 < near < 1.2, near
+    assert far == pytest.approx(1.0, abs=0.01)
+    with RasterRenderer(RasterQuality(samples=16)) as r:
+        assert _dot_light(50.0, r) == pytest.approx(1.0, abs=0.005)
