@@ -335,3 +335,45 @@ def test_two_eye_model_edge_cases(tmp_path):
         assert m.two_eyes and m.dump() == before
     finally:
         m.close()
+
+
+#: In a child process on the Xvfb display: the window shot as `eyelab inspect --screenshot
+#: --window-shot` takes it (right after run_to_target), then again after more ticks and
+#: an explicit render; prints how many pixels differ and the status line's S.
+WINDOW_SHOT = """
+import json, sys
+import numpy as np
+from eyelab.jobs.inspector import InspectorModel
+from eyelab.render.inspector import InspectorWindow
+win = InspectorWindow(InspectorModel({spec!r}, samples=8), window_size=(960, 710))
+win.run_to_target()
+first = np.asarray(win.plotter.screenshot(return_img=True))
+for _ in range(5):
+    win.step()
+win.plotter.render()
+again = np.asarray(win.plotter.screenshot(return_img=True))
+print(json.dumps({{"differ": int((first != again).any(-1).sum()),
+                   "status": win.model.status().splitlines()[0]}}))
+win.close()
+"""
+
+
+@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                    reason="Xvfb is not installed (CI installs it and sets "
+                           "EYELAB_REQUIRE_XVFB)")
+def test_the_window_shot_is_the_finished_window(tmp_path):
+    """A window scaled to fit (960 x 710) under Xvfb: the shot taken when the frames are
+    done is the converged window's, pixel for pixel (it was the S 4/8 frame's)."""
+    xvfb, display = start_xvfb()
+    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
+    env["DISPLAY"] = display
+    try:
+        r = subprocess.run([sys.executable, "-P", "-c", WINDOW_SHOT.format(
+            spec=str(_file(tmp_path, ONE)))], env=env, capture_output=True, text=True,
+            timeout=300)
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=30)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert "S 8/8" in out["status"] and out["differ"] == 0, out
