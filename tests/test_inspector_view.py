@@ -121,10 +121,17 @@ def _boxes_cross(a, b, slack: float = 1.0) -> bool:
 @pytest.mark.parametrize("window,spec", [(None, ONE), ((960, 710), ONE), ((1280, 800), ONE),
                                          ((1920, 1200), ONE), ((960, 710), "TWO"),
                                          ((800, 560), "DEFAULT"), ((960, 710), "DEFAULT"),
-                                         ((1280, 800), "DEFAULT")])
+                                         ((1280, 800), "DEFAULT"), ((1280, 800), "TWO"),
+                                         (None, "DEFAULT"), ((1280, 800), "DEFAULT_TWO"),
+                                         (None, "DEFAULT_TWO")])
 def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window, spec):
     from eyelab.render.inspector import InspectorWindow
 
+    if spec == "DEFAULT_TWO":               # the built-in default with two eyes
+        from importlib import resources
+
+        spec = resources.files("eyelab").joinpath("data/default.toml").read_text()
+        spec += "\n[binocular]\n"
     spec = TWO if spec == "TWO" else spec
     path = None if spec == "DEFAULT" else _file(tmp_path, spec)     # the built-in default
     win = InspectorWindow(InspectorModel(path), off_screen=True, window_size=window)
@@ -134,10 +141,15 @@ def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window, spec):
         boxes = text_boxes(win.plotter.ren_win)
         texts = " ".join(b["text"] for b in boxes)
         # the pieces the issue found unreadable or clipped are among those checked
-        sphere = "-3.00" if path is None else "-2.00"
+        sphere = "-3.00" if path is None or "[binocular]" in spec else "-2.00"
         for piece in ("eye sphere (D)", sphere, "changed:", "blur field", "as worn", "D"):
             assert piece in texts
         assert _problems(win) == []
+        # the maps' values at the gaze are whole (never cut to "-…"), however narrow
+        import re
+
+        values = [b["text"] for b in boxes if re.search(r"[-+]\d\.\d\d D$", b["text"])]
+        assert len(values) == 2, [b["text"] for b in boxes if "…" in b["text"]]
         win._toggle_help()                       # the help, over the window: not checked
         win.plotter.render()                     # for overlap, only size and edges
         help_ = [b for b in text_boxes(win.plotter.ren_win) if "h: this help" in b["text"]]

@@ -56,6 +56,9 @@ SIDE_FRACTION = 0.5
 MAPS_FRACTION = 0.55
 #: The smallest window (px) by default: a small view gets this much room around it.
 DEFAULT_WINDOW = (960, 710)
+#: The largest window (px) by default, a laptop's screen: a view that would need more is
+#: shown scaled to fit (two eyes side by side at 640 x 480 each wanted 1864 px).
+MAX_DEFAULT_WINDOW = (1440, 900)
 #: The smallest window (px) the layout keeps legible (``window_size``).
 MIN_WINDOW = (800, 560)
 #: Degrees per arrow-key press.
@@ -79,8 +82,8 @@ class InspectorWindow:
         w, h = model.display_size
         side = max(240, int(round(model.size[0] * SIDE_FRACTION)))
         maps_w = max(220, int(round(h * MAPS_FRACTION)))
-        natural = (max(w + side + maps_w, DEFAULT_WINDOW[0]),
-                   max(h + CONTROLS_PX, DEFAULT_WINDOW[1]))
+        natural = (min(max(w + side + maps_w, DEFAULT_WINDOW[0]), MAX_DEFAULT_WINDOW[0]),
+                   min(max(h + CONTROLS_PX, DEFAULT_WINDOW[1]), MAX_DEFAULT_WINDOW[1]))
         self.window_size = tuple(int(v) for v in (window_size or natural))
         W, H = self.window_size
         self.font = font_size(H)

@@ -21,7 +21,7 @@ import pyvista as pv
 
 from eyelab.render.legend import RAMP_PX, Legend
 from eyelab.render.maps import contour_step, finite_cells, map_edge
-from eyelab.render.textlayout import BASE_FONT, elide, style, wrap
+from eyelab.render.textlayout import BASE_FONT, elide, style, text_width, wrap
 
 #: The marker's colour (sRGB; unlit, so exactly these pixels) and the panel's background.
 MARKER_RGB = (0, 255, 0)
@@ -207,12 +207,14 @@ class MapPanel:
             actor.SetPosition(a, e, 0.0)
             actor.SetVisibility(on_map)
             v = marker[name]
-            where = f"gaze ({round(a) + 0:+d}, {round(e) + 0:+d}) deg: "
-            vw = self.renderers[name].GetSize()[0]
-            self._texts[name].SetInput(elide(
-                where + (f"{round(v, 2) + 0.0:+.2f} D" if math.isfinite(v) else
-                         "no path through the lens" if on_map else "beyond the maps"),
-                self.font, max(vw - 12, 20)))
+            value = (f"{round(v, 2) + 0.0:+.2f} D" if math.isfinite(v) else
+                     "no path through the lens" if on_map else "beyond the maps")
+            room = max(self.renderers[name].GetSize()[0] - 12, 20)
+            # the value first: where the gaze is, said shorter or not at all when narrow
+            gaze = f"({round(a) + 0:+d}, {round(e) + 0:+d})"
+            text = next((t for t in (f"gaze {gaze} deg: {value}", f"{gaze}: {value}", value)
+                         if text_width(t, self.font) <= room), value)
+            self._texts[name].SetInput(elide(text, self.font, room))
         self.marker_moves += 1
 
     # ---------------------------------------------------------------- geometry
