@@ -145,6 +145,14 @@ def test_every_text_is_legible_and_inside_its_viewport(tmp_path, window, spec):
         for piece in ("eye sphere (D)", sphere, "changed:", "blur field", "as worn", "D"):
             assert piece in texts
         assert _problems(win) == []
+        # the 3-D panels' titles in bands of their own, not over what the panels show
+        ports = set()
+        for ren in win.plotter.renderers:
+            ox, oy = ren.GetOrigin()
+            w, h = ren.GetSize()
+            ports.add((ox, ox + w, oy, oy + h))
+        titles = [b for b in boxes if b["text"].startswith(("scene,", "blur field"))]
+        assert len(titles) == 2 and not [b for b in titles if b["viewport"] in ports], titles
         # the maps' values at the gaze are whole (never cut to "-…"), however narrow
         import re
 

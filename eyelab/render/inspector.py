@@ -45,6 +45,7 @@ from eyelab.render.legend import Legend
 from eyelab.render.mappanel import MapPanel
 from eyelab.render.sideviews import draw_side
 from eyelab.render.textlayout import BASE_FONT, elide, font_size, style, wrap
+from eyelab.render.titles import TitleBand
 
 #: Timer period (ms) between ticks.
 TICK_MS = 15
@@ -239,26 +240,21 @@ class InspectorWindow:
         self._field_legend = Legend(p.renderer)
 
     def _top_text(self, ren, key: str, text: str) -> None:
-        """A text at the top left of renderer ``ren``, wrapped to its width (placed again
-        when the window's size changes: :meth:`_place_texts`)."""
-        actor = self.plotter.add_text(" ", position=(MARGIN_PX, MARGIN_PX), color="white")
-        style(actor, self.font, top=True)
-        self._top_texts[key] = [actor, ren, text]
-        self.set_top_text(key, text)
+        """The title of renderer ``ren``'s panel, in a band above it
+        (:class:`~eyelab.render.titles.TitleBand`; placed again when the window's size
+        changes: :meth:`_place_texts`)."""
+        self._top_texts[key] = TitleBand(self.plotter.ren_win, ren, text, self.font,
+                                         MARGIN_PX)
 
     def set_top_text(self, key: str, text: str) -> None:
-        """Set the top text ``key`` ("scene", "field"), wrapped to its viewport."""
-        actor, ren, _ = self._top_texts[key]
-        self._top_texts[key][2] = text
-        w, h = ren.GetSize()
-        actor.SetPosition(MARGIN_PX, max(h - MARGIN_PX, 0))
-        actor.SetInput(wrap(text, self.font, max(20, w - 2 * MARGIN_PX)))
+        """Set the title ``key`` ("scene", "field"), wrapped to its panel's width."""
+        self._top_texts[key].set(text)
 
     def _place_texts(self) -> None:
         """Every text whose place or width follows the window's size."""
         self._help.SetPosition(MARGIN_PX, self.window_size[1] - MARGIN_PX)
-        for key, (_, _, text) in self._top_texts.items():
-            self.set_top_text(key, text)
+        for band in self._top_texts.values():
+            band.place()
         W = self.window_size[0]
         for actor, _, x1, y in self._values.values():
             actor.SetPosition(int(x1 * W), y)

@@ -101,9 +101,9 @@ def draw_side(win) -> None:
                 field.camera.basis[1]))
             p.reset_camera()
             # the ellipses in the panel's part left of the legend (x0: its left edge, a
-            # fraction of the panel), below the title: shrunk to that part and moved into it
+            # fraction of the panel; the title has a band of its own): shrunk and moved there
             part = max(0.3, x0 - 0.04)
-            p.renderer.camera.Zoom(0.8 * part)
+            p.renderer.camera.Zoom(0.95 * part)
             p.renderer.camera.SetWindowCenter(1.0 - part, 0.0)
         else:
             p.remove_actor("glyphs")

@@ -69,6 +69,15 @@ def text_width(text: str, size: int) -> int:
     return widest
 
 
+def text_height(text: str, size: int) -> int:
+    """Height (px) of ``text``'s lines at font ``size``, as VTK lays them out."""
+    prop = vtkTextProperty()
+    prop.SetFontSize(int(size))
+    bb = [0, 0, 0, 0]
+    vtkTextRenderer.GetInstance().GetBoundingBox(prop, text or " ", bb, DPI)
+    return bb[3] - bb[2] + 1
+
+
 def elide(line: str, size: int, width_px: int) -> str:
     """``line`` cut to fit ``width_px`` at font ``size``, ending in an ellipsis when cut."""
     if text_width(line, size) <= width_px:
