@@ -125,11 +125,18 @@ def test_every_spec_in_the_docs_is_valid(page, tmp_path):
 
 
 def test_the_examples_are_valid():
+    """Every example spec loads as itself (its files read from examples/), with the lens
+    and the eye it says it has."""
     from eyelab.spec.load import load_spec
 
-    for f in sorted((ROOT / "examples").glob("*.toml")):
-        if f.name != "batch.toml":
-            load_spec(f)
+    specs = {f.name: load_spec(f) for f in sorted((ROOT / "examples").glob("*.toml"))
+             if f.name != "batch.toml"}              # the job spec: test_every_spec_in_the_docs
+    assert len(specs) >= 6, sorted(specs)
+    for name, spec in specs.items():
+        has_lens = "[lens" in (ROOT / "examples" / name).read_text()
+        assert (spec.lens is not None) == has_lens, name
+    assert specs["aberrometer.toml"].eye.aberrations is not None
+    assert specs["frame.toml"].lens.outline is not None
 
 
 def test_the_command_reference_is_generated():

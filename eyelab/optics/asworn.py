@@ -71,6 +71,8 @@ class AsWornMaps:
     object_x_deg: np.ndarray | None = None
     object_y_deg: np.ndarray | None = None
 
+    objects: ObjectPoints | None = None
+
     def __repr__(self) -> str:
         """One line: the grid, the rotations it spans and the maps' extremes (D)."""
         ny, nx = self.mean_error_d.shape
@@ -84,7 +86,6 @@ class AsWornMaps:
         return (f"<AsWornMaps {ny}x{nx}: right {x[0]:+.0f} to {x[-1]:+.0f} deg, up "
                 f"{y[0]:+.0f} to {y[-1]:+.0f} deg; mean error {span(self.mean_error_d)}, "
                 f"cylinder {span(self.cylinder_d)}>")
-    objects: ObjectPoints | None = None
 
     def to_json(self) -> dict:
         def grid(a):

@@ -373,11 +373,13 @@ def optimised_progressive(rx, add: float, preset: str, *, settings: Settings | N
     settings = dataclasses.replace(settings or Settings(), preset=preset)
     lens, design, report = progressive_lens(rx, add, **kw)
     wl = kw.get("wavelength_nm", 587.56)
-    parts = dict(front=lens.front.content_key, back=repr(lens.back),
+    # every part by its whole content (dataclasses field by field, never a repr: reprs
+    # are for reading, rounded — two lenses must not share a design's key)
+    parts = dict(front=lens.front.content_key, back=lens.back,
                  thickness=lens.center_thickness, diameter=lens.diameter,
-                 material=repr(lens.material), pose=repr(lens.pose),
+                 material=lens.material, pose=lens.pose,
                  rx=[lens.rx.sphere, lens.rx.cylinder, lens.rx.axis, lens.rx.add],
-                 design=repr(design), settings=settings, wavelength_nm=wl)
+                 design=design, settings=settings, wavelength_nm=wl)
     key = content_key(**parts)
     hit = designs.get(key)
     if hit is None:

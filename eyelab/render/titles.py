@@ -19,7 +19,6 @@ class TitleBand:
                                                                      margin)
         self.cell = tuple(ren.GetViewport())            # the panel's whole cell (fractions)
         self.band = vtkRenderer()
-        self.band.SetBackground(*ren.GetBackground())
         self.band.InteractiveOff()
         ren_win.AddRenderer(self.band)
         self.actor = vtkTextActor()

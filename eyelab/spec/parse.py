@@ -152,7 +152,7 @@ def _surface(t, where, diameter: float = 0.06, side=None) -> Surface:
     eye ``side`` ("R"/"L"/None)."""
     check_keys(t, SURFACE_KEYS, where)
     kind = t.get("type", "points" if "file" in t else "sphere")
-    tables.check_type_keys(t, kind, SURFACE_TYPE_KEYS, where)
+    tables.check_surface_type_keys(t, kind, where)
     if kind == "points":
         return _points(t, where, diameter, side)
 

@@ -7,7 +7,7 @@ import difflib
 
 from eyelab.core.errors import SpecError
 from eyelab.optics.prescription import Prescription
-from eyelab.spec.schema import EXCLUSIVE_WITH, NOT_WITH, ONLY_WITH, check
+from eyelab.spec.schema import EXCLUSIVE_WITH, NOT_WITH, ONLY_WITH, SURFACE_TYPE_KEYS, check
 
 #: Keys that moved: where they are now (an old spec gets an error that says so).
 MOVED = {"analysis.accommodation_d": "eye.accommodation_d",
@@ -89,13 +89,13 @@ def check_rules(table: dict, where: str) -> None:
                         f"explicit {' / '.join(EXCLUSIVE_WITH[where]['others'])}, not both")
 
 
-def check_type_keys(t: dict, kind, keys_of: dict, where: str) -> None:
-    """Refuse a key of table ``t`` that its ``kind`` (a type with an entry in ``keys_of``:
-    type -> the keys it reads) does not read, by name, with the keys it does; an unknown
-    kind is left to the type's own check."""
-    if not isinstance(kind, str) or kind not in keys_of:
+def check_surface_type_keys(t: dict, kind, where: str) -> None:
+    """Refuse a key of surface table ``t`` that its type ``kind`` does not read
+    (:data:`~eyelab.spec.schema.SURFACE_TYPE_KEYS`), by name, with the keys it does; an
+    unknown type is left to the type's own check."""
+    if not isinstance(kind, str) or kind not in SURFACE_TYPE_KEYS:
         return
-    other = sorted(set(t) - set(keys_of[kind]))
+    other = sorted(set(t) - set(SURFACE_TYPE_KEYS[kind]))
     if other:
         raise SpecError(f"{where}.{other[0]}", f"not read by a type = {kind!r} surface "
-                        f"(its keys: {', '.join(keys_of[kind])})")
+                        f"(its keys: {', '.join(SURFACE_TYPE_KEYS[kind])})")
