@@ -15,6 +15,7 @@ from eyelab.apps import bench
 from eyelab.apps.common import add_max_memory, add_no_cache, add_quiet, apply_max_memory, warn
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import report_text, write_report
+from eyelab.optics.eye.thin import Eye
 
 
 class _Parser(argparse.ArgumentParser):
@@ -47,7 +48,7 @@ def _build_parser() -> argparse.ArgumentParser:
     an.add_argument("--json", action="store_true", help="print JSON instead of text")
     an.add_argument("-o", "--output", help="also write the JSON report to this file")
     an.add_argument("--no-lens", action="store_true", help="naked-eye values")
-    from eyelab.optics.analysis import FIXATIONS
+    from eyelab.optics.chain.analysis import FIXATIONS
 
     an.add_argument("--fixation", choices=FIXATIONS,
                     help="override the spec's fixation model")
@@ -69,15 +70,22 @@ def _build_parser() -> argparse.ArgumentParser:
     surface.add_parser(sub)
     psf.add_parser(sub)
     mp = sub.add_parser("maps", help="as-worn maps of the spec's lens: mean power error and "
-                        "cylinder over gaze directions (PNG contour maps, JSON)")
+                        "cylinder over gaze directions; or a schematic eye's peripheral "
+                        "refraction over the visual field (PNG, JSON)")
     mp.add_argument("spec", nargs="?", help="TOML spec file (default: built-in)")
+    mp.add_argument("--kind", choices=MAP_KINDS, default=None,
+                    help="asworn: the lens's power error and cylinder over eye rotations (a "
+                         "thin eye's default); peripheral: refraction M, J0, J45 and the "
+                         "relative peripheral refraction over the visual field of a "
+                         "schematic eye fixating straight ahead, naked and through the lens "
+                         "(a schematic eye's default)")
     mp.add_argument("-o", "--output", default="eyelab-maps.png", help="PNG file")
     mp.add_argument("--json", help="also write the maps as JSON here")
     mp.add_argument("--half-angle", type=float, default=30.0,
-                    help="eye rotations (Fick angles about the centre of rotation) within "
-                         "+-this many degrees (default 30)")
+                    help="eye rotations (Fick angles about the centre of rotation), or "
+                         "field angles (peripheral), within +-this many degrees (default 30)")
     mp.add_argument("--points", type=int, default=31,
-                    help="eye rotations per axis (default 31)")
+                    help="eye rotations (field angles) per axis (default 31)")
     cache.add_parser(sub)
     bench.add_parser(sub)
     for name in _CACHED:
@@ -85,6 +93,8 @@ def _build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+#: ``eyelab maps --kind``: a lens's as-worn maps, or a schematic eye's peripheral refraction.
+MAP_KINDS = ("asworn", "peripheral")
 #: The subcommands that read specs, so may make an optimised progressive design (taken
 #: from the on-disk cache unless ``--no-cache``).
 _CACHED = ("analyze", "render", "demo", "inspect", "batch", "surface", "psf", "maps")
@@ -365,7 +375,7 @@ def _write_demo(args, spec) -> None:
 def _maps(args) -> int:
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, report_writer
     from eyelab.jobs import maps as job
-    from eyelab.spec import load_spec, one_eye
+    from eyelab.spec import load_spec, one_eye, thin_eye
 
     spec = one_eye(load_spec(args.spec), "eyelab maps")
     warn(spec.warnings)
@@ -378,6 +388,10 @@ def _maps(args) -> int:
     if args.json is not None:
         check_output("--json", args.json)
         check_distinct(**{"--output": args.output, "--json": args.json})
+    kind = args.kind or ("asworn" if isinstance(spec.eye, Eye) else "peripheral")
+    if kind == "peripheral":
+        return _peripheral(args, spec)
+    thin_eye(spec, "eyelab maps --kind asworn")
     if spec.lens is None:
         raise SpecError("lens", "the spec has no lens to map")
     maps, maps_origin = job.cli_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle,
@@ -396,6 +410,28 @@ def _maps(args) -> int:
     print("\n".join(job.design_summary(origin) + job.origin_summary("maps", maps_origin)
                     + job.origin_summary("figures of merit", figures_origin)
                     + job.maps_summary(maps) + job.figures_summary(figures)))
+    print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
+    return 0
+
+
+def _peripheral(args, spec) -> int:
+    from eyelab.core.fileio import atomic_group, report_writer
+    from eyelab.jobs import retinal
+
+    if isinstance(spec.eye, Eye):
+        raise SpecError("eye.model", "a peripheral refraction map needs a schematic eye "
+                        "(eye.model = \"navarro\"): the thin eye images every line of sight "
+                        "as the fovea does")
+    rep = retinal.peripheral_map(spec, half_angle_deg=args.half_angle, n=args.points)
+    lens = "naked eye" if spec.lens is None else f"{spec.lens.rx.format()} lens" \
+        if spec.lens.rx is not None else "lens"
+    title = (f"peripheral refraction: {spec.eye.model} eye, axial length "
+             f"{spec.eye.axial_length * 1e3:.2f} mm; {lens}; fixating straight ahead")
+    writers = {args.output: lambda tmp: retinal.plot_peripheral(rep, tmp, title)}
+    if args.json:
+        writers[args.json] = report_writer(rep)
+    atomic_group(writers)
+    print("\n".join(retinal.peripheral_summary(rep)))
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else ""))
     return 0
 

@@ -61,11 +61,11 @@ def aberration_views(out) -> str:
 
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import RasterQuality
-    from eyelab.optics.aberrations import Aberrations
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.lens import SpectacleLens
-    from eyelab.optics.prescription import Prescription
-    from eyelab.optics.zernike import j_from_nm
+    from eyelab.optics.eye.aberrations import Aberrations
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.eye.zernike import j_from_nm
+    from eyelab.optics.lens.spectacle import SpectacleLens
     from eyelab.render.raster import RasterRenderer
     from eyelab.scene.library import chart_scene
 

@@ -1,6 +1,6 @@
 """``eyelab surface SPEC --side front|back -o FILE [--spacing-mm S] [--size-mm D]``: a spec
 lens's surface (sphere, toric, asphere, progressive free-form, points) as a points file
-(:mod:`eyelab.optics.pointsfile`): a Vision Council DCS ``.sdf`` — what a lab's generator
+(:mod:`eyelab.optics.lens.pointsfile`): a Vision Council DCS ``.sdf`` — what a lab's generator
 receives — or a ``.csv`` / ``.npy`` sag grid, by the output's extension; the file reads back
 as ``[lens.front]`` / ``[lens.back]`` ``type = "points"``."""
 
@@ -53,7 +53,7 @@ def run(args) -> int:
     from eyelab.core.checks import check_range
     from eyelab.core.errors import SpecError
     from eyelab.core.fileio import check_output
-    from eyelab.optics.pointsfile import (
+    from eyelab.optics.lens.pointsfile import (
         FORMATS,
         LIMITS,
         SAG_DECIMALS,

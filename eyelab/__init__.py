@@ -30,12 +30,12 @@ __version__ = "0.1.0"
 #: Public name -> the module that defines it (imported on first use).
 _API = {
     "SpecError": "eyelab.core.errors",
-    "Prescription": "eyelab.optics.prescription",
-    "Eye": "eyelab.optics.eye",
-    "SpectacleLens": "eyelab.optics.lens",
-    "LensPose": "eyelab.optics.lens",
-    "Material": "eyelab.optics.materials",
-    "get_material": "eyelab.optics.materials",
+    "Prescription": "eyelab.optics.eye.prescription",
+    "Eye": "eyelab.optics.eye.thin",
+    "SpectacleLens": "eyelab.optics.lens.spectacle",
+    "LensPose": "eyelab.optics.lens.spectacle",
+    "Material": "eyelab.optics.rays.materials",
+    "get_material": "eyelab.optics.rays.materials",
     "Scene": "eyelab.scene.scene",
     "SCENE_NAMES": "eyelab.scene.library",
     "View": "eyelab.imaging.contract",

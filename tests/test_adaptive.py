@@ -10,12 +10,12 @@ import pytest
 import eyelab.render.channels as channels
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
-from eyelab.optics.camera import fit_virtual_camera, lens_view_density
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.materials import Material
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Plane
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.camera import fit_virtual_camera, lens_view_density
+from eyelab.optics.rays.materials import Material
+from eyelab.optics.rays.surfaces import Plane
 from eyelab.reference import compare_images
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import room_scene

@@ -3,12 +3,12 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.trace import Status
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.trace import Status
 from eyelab.reference.bruteforce import bundle_vergence, retinal_spot_axes
 
 EYES = {

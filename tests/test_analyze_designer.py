@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from eyelab.jobs.analyze import analyze_spec, format_report
-from eyelab.optics.analysis import analyze_points
+from eyelab.optics.chain.analysis import analyze_points
 from eyelab.reference.bruteforce import extrapolated_vergence
 from eyelab.spec import load_spec, parse_spec
 

@@ -1,4 +1,4 @@
-"""Two eyes behind one frame (eyelab/optics/binocular.py): the spec, vergence, the consensual
+"""Two eyes behind one frame (eyelab/optics/chain/binocular.py): the spec, vergence, the consensual
 accommodation rule, induced prism against Prentice's rule, mirror symmetry of the two
 views, anisometropic blur against the single eye and the analytic defocus disc, and the
 stereo compositions."""
@@ -15,9 +15,9 @@ from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
 from eyelab.imaging.stereo import DUBOIS_LEFT, DUBOIS_RIGHT, compose, render_binocular
 from eyelab.jobs.analyze import analyze_spec
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.binocular import SIDES, analyze_binocular
-from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.chain.binocular import SIDES, analyze_binocular
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import box, grid_quad
 from eyelab.scene.scene import Scene

@@ -5,10 +5,10 @@ from eyelab.blur import VoxelStatus, compute_blur_field
 from eyelab.blur.bundle import compute_blur_field_bundles, traverse
 from eyelab.core.errors import SpecError
 from eyelab.core.sampling import disc_seeds
-from eyelab.optics.camera import eye_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.camera import eye_camera
 
 
 def test_traversal_visits_exactly_the_voxels_a_dense_sampling_finds():

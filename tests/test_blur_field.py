@@ -5,12 +5,12 @@ import pytest
 
 from eyelab.blur import BlurField, VoxelStatus, compute_blur_field
 from eyelab.core.constants import RAD_TO_ARCMIN
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.camera import eye_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.camera import eye_camera
+from eyelab.optics.rays.paths import ObjectPoints
 
 SMALL = (24, 6, 8)
 
@@ -50,7 +50,7 @@ def test_reading_lens_field_is_zero_at_its_corrected_distance():
     v1p = -f2 / (1 - t * f2 / n)
     v = v1p - f1
     z_obj = -(lens.pose.vertex_distance + t) + 1.0 / v
-    from eyelab.optics.camera import Camera
+    from eyelab.optics.rays.camera import Camera
 
     cop = (0.0, 0.0, 0.0)
     w_star = -z_obj
@@ -133,7 +133,7 @@ def test_skipping_never_changes_an_interpolated_lookup_inside_the_scene(with_len
     lens = SpectacleLens.from_rx(Prescription(-3.0)) if with_lens else None
     cam = eye_camera(near=1.0, far=20.0, fov_y_deg=8.0)
     if lens is not None:
-        from eyelab.optics.camera import fit_virtual_camera
+        from eyelab.optics.rays.camera import fit_virtual_camera
 
         cam = fit_virtual_camera(lens, cam).camera
     bounds = ((-0.3, -0.2, -6.0), (0.3, 0.2, -6.0))          # a chart 6 m ahead
@@ -204,7 +204,7 @@ def test_lookups_at_the_lens_rim_do_not_mix_in_invisible_zeros():
     their visible neighbours: the looked-up blur stays within 10 % of its own voxel's,
     where zeros would shrink it towards half."""
     from eyelab.blur.field import VoxelStatus
-    from eyelab.optics.camera import fit_virtual_camera
+    from eyelab.optics.rays.camera import fit_virtual_camera
 
     eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
     lens = SpectacleLens.from_rx(Prescription(-4.0), diameter=0.03)

@@ -13,9 +13,9 @@ import pytest
 
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import ImageBasedQuality, ReferenceQuality
-from eyelab.optics.film import CameraRays
-from eyelab.optics.system import get_system
-from eyelab.optics.trace import FATAL
+from eyelab.optics.cameralens.film import CameraRays
+from eyelab.optics.cameralens.system import get_system
+from eyelab.optics.rays.trace import FATAL
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.imagebased import ImageBasedRenderer
 from eyelab.scene.library import grid_quad

@@ -10,9 +10,9 @@ from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
-from eyelab.optics.camera import eye_camera
-from eyelab.optics.eye import EYE_REFERENCE_NM, Eye, ocular_lca
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM, Eye, ocular_lca
+from eyelab.optics.rays.camera import eye_camera
+from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import grid_quad

@@ -4,7 +4,7 @@ The text files of the repository (``git ls-files``: tracked, plus new files git 
 ignore; build outputs and other ignored paths are not part of it) are searched for cited
 files — a token ending in .md, .json, .toml, .txt, .csv, .png or .py:
 
-* a path (``docs/SCIENCE.md``, ``docs/gallery/pal.toml``, ``eyelab/optics/eye.py``) whose
+* a path (``docs/SCIENCE.md``, ``docs/gallery/pal.toml``, ``eyelab/optics/eye/thin.py``) whose
   first folder is one of the repository's top-level folders must be a file of the
   repository; so must any path to a Markdown document, whatever its first folder (a
   document outside the repository, such as ``elsewhere/docs/NOTES.md``, is a broken
@@ -142,10 +142,10 @@ def test_the_checks_fail_on_broken_citations(tmp_path):
     """The checker itself: missing files, outside documents, ambiguous or unknown bare
     names and missing sections are reported; real files, outputs, templates and URLs
     are not."""
-    files = ["README.md", "docs/SCIENCE.md", "docs/gallery/pal.toml", "eyelab/optics/eye.py",
+    files = ["README.md", "docs/SCIENCE.md", "docs/gallery/pal.toml", "eyelab/optics/eye/thin.py",
              "docs/a/NOTES.md", "docs/b/NOTES.md"]
     text = ("see docs/SCIENCE.md §2 and SCIENCE.md, docs/gallery/pal.toml, "
-            "`eyelab/optics/eye.py`; writes out.png, tmp/r.json, {name}.toml, job-*.png, "
+            "`eyelab/optics/eye/thin.py`; writes out.png, tmp/r.json, {name}.toml, job-*.png, "
             "path.with_suffix('.png'); https://example.org/x/MISSING.md; /tmp/abs.md.\n"
             "Broken: docs/gallery/gone.toml, eyelab/optics/gone.py, elsewhere/docs/SCIENCE.md, "
             "OTHER.md, NOTES.md.")

@@ -17,9 +17,9 @@ import pytest
 
 import eyelab
 from eyelab.core import diskcache
-from eyelab.optics import optimise
-from eyelab.optics.optimise import Settings, optimised_progressive
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.lens import optimise
+from eyelab.optics.lens.optimise import Settings, optimised_progressive
 
 NS = "test"
 #: The folder tests/conftest.py gives the whole suite (read before any fixture changes it).
@@ -251,8 +251,8 @@ FRESH = """
 import json, sys
 import numpy as np
 from eyelab.jobs.maps import design_origin, design_summary
-from eyelab.optics.optimise import Settings, optimised_progressive
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.lens.optimise import Settings, optimised_progressive
+from eyelab.optics.eye.prescription import Prescription
 lens, _, rep = optimised_progressive(Prescription(-2.0, add=2.0), 2.0, "soft",
                                      settings=Settings(n=9, knots=5, max_iterations=2))
 x = np.linspace(-0.03, 0.03, 13)

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.eye import (
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import (
     GH_P_MIN,
     GH_P_MIN_PAPER,
     Eye,
     hofstetter_amplitude,
     watson_yellott_pupil,
 )
-from eyelab.optics.prescription import Prescription
 
 
 def test_default_eye_is_emmetropic_and_table2_inconsistency_is_small():

@@ -2,7 +2,7 @@
 full-wave answer: a flat ETDRS chart at 4 m, its sharp image (the reference renderer, an
 eye that focuses every point, 64 spp) convolved per channel with the FFT PSF of the pupil
 function — the eye's defocus for the chart plus the higher orders over the render's pupil
-(eyelab/optics/psf.py, itself checked against a direct Fraunhofer integral in
+(eyelab/optics/eye/psf.py, itself checked against a direct Fraunhofer integral in
 tests/test_wave_psf.py). Also the spec's [eye.aberrations]: the second order as the Rx,
 conflicts refused by name."""
 
@@ -15,9 +15,9 @@ from eyelab.core.color import encode_srgb
 from eyelab.imaging.contract import View
 from eyelab.imaging.eyepsf import channel_wavelengths, convolve_linear, sharp_eye, view_pitch_rad
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
-from eyelab.optics.aberrations import Aberrations, second_order
-from eyelab.optics.eye import Eye
-from eyelab.optics.psf import psf
+from eyelab.optics.eye.aberrations import Aberrations, second_order
+from eyelab.optics.eye.psf import psf
+from eyelab.optics.eye.thin import Eye
 from eyelab.reference.metrics import ssim
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer
@@ -76,8 +76,8 @@ def test_through_a_lens_the_product_stays_close_to_the_full_wave_image(scene):
     """A -0.50 D lens for the -0.50 D eye leaves -0.25 D for the chart at 4 m (no
     accommodation); the product of the lens's geometric blur and the higher orders'
     kernel against the full wave at the image's centre defocus (the README's figures)."""
-    from eyelab.optics.lens import SpectacleLens
-    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.lens.spectacle import SpectacleLens
 
     eye = _eye("-0.50 DS", 0.08, 0.12)
     lens = SpectacleLens.from_rx(Prescription(-0.5))
@@ -107,8 +107,8 @@ def test_without_aberrations_nothing_is_applied(scene):
 
 def test_the_spec_takes_the_second_order_as_the_rx_and_refuses_both():
     from eyelab.core.errors import SpecError
-    from eyelab.optics import zernike as zk
-    from eyelab.optics.eye import ocular_lca
+    from eyelab.optics.eye import zernike as zk
+    from eyelab.optics.eye.thin import ocular_lca
     from eyelab.spec import parse_spec
 
     # an eye measured at 555 nm over 6 mm: -2.00 DS at the eye (ocular refraction)
@@ -153,7 +153,7 @@ def test_the_psf_command_writes_the_psf_and_its_report(tmp_path, capsys):
     import json
 
     from eyelab.apps.cli import main
-    from eyelab.optics.psf import ARCMIN
+    from eyelab.optics.eye.psf import ARCMIN
 
     out, js = tmp_path / "p.npy", tmp_path / "p.json"
     assert main(["psf", "-o", str(out), "--json", str(js), "--size", "65"]) == 0
@@ -197,7 +197,7 @@ def test_the_render_reports_rms_as_analyze_does_without_the_tilt():
     """Coma measured over 6 mm and rendered over 4 mm leaks into tilt (which moves the
     image, not blurs it): the render's rms_um leaves the tilt out, as analyze's does, and
     keeps the defocus spherical aberration leaks into."""
-    from eyelab.optics import zernike as zk
+    from eyelab.optics.eye import zernike as zk
 
     c = np.zeros(13)
     c[zk.j_from_nm(3, 1)] = 0.4

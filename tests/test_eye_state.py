@@ -8,8 +8,8 @@ import pytest
 
 from eyelab.blur import compute_blur_field
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.spec import parse_spec
 
 SPEC = {"eye": {"accommodation_max_d": 4.0, "accommodation_d": 2.5},

@@ -8,9 +8,9 @@ import re
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.lens import MIN_EDGE_THICKNESS, SpectacleLens
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Sphere
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.lens.spectacle import MIN_EDGE_THICKNESS, SpectacleLens
+from eyelab.optics.rays.surfaces import Sphere
 from eyelab.spec import parse_spec
 
 
@@ -43,7 +43,7 @@ def test_minus_lens_below_the_material_minimum_and_thin_edges():
 
 
 def test_crossing_surfaces_are_refused_in_the_library_too():
-    from eyelab.optics.materials import CATALOGUE
+    from eyelab.optics.rays.materials import CATALOGUE
 
     with pytest.raises(SpecError, match="surfaces cross"):
         SpectacleLens(Sphere(20.0), Sphere(-5.0), 0.002, CATALOGUE["cr39"], 0.06)

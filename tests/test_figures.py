@@ -1,4 +1,4 @@
-"""The designer's figures of merit (eyelab/optics/figures.py): on synthetic maps whose
+"""The designer's figures of merit (eyelab/optics/lens/figures.py): on synthetic maps whose
 answers are known in closed form, on the built-in progressive and single-vision lenses,
 and in `eyelab maps`."""
 
@@ -14,8 +14,8 @@ from scipy.optimize import brentq
 
 from eyelab.apps.cli import main
 from eyelab.jobs.maps import FIGURES_GRID, maps_figures
-from eyelab.optics.asworn import as_worn_maps
-from eyelab.optics.figures import (
+from eyelab.optics.lens.asworn import as_worn_maps
+from eyelab.optics.lens.figures import (
     LensMap,
     as_worn_figures,
     clear_field,

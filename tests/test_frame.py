@@ -22,17 +22,17 @@ import numpy as np
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.frame import (
+from eyelab.optics.lens.frame import (
     BLANK_MARGIN,
     Outline,
     minimum_blank_size,
     read_dcs,
     shape_outline,
 )
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.materials import Material
-from eyelab.optics.surfaces import Plane
-from eyelab.optics.trace import FATAL, Status
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.materials import Material
+from eyelab.optics.rays.surfaces import Plane
+from eyelab.optics.rays.trace import FATAL, Status
 from eyelab.spec import parse_spec
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
@@ -321,7 +321,7 @@ def test_the_raster_lens_mask_is_the_traces_area_and_follows_its_outline(size):
     would fail."""
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import RasterQuality
-    from eyelab.optics.eye import Eye
+    from eyelab.optics.eye.thin import Eye
     from eyelab.render.raster import RasterRenderer
     from eyelab.scene.library import chart_scene
 
@@ -341,8 +341,8 @@ def test_the_raster_lens_mask_is_the_traces_area_and_follows_its_outline(size):
 
 
 def test_maps_stop_at_the_frame():
-    from eyelab.optics.asworn import as_worn_maps
-    from eyelab.optics.eye import Eye
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.lens.asworn import as_worn_maps
 
     cut = _spec({**SHAPE, "box_mm": [40.0, 24.0], "dbl_mm": 24.0}).lens
     whole = dataclasses.replace(cut, outline=None)

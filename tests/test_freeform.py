@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import FreeForm, Sphere, Toric
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.surfaces import FreeForm, Sphere, Toric
 
 
 @pytest.mark.parametrize("surface", [Toric(8.0, 12.0, 0.3), Toric(-20.0, -14.0, 1.2),

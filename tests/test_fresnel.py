@@ -8,11 +8,11 @@ import pytest
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
 from eyelab.imaging.registry import make_renderer
-from eyelab.optics.eye import Eye
-from eyelab.optics.fresnel import AR_REFLECTANCE, reflectance, transmittance
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.materials import Material
-from eyelab.optics.surfaces import Plane
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.fresnel import AR_REFLECTANCE, reflectance, transmittance
+from eyelab.optics.rays.materials import Material
+from eyelab.optics.rays.surfaces import Plane
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene
 
@@ -101,8 +101,8 @@ def test_plate_tracks_s_and_p_through_both_surfaces(deg):
     # the raster's per-vertex rays (what its transmittance map is made of) and a camera
     # lens system's rays (both camera renderers) carry the same value; the reference
     # tracer weights its rays by the lens trace above
-    from eyelab.optics.camera import eye_camera
-    from eyelab.optics.system import LensSystem, SystemSurface
+    from eyelab.optics.cameralens.system import LensSystem, SystemSurface
+    from eyelab.optics.rays.camera import eye_camera
     from eyelab.scene.pervertex import lens_texcoords
     from eyelab.scene.raycast import EmbreeIntersector
 
@@ -125,7 +125,7 @@ def test_crossed_planes_of_incidence_mix_s_and_p():
     surface's s light is the second's p light, so the transmission is (T_s1 T_p2 +
     T_p1 T_s2) / 2, not (T_s1 T_s2 + T_p1 T_p2) / 2 — the frame rotation between surfaces
     is what gets this right."""
-    from eyelab.optics.fresnel import PolarisedTransmission, reflectances
+    from eyelab.optics.rays.fresnel import PolarisedTransmission, reflectances
 
     n1, n2, n3 = 1.0, 1.5, 1.0
     d = np.array([[0.0, 0.0, -1.0]])

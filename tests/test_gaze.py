@@ -13,14 +13,14 @@ from eyelab.core.color import linear_to_srgb
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
 from eyelab.imaging.registry import make_renderer
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.binocular import line_of_sight_prism
-from eyelab.optics.camera import eye_camera, gaze_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.paths import ObjectPoints, find_chief_rays
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.trace import intersect
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.chain.binocular import line_of_sight_prism
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.camera import eye_camera, gaze_camera
+from eyelab.optics.rays.paths import ObjectPoints, find_chief_rays
+from eyelab.optics.rays.trace import intersect
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene
 

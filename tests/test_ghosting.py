@@ -10,8 +10,8 @@ import numpy as np
 from eyelab.core.color import srgb_to_linear
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
-from eyelab.optics.eye import Eye
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene

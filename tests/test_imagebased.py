@@ -14,11 +14,11 @@ from eyelab.core.sampling import pass_samples
 from eyelab.core.vecmath import unit
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import ImageBasedQuality, ReferenceQuality
-from eyelab.optics.eye import Eye
-from eyelab.optics.film import CameraRays
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.system import EXAMPLES, get_system
+from eyelab.optics.cameralens.film import CameraRays
+from eyelab.optics.cameralens.system import EXAMPLES, get_system
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
 from eyelab.reference.metrics import ssim
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.imagebased import ImageBasedRenderer

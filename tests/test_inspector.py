@@ -87,8 +87,8 @@ def test_blur_at_the_chart_follows_analyze(spec_file):
     """After raising the myopia (lens off, one wavelength) the blur field the view was
     rendered with gives, at the chart's centre, the blur analyze computes there (same
     eye model: pupil fixed at the origin), to the field's interpolation (2 %)."""
-    from eyelab.optics.analysis import analyze_points
-    from eyelab.optics.paths import ObjectPoints
+    from eyelab.optics.chain.analysis import analyze_points
+    from eyelab.optics.rays.paths import ObjectPoints
 
     m = InspectorModel(spec_file)
     try:
@@ -289,12 +289,12 @@ NAKED = SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n', "")
 
 
 def test_as_worn_maps_and_the_gaze_marker(spec_file):
-    """The model's maps are eyelab.optics.asworn's over +-40 deg; the marker sits at the
+    """The model's maps are eyelab.optics.lens.asworn's over +-40 deg; the marker sits at the
     gaze's Fick angles with the maps' values there (the grid's own value on a grid point,
     the engine's at that eye rotation elsewhere, to the interpolation); they are computed
     after a change's first frame, once per lens (not per gaze), and kept."""
     from eyelab.jobs.gazemaps import MAP_HALF_ANGLE_DEG, MAP_POINTS
-    from eyelab.optics.asworn import as_worn_maps
+    from eyelab.optics.lens.asworn import as_worn_maps
 
     m = InspectorModel(spec_file, samples=1)
     try:

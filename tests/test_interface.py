@@ -13,9 +13,9 @@ from eyelab.core.errors import SpecError
 from eyelab.imaging.contract import REPORT_KEYS, RenderResult, View
 from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQuality
 from eyelab.imaging.registry import QUALITIES, make_renderer
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
 from eyelab.reference import compare_images
 from eyelab.render.raster import CACHE_SIZES, RasterRenderer
 from eyelab.scene.library import chart_scene, grid_quad

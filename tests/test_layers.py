@@ -30,6 +30,16 @@ LAYERS = (
     ("eyelab.bench",),
     ("eyelab.apps", "eyelab.data_generators"),
 )
+#: Within the optics layer, its sub-packages from the bottom, the same rule one level down:
+#: rays and wavefronts; the eye and camera lenses (independent of each other); an eye behind
+#: a lens; spectacle lenses and their designs. ``eyelab/optics/__init__.py`` re-exports
+#: names from them all and sits above them.
+OPTICS_LAYERS = (
+    ("eyelab.optics.rays",),
+    ("eyelab.optics.eye", "eyelab.optics.cameralens"),
+    ("eyelab.optics.chain",),
+    ("eyelab.optics.lens",),
+)
 #: The package's own top modules: ``eyelab/__init__.py`` (the public API, whose heavy names
 #: are imported lazily inside functions) sits above everything.
 TOP = ("eyelab",)
@@ -68,7 +78,7 @@ def _imports(path: Path, module: str):
 
 
 def _package(name: str):
-    """The layer package of a module name (``eyelab.optics.lens`` -> ``eyelab.optics``);
+    """The layer package of a module name (``eyelab.optics.lens.spectacle`` -> ``eyelab.optics``);
     None for the top modules and for names outside eyelab."""
     if name in TOP or not name.startswith("eyelab."):
         return None
@@ -80,6 +90,42 @@ def _layer(package: str | None):
         if package in row:
             return i
     return None
+
+
+def _optics_layer(name: str):
+    """(row, sub-package) of a module of the optics layer; None for others and for
+    ``eyelab.optics`` itself."""
+    sub = ".".join(name.split(".")[:3])
+    for i, row in enumerate(OPTICS_LAYERS):
+        if sub in row:
+            return i, sub
+    return None
+
+
+def _outside_violations(top: str, here, module: str, where: str) -> list:
+    """VTK outside eyelab/render (or not through _vtk.py); the repository's folders
+    imported by their folder names."""
+    bad = []
+    if top in GL and here != "eyelab.render":
+        bad.append(f"{where}: VTK/PyVista outside eyelab/render")
+    if top in ("vtk", "vtkmodules") and module != "eyelab.render._vtk":
+        bad.append(f"{where}: VTK is imported through eyelab/render/_vtk.py only")
+    if top in ("apps", "data_generators"):
+        bad.append(f"{where}: the repository folders ship as eyelab.apps / "
+                   f"eyelab.data_generators")
+    return bad
+
+
+def _optics_violations(module: str, name: str, where: str) -> list:
+    """The optics layer's own rule for ``module`` importing ``name`` (both in it)."""
+    mine, theirs = _optics_layer(module), _optics_layer(name)
+    if mine is None:
+        return [f"{where}: every optics module lives in a sub-package"]
+    if theirs is None:
+        return [f"{where}: eyelab.optics itself is above its sub-packages"]
+    if theirs[1] != mine[1] and theirs[0] >= mine[0]:
+        return [f"{where}: {theirs[1]} is not below {mine[1]}"]
+    return []
 
 
 def _graph(modules):
@@ -146,13 +192,7 @@ def _violations(modules=None):
         for name, names, line in _imports(path, module):
             top = name.split(".")[0]
             where = f"{rel}:{line} imports {name}"
-            if top in GL and here != "eyelab.render":
-                bad.append(f"{where}: VTK/PyVista outside eyelab/render")
-            if top in ("vtk", "vtkmodules") and module != "eyelab.render._vtk":
-                bad.append(f"{where}: VTK is imported through eyelab/render/_vtk.py only")
-            if top in ("apps", "data_generators"):
-                bad.append(f"{where}: the repository folders ship as eyelab.apps / "
-                           f"eyelab.data_generators")
+            bad += _outside_violations(top, here, module, where)
             if top != "eyelab" or here is None:
                 continue
             there = _package(name)
@@ -163,6 +203,8 @@ def _violations(modules=None):
             a, b = _layer(here), _layer(there)
             if a is not None and b is not None and there != here and b >= a:
                 bad.append(f"{where}: {there} is not below {here}")
+            if here == there == "eyelab.optics" and module != "eyelab.optics":
+                bad += _optics_violations(module, name, where)
             if there != here:
                 private = [n for n in (*name.split(".")[2:], *names)
                            if n.startswith("_") and not n.startswith("__")]
@@ -176,6 +218,9 @@ def test_every_package_has_a_layer():
     missing = sorted({_package(m) for m, _ in _modules()
                       if _package(m) is not None and _layer(_package(m)) is None})
     assert missing == []
+    loose = sorted(m for m, _ in _modules() if m.startswith("eyelab.optics.")
+                   and _optics_layer(m) is None)
+    assert loose == [], "every optics module lives in a sub-package of OPTICS_LAYERS"
 
 
 def test_eyelab_holds_packages_only():
@@ -197,13 +242,15 @@ def test_the_rule_checker_sees_each_violation(tmp_path):
     fake.write_text("def f():\n    import vtk\n    from eyelab.render import raster\n"
                     "from eyelab.core.fileio import _private\n")
     a = tmp_path / "a.py"
-    a.write_text("from eyelab.optics import b\n")
+    a.write_text("from eyelab.optics.rays import b\n")
     b = tmp_path / "b.py"
-    b.write_text("def g():\n    from eyelab.optics.a import h\n")
-    found = _violations([("eyelab.optics.fake", fake), ("eyelab.optics.a", a),
-                         ("eyelab.optics.b", b)])
+    b.write_text("def g():\n    from eyelab.optics.rays.a import h\n"
+                 "from eyelab.optics.lens.spectacle import SpectacleLens\n")
+    found = _violations([("eyelab.optics.rays.fake", fake), ("eyelab.optics.rays.a", a),
+                         ("eyelab.optics.rays.b", b)])
     kinds = [re.sub(r".*: ", "", f) if "circle" not in f else "circle" for f in found]
-    assert len(found) == 5, found
+    assert len(found) == 6, found
+    assert any("eyelab.optics.lens is not below eyelab.optics.rays" in f for f in found)
     assert "circle" in kinds and any("private" in k for k in kinds), found
     assert any("not below" in f for f in found) and any("outside" in f for f in found)
 

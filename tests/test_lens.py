@@ -5,14 +5,14 @@ import pytest
 import trimesh
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens
-from eyelab.optics.materials import CATALOGUE
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Sphere, Toric
-from eyelab.optics.trace import Status
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import MIN_EDGE_THICKNESS, LensPose, SpectacleLens
+from eyelab.optics.rays.materials import CATALOGUE
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.surfaces import Sphere, Toric
+from eyelab.optics.rays.trace import Status
 from eyelab.reference.bruteforce import bundle_vergence
 
 

@@ -9,8 +9,8 @@ from eyelab.core.color import linear_to_srgb, srgb_to_linear
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality, ReferenceQuality
 from eyelab.imaging.registry import make_renderer
-from eyelab.optics.eye import Eye
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
 from eyelab.render.accumulate import ENCODE16, PassAccumulator, check_tables, encode_linear
 from eyelab.scene.library import grid_quad
 from eyelab.scene.scene import Scene

@@ -1,4 +1,4 @@
-"""As-worn maps and figures of merit on disk (eyelab/optics/mapcache.py): a fresh process
+"""As-worn maps and figures of merit on disk (eyelab/optics/lens/mapcache.py): a fresh process
 reads back the maps bit for bit and the very figures this one computed, a damaged entry
 is computed again, and an eye or lens without a complete content key is never cached
 (eyelab/core/cache.py: complete_key refuses what only a repr could stand for)."""
@@ -15,11 +15,11 @@ import pytest
 from eyelab.core import diskcache
 from eyelab.core.cache import complete_key, content_key
 from eyelab.jobs.maps import figures_and_origin, named_maps, origin_summary
-from eyelab.optics import mapcache
-from eyelab.optics.eye import Eye
-from eyelab.optics.optimise import Settings, optimised_progressive
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import FreeForm, Surface
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens import mapcache
+from eyelab.optics.lens.optimise import Settings, optimised_progressive
+from eyelab.optics.rays.surfaces import FreeForm, Surface
 
 #: A coarse optimised design (tests/test_diskcache.py's), small grids: the path is the same.
 SMALL = Settings(n=9, knots=5, max_iterations=2)
@@ -28,9 +28,9 @@ MAPS = {"half_angle_deg": 30.0, "n": 5}
 FRESH = f"""
 import json
 from eyelab.jobs.maps import figures_and_origin, named_maps
-from eyelab.optics.eye import Eye
-from eyelab.optics.optimise import Settings, optimised_progressive
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.optimise import Settings, optimised_progressive
+from eyelab.optics.eye.prescription import Prescription
 lens, _, _ = optimised_progressive(Prescription(-2.0, add=2.0), 2.0, "soft",
                                    settings=Settings(n=9, knots=5, max_iterations=2))
 maps, maps_origin = named_maps(Eye(), lens, **{MAPS!r})

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from eyelab.apps.cli import main
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.asworn import as_worn_maps, object_vergence
-from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.lens.asworn import as_worn_maps, object_vergence
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.reference.bruteforce import extrapolated_vergence
 from eyelab.spec import load_spec
 
@@ -65,10 +65,10 @@ def test_the_grid_is_over_eye_rotations(rotation):
     rotation along the line of sight (cos e sin a, sin e, -cos e cos a) — at (0, -30) 30 deg
     from the primary line of sight — and the object lies beyond the lens's prism there:
     farther out than the line of sight by the prism a focimeter reads on that line."""
-    from eyelab.optics.binocular import line_of_sight_prism
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.lens import SpectacleLens
-    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.chain.binocular import line_of_sight_prism
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.lens.spectacle import SpectacleLens
 
     eye, lens = Eye(), SpectacleLens.from_rx(Prescription(-6.0))
     half = 30.0
@@ -102,7 +102,7 @@ def test_marks_are_the_eye_rotations_that_look_through_the_reference_points():
     """A progressive lens's marks: the eye turned by each mark's Fick angles looks through
     that point — its line of sight, traced out through the lens, leaves the front surface
     there (to 1e-6 m)."""
-    from eyelab.optics.asworn import fick_lines
+    from eyelab.optics.lens.asworn import fick_lines
 
     spec = load_spec(ROOT / "docs" / "gallery" / "pal.toml")
     eye, lens = spec.eye, spec.lens

@@ -1,7 +1,7 @@
 import pytest
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.materials import (
+from eyelab.optics.rays.materials import (
     CATALOGUE,
     LAMBDA_C_NM,
     LAMBDA_D_NM,
@@ -43,7 +43,7 @@ def test_material_lookup_and_errors():
 
 
 @pytest.mark.parametrize("name, kind, published", [
-    # as published, with the source in eyelab/optics/materials.py
+    # as published, with the source in eyelab/optics/rays/materials.py
     ("cr39", "d", (1.498, 58.0)),            # Duane's Ophthalmology ch. 51C Table 1
     ("crown", "d", (1.523, 58.6)),           # idem
     ("polycarbonate", "d", (1.586, 30.0)),   # idem
@@ -71,7 +71,7 @@ def test_nominal_names_are_the_thiourethanes_and_nd_is_below_the_nominal_ne():
 
 
 def test_e_line_conversion_round_trips():
-    from eyelab.optics.materials import Material
+    from eyelab.optics.rays.materials import Material
 
     m = Material.from_e_line("x", 1.6, 41.0)
     back = Material("y", m.n_d, m.v_d)

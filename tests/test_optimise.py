@@ -10,12 +10,17 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.optics.asworn import as_worn_maps
-from eyelab.optics.eye import Eye
-from eyelab.optics.figures import as_worn_figures
-from eyelab.optics.optimise import Settings, _Problem, optimise_progressive, optimised_progressive
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.progressive import progressive_lens
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.asworn import as_worn_maps
+from eyelab.optics.lens.figures import as_worn_figures
+from eyelab.optics.lens.optimise import (
+    Settings,
+    _Problem,
+    optimise_progressive,
+    optimised_progressive,
+)
+from eyelab.optics.lens.progressive import progressive_lens
 
 RX = Prescription(-2.0, add=2.0)
 
@@ -83,7 +88,7 @@ def test_optimised_designs_meet_a_labs_figures(preset, peak, tmp_path):
     if preset != "soft":
         return
     # the surface through a points file (7 decimals, 0.5 mm): the same maps within 0.02 D
-    from eyelab.optics.pointsfile import sample_surface, write_points
+    from eyelab.optics.lens.pointsfile import sample_surface, write_points
     from eyelab.spec import parse_spec
 
     path = tmp_path / "front.sdf"

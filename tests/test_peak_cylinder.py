@@ -6,7 +6,7 @@ what lies between the finer map's points, at the same eye rotation."""
 import numpy as np
 import pytest
 
-from eyelab.optics.asworn import as_worn_maps, peak_cylinder
+from eyelab.optics.lens.asworn import as_worn_maps, peak_cylinder
 from eyelab.spec import load_spec
 
 

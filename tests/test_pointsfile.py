@@ -1,4 +1,4 @@
-"""Surfaces from points files and out to them (eyelab/optics/pointsfile.py): ``eyelab
+"""Surfaces from points files and out to them (eyelab/optics/lens/pointsfile.py): ``eyelab
 surface`` writes a spec lens's surfaces as a Vision Council DCS file (or .csv, .npy), and a
 spec with ``type = "points"`` surfaces read from those files is the same lens — in analyze
 (25 gazes within 30 deg: within 0.005 D) and in the as-worn maps and surface powers
@@ -19,12 +19,12 @@ import pytest
 
 from eyelab.apps.cli import main
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import analyze_points, power_error
-from eyelab.optics.asworn import as_worn_maps
-from eyelab.optics.dcs import number, parse_records
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.pointsfile import SAG_DECIMALS, read_points, sample_surface
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.analysis import analyze_points, power_error
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.lens.asworn import as_worn_maps
+from eyelab.optics.lens.dcs import number, parse_records
+from eyelab.optics.lens.pointsfile import SAG_DECIMALS, read_points, sample_surface
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.spec import load_spec
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures"

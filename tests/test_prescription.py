@@ -6,7 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.prescription import Prescription, vertex_effective_power
+from eyelab.optics.eye.prescription import Prescription, vertex_effective_power
 
 
 @pytest.mark.parametrize("text, expect", [

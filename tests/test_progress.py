@@ -7,7 +7,7 @@ import pytest
 
 from eyelab.blur import compute_blur_field
 from eyelab.core import progress
-from eyelab.optics.eye import Eye
+from eyelab.optics.eye.thin import Eye
 
 
 @pytest.fixture

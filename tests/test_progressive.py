@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.progressive import ProgressiveDesign, gaze_through, progressive_lens
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.progressive import ProgressiveDesign, gaze_through, progressive_lens
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.reference.bruteforce import extrapolated_vergence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,7 +87,7 @@ def test_the_corridor_is_umbilic_with_its_inset(inset):
     corridor profiles keep the Hessian proportional to the metric, not only the second
     derivatives equal (which left 0.1-0.24 D at the foot and below, and 0.9 D with the
     inset's cross term before it was cancelled)."""
-    from eyelab.optics.progressive import _path_terms
+    from eyelab.optics.lens.progressive import _path_terms
 
     rx = Prescription(-2.0, add=2.0)
     lens, design, _ = progressive_lens(rx, 2.0, design=ProgressiveDesign(2.0, inset=inset))
@@ -117,7 +117,7 @@ def test_design_parameters_are_checked():
 
 def test_the_spec_builds_progressive_lenses_and_refuses_misuse():
     from eyelab.core.errors import SpecError
-    from eyelab.optics.surfaces import FreeForm
+    from eyelab.optics.rays.surfaces import FreeForm
     from eyelab.spec import parse_spec
 
     spec = parse_spec({"lens": {"rx": "L -2.00 DS add +2.00", "design": "progressive",

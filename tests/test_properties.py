@@ -9,14 +9,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.materials import CATALOGUE, Material
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Sphere, Toric
-from eyelab.optics.trace import FATAL
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.materials import CATALOGUE, Material
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.surfaces import Sphere, Toric
+from eyelab.optics.rays.trace import FATAL
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

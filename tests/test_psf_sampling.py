@@ -13,8 +13,8 @@ samples per pixel and a field of just the geometric spread)."""
 import numpy as np
 import pytest
 
-from eyelab.optics import zernike as zk
-from eyelab.optics.psf import ARCMIN, psf
+from eyelab.optics.eye import zernike as zk
+from eyelab.optics.eye.psf import ARCMIN, psf
 
 #: (label, {(n, m): um}) over a 6 mm pupil (the benchmark's cases, eyelab/bench/psf.py),
 #: and the L1 bound each is held to (measured values in the module's docstring).

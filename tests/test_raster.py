@@ -7,11 +7,11 @@ import pytest
 
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.materials import CATALOGUE, Material
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Plane
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.materials import CATALOGUE, Material
+from eyelab.optics.rays.surfaces import Plane
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene, grid_quad, room_scene
 from eyelab.scene.scene import Scene
@@ -186,7 +186,7 @@ def test_lens_texture_coordinates_reproject_exactly():
     texture coordinate points (< 0.05 px)."""
     import vtk
 
-    from eyelab.optics.camera import fit_virtual_camera, fit_window
+    from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
     from eyelab.render.window import OffscreenWindow
     from eyelab.scene.lensview import lens_back_mesh
     from eyelab.scene.pervertex import lens_texcoords

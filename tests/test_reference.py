@@ -6,11 +6,11 @@ import pytest
 from eyelab.core.color import linear_to_srgb, srgb_to_linear
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import ReferenceQuality
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.materials import Material
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Plane
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.materials import Material
+from eyelab.optics.rays.surfaces import Plane
 from eyelab.reference import ReferenceRenderer, compare_images
 from eyelab.reference.metrics import to_linear
 from eyelab.scene.library import chart_scene, room_scene
@@ -50,8 +50,8 @@ def test_one_depth_no_lens_equals_convolution_with_the_blur_disc():
     disc, in linear light (compared in sRGB grey levels)."""
     from scipy.ndimage import convolve
 
-    from eyelab.optics.eye import ocular_lca
-    from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+    from eyelab.optics.eye.thin import ocular_lca
+    from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 
     scene = chart_scene(0.5)
     w, h, fov = 96, 96, 8.0

@@ -93,7 +93,7 @@ def test_a_shapes_box_at_its_limits_is_the_box_asked_for(shape, box):
     """frame.box_mm at the documented limits [10, 80] is the box asked for, not refused by
     the outline's rounding (80.00000000000001, 9.99991): the frame is made; what can
     still refuse it is the lens it must hold (an 80 mm oval needs a 116 mm blank)."""
-    from eyelab.optics.frame import Frame, shape_outline
+    from eyelab.optics.lens.frame import Frame, shape_outline
 
     right = shape_outline(shape, box[0] * 1e-3, box[1] * 1e-3)
     frame = Frame({"right": right, "left": right.mirrored()}, 0.018)
@@ -157,8 +157,8 @@ def test_mesh_flags_are_checked_before_the_display(tmp_path, capsys, monkeypatch
 
 def test_a_large_npy_is_named_once(tmp_path):
     """A points .npy over the size limit: one message, the key named once."""
-    from eyelab.optics.dcs import MAX_BYTES
-    from eyelab.optics.pointsfile import read_points
+    from eyelab.optics.lens.dcs import MAX_BYTES
+    from eyelab.optics.lens.pointsfile import read_points
 
     big = tmp_path / "big.npy"
     with open(big, "wb") as f:

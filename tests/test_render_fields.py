@@ -4,11 +4,11 @@ import pytest
 pv = pytest.importorskip("pyvista")
 
 from eyelab.blur import compute_blur_field  # noqa: E402
-from eyelab.optics.analysis import analyze_points  # noqa: E402
-from eyelab.optics.camera import eye_camera  # noqa: E402
-from eyelab.optics.eye import Eye  # noqa: E402
-from eyelab.optics.paths import ObjectPoints  # noqa: E402
-from eyelab.optics.prescription import Prescription  # noqa: E402
+from eyelab.optics.chain.analysis import analyze_points  # noqa: E402
+from eyelab.optics.eye.prescription import Prescription  # noqa: E402
+from eyelab.optics.eye.thin import Eye  # noqa: E402
+from eyelab.optics.rays.camera import eye_camera  # noqa: E402
+from eyelab.optics.rays.paths import ObjectPoints  # noqa: E402
 from eyelab.render import fields as sf  # noqa: E402
 from eyelab.render.fields import ellipse_glyphs, sturm_conoid  # noqa: E402
 

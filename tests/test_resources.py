@@ -172,9 +172,9 @@ def test_refinement_leaves_big_meshes_and_bounds_its_temporaries(monkeypatch):
     saying why; the per-face error is the same in blocks as in one piece."""
     import eyelab.scene.refine as refine
     from eyelab.blur.wavefront import compute_blur_field
-    from eyelab.optics.camera import eye_camera
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.rays.camera import eye_camera
     from eyelab.scene.library import room_scene
 
     eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)

@@ -84,7 +84,7 @@ def test_in_focus_checkerboard_edges_match_the_reference():
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import RasterQuality, ReferenceQuality
     from eyelab.imaging.registry import make_renderer
-    from eyelab.optics.eye import Eye
+    from eyelab.optics.eye.thin import Eye
     from eyelab.scene.scene import Scene, SceneMesh
 
     a = np.radians(7.0)

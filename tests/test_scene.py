@@ -4,9 +4,9 @@ import trimesh
 
 from eyelab.blur import compute_blur_field
 from eyelab.core.errors import SpecError
-from eyelab.optics.camera import eye_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.rays.camera import eye_camera
 from eyelab.scene.library import SCENES, room_scene
 from eyelab.scene.raycast import EmbreeIntersector, NumpyIntersector
 from eyelab.scene.refine import refine_for_fields

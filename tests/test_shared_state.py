@@ -45,7 +45,7 @@ def test_camera_ray_count_is_exact_on_many_threads(fast_switching):
     once, and the image is the same bytes as on one thread."""
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import ReferenceQuality
-    from eyelab.optics.system import get_system
+    from eyelab.optics.cameralens.system import get_system
     from eyelab.reference.camera import render_camera
     from eyelab.scene.library import chart_scene
 

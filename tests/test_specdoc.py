@@ -193,7 +193,7 @@ def test_the_eye_rx_range_is_what_the_eye_accepts(kind, vertex_mm):
     """eye.rx's documented powers (derived from the eye's limits by eyelab.spec.eyerx) are
     accepted just inside and refused just outside, naming eye.rx and the range (the Rx
     grammar's own, where that binds first: a -30 D sphere at 20 mm)."""
-    from eyelab.optics.prescription import CYLINDER_RANGE, SPHERE_RANGE
+    from eyelab.optics.eye.prescription import CYLINDER_RANGE, SPHERE_RANGE
     from eyelab.spec.eyerx import dioptres, eye_rx_ranges
 
     r = eye_rx_ranges(vertex_mm, kind)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from eyelab.bench import stability
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.trace import FATAL, Status
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.rays.trace import FATAL, Status
 
 SMALL = {"cases": 1000, "field_configs": 0, "reference_configs": 0}
 

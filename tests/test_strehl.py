@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.optics import zernike as zk
-from eyelab.optics.psf import psf
+from eyelab.optics.eye import zernike as zk
+from eyelab.optics.eye.psf import psf
 
 
 def _fine_peak_strehl(coefficients, pupil_mm, wavelength_nm, pad=16):

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from eyelab.optics.surfaces import Asphere, Plane, Sphere, Toric
+from eyelab.optics.rays.surfaces import Asphere, Plane, Sphere, Toric
 
 SURFACES = [
     Sphere(8.0), Sphere(-12.0), Plane(), Asphere(6.0, -0.7, (3.0, -50.0)),

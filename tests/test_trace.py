@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from eyelab.optics.surfaces import Plane, Sphere, Toric
-from eyelab.optics.trace import PlacedSurface, Status, intersect, refract
+from eyelab.optics.rays.surfaces import Plane, Sphere, Toric
+from eyelab.optics.rays.trace import PlacedSurface, Status, intersect, refract
 
 I3 = np.eye(3)
 
@@ -89,7 +89,7 @@ def test_grazing_refraction_at_the_critical_angle_is_flagged_and_finite():
     assert st[1] in (Status.GRAZING, Status.TIR)  # exactly critical (rounding decides)
     assert st[2] == Status.TIR
     # the wavefront refraction divides by cos_t: the clamp keeps it finite
-    from eyelab.optics.wavefront import Wavefront
+    from eyelab.optics.rays.wavefront import Wavefront
 
     ps = PlacedSurface(Sphere(10.0), I3, np.zeros(3))
     hit = intersect(ps, np.zeros((3, 3)) - [0, 0, 0.001], d)
@@ -101,9 +101,9 @@ def test_steep_surface_hit_from_any_start_and_never_behind():
     """A steep concave front (base curve -20 D): a ray from 1 m away traces exactly as the
     same ray started 2 cm or 100 m before the lens (the root of the sphere's far side was
     taken from far away, and the ray MISSED); a lens behind a ray's origin is missed."""
-    from eyelab.optics.lens import SpectacleLens
-    from eyelab.optics.prescription import Prescription
-    from eyelab.optics.trace import FATAL
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.lens.spectacle import SpectacleLens
+    from eyelab.optics.rays.trace import FATAL
 
     lens = SpectacleLens.from_rx(Prescription(-3.0), base_curve=-20.0)
     xy = np.array([[0.0, 0.0], [0.01, 0.005], [-0.008, 0.006]])

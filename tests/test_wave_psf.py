@@ -1,5 +1,5 @@
-"""The eye's wave-optics PSF (eyelab/optics/psf.py) and its Zernike bookkeeping
-(eyelab/optics/zernike.py) against independent truths: the Fraunhofer integral of the same
+"""The eye's wave-optics PSF (eyelab/optics/eye/psf.py) and its Zernike bookkeeping
+(eyelab/optics/eye/zernike.py) against independent truths: the Fraunhofer integral of the same
 pupil function evaluated directly (the standard's closed-form Zernike polynomials, an
 anti-aliased aperture, an explicit sum instead of an FFT), the Airy
 pattern's first zero, Maréchal's approximation, Thibos et al.'s refraction formulas both
@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from eyelab.optics import zernike as zk
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.psf import psf
+from eyelab.optics.eye import zernike as zk
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.psf import psf
 
 LAM_NM, PUPIL_MM = 555.0, 3.0
 LAM, D = LAM_NM * 1e-9, PUPIL_MM * 1e-3
@@ -160,7 +160,7 @@ def test_the_mirror_to_the_wearers_frame_flips_the_odd_terms_in_x():
 def test_the_mtf_of_a_diffraction_limited_pupil_is_the_closed_form():
     """|OTF| of a circular pupil: (2/pi)(acos v - v sqrt(1 - v^2)), v = f / (D / lambda),
     within 0.01 from 5 to 60 c/deg; NaN beyond the grid's Nyquist frequency."""
-    from eyelab.optics.psf import ARCMIN, mtf
+    from eyelab.optics.eye.psf import ARCMIN, mtf
 
     r = psf(np.zeros(1), PUPIL_MM, LAM_NM, 0.25 * ARCMIN, 129)
     f = np.array([5.0, 10, 20, 30, 45, 60])

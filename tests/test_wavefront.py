@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from eyelab.optics.surfaces import Sphere, Toric
-from eyelab.optics.trace import PlacedSurface, Status, intersect
-from eyelab.optics.wavefront import Wavefront
+from eyelab.optics.rays.surfaces import Sphere, Toric
+from eyelab.optics.rays.trace import PlacedSurface, Status, intersect
+from eyelab.optics.rays.wavefront import Wavefront
 
 
 def test_spherical_wave_transfer_is_exact():

@@ -19,12 +19,12 @@ import numpy as np
 from eyelab.blur.wavefront import compute_blur_field, sharing_error
 from eyelab.core.parallel import default_workers
 from eyelab.core.progress import bar as progress_bar
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.camera import eye_camera, fit_virtual_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.camera import eye_camera, fit_virtual_camera
+from eyelab.optics.rays.paths import ObjectPoints
 
 GRIDS = [(128, 8, 8), (128, 16, 16), (256, 32, 32), (256, 64, 64)]
 PAPER_S = {"8x8x128": 0.3, "16x16x128": 1.0, "32x32x256": 7.0}

@@ -1,7 +1,7 @@
 """``eyelab bench design``: the progressive lens's analytic design against its as-worn
-optimisations (:mod:`eyelab.optics.optimise`), each preset: the optimiser's time,
+optimisations (:mod:`eyelab.optics.lens.optimise`), each preset: the optimiser's time,
 iterations, exact evaluations and merit, and the figures of merit of each lens read off
-independent as-worn maps (:mod:`eyelab.optics.figures`; the peak cylinder within 30° of
+independent as-worn maps (:mod:`eyelab.optics.lens.figures`; the peak cylinder within 30° of
 eye rotation from its own ±30° map), with the acceptance's limits checked.
 
 The case: distance −2.00 D, add +2.00 D, corridor 14 mm, inset 2.5 mm, CR-39, the
@@ -25,13 +25,13 @@ LIMITS = {"reference_power_d": 0.03, "path_cylinder_d": 0.25, "width_share": 0.8
 
 
 def lens_figures(lens) -> dict:
-    """The figures of one lens (model eye :class:`~eyelab.optics.eye.Eye`): the figures
-    of :func:`~eyelab.optics.figures.as_worn_figures` over ±40° plus the peak cylinder
+    """The figures of one lens (model eye :class:`~eyelab.optics.eye.thin.Eye`): the figures
+    of :func:`~eyelab.optics.lens.figures.as_worn_figures` over ±40° plus the peak cylinder
     within ±30° (D and x the add; found between the grid's points:
-    :func:`~eyelab.optics.asworn.peak_cylinder`), compacted."""
-    from eyelab.optics.asworn import as_worn_maps, peak_cylinder
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.figures import as_worn_figures
+    :func:`~eyelab.optics.lens.asworn.peak_cylinder`), compacted."""
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.lens.asworn import as_worn_maps, peak_cylinder
+    from eyelab.optics.lens.figures import as_worn_figures
 
     eye = Eye()
     f = as_worn_figures(as_worn_maps(eye, lens, half_angle_deg=40.0, n=41), eye, lens)
@@ -76,9 +76,9 @@ def checks(name: str, fig: dict, seconds: float | None) -> dict:
 
 
 def run_design_bench() -> dict:
-    from eyelab.optics.optimise import PRESETS, Settings, optimise_progressive
-    from eyelab.optics.prescription import Prescription
-    from eyelab.optics.progressive import progressive_lens
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.lens.optimise import PRESETS, Settings, optimise_progressive
+    from eyelab.optics.lens.progressive import progressive_lens
 
     rx = Prescription(-2.0, add=2.0)
     bar = progress_bar(2 + 2 * len(PRESETS), "design bench", "step")

@@ -1,7 +1,7 @@
 """``eyelab bench imagebased``: the image-based lens model (Heidrich et al. 1997) per angle
 threshold — projections, the largest angle error reached, planning time, steady frame
 time (the plan kept, as the paper's preprocessing) and error against the distribution ray
-traced reference — for the paper's two lenses (as sourced in :mod:`eyelab.optics.system`)
+traced reference — for the paper's two lenses (as sourced in :mod:`eyelab.optics.cameralens.system`)
 and an eye behind a spectacle lens, with the paper's own figures beside them; and the
 least-squares COP against the angle COP on every quad-tree cell.
 """
@@ -28,10 +28,10 @@ THRESHOLDS = (0.5, 0.1, 0.05)
 
 
 def _cases(quick: bool):
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.lens import SpectacleLens
-    from eyelab.optics.prescription import Prescription
-    from eyelab.optics.system import get_system
+    from eyelab.optics.cameralens.system import get_system
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.eye.thin import Eye
+    from eyelab.optics.lens.spectacle import SpectacleLens
 
     rx = Prescription(-3.0, -1.0, 180)
     return {
@@ -114,8 +114,8 @@ def run_imagebased_bench(quick: bool = False, *, repeats: int = 3) -> dict:
 
 def _ray_maker(observer, lens, view):
     """The image-based model's rays for a camera lens system or an eye (+ lens)."""
-    from eyelab.optics.film import CameraRays
-    from eyelab.optics.system import LensSystem
+    from eyelab.optics.cameralens.film import CameraRays
+    from eyelab.optics.cameralens.system import LensSystem
     from eyelab.render.imagebased.rays import EyeRays
 
     if isinstance(observer, LensSystem):

@@ -33,9 +33,9 @@ import numpy as np
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
 from eyelab.render.raster import RasterRenderer
 from eyelab.scene.library import chart_scene
 

@@ -17,11 +17,11 @@ import time
 import numpy as np
 
 from eyelab.core.parallel import default_workers, map_row_chunks
-from eyelab.optics.analysis import trace_chain
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.paths import ChiefRays, ObjectPoints, find_chief_rays
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.analysis import trace_chain
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.paths import ChiefRays, ObjectPoints, find_chief_rays
 
 TARGET_CHAIN_PER_S = 2.0e6
 
@@ -69,7 +69,7 @@ def run_optics_bench(points: int = 1_000_000, repeats: int = 3, seed: int = 0) -
     reps = int(np.ceil(points / n_path))
     parts = [c for c in chief] * reps
     cat = lambda xs: np.concatenate(xs)[:points]  # noqa: E731
-    from eyelab.optics.trace import Hit
+    from eyelab.optics.rays.trace import Hit
 
     hits = tuple(Hit(cat([p.hits[k].points for p in parts]),
                      cat([p.hits[k].normals for p in parts]),

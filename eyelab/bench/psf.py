@@ -1,4 +1,4 @@
-"""``eyelab bench psf``: the eye's wave-optics PSF (:mod:`eyelab.optics.psf`) — its FFT
+"""``eyelab bench psf``: the eye's wave-optics PSF (:mod:`eyelab.optics.eye.psf`) — its FFT
 sizes and times for pupils and aberrations a clinic meets — and the default frame's cost
 with higher-order aberrations against without (:func:`aberration_frames`)."""
 
@@ -27,7 +27,7 @@ def aberration_frames(width: int, height: int, repeats: int) -> dict:
     from eyelab.imaging.registry import make_renderer
     from eyelab.jobs.api import as_spec, with_render
     from eyelab.jobs.render import build_scene
-    from eyelab.optics.aberrations import Aberrations
+    from eyelab.optics.eye.aberrations import Aberrations
 
     spec = with_render(as_spec(None), dict(width=width, height=height))
     rs = spec.render
@@ -67,9 +67,9 @@ def chart_against_full_wave(width: int, height: int, spp: int = 64) -> dict:
         view_pitch_rad,
     )
     from eyelab.imaging.options import RasterQuality, ReferenceQuality
-    from eyelab.optics.aberrations import Aberrations, second_order
-    from eyelab.optics.eye import Eye
-    from eyelab.optics.psf import psf
+    from eyelab.optics.eye.aberrations import Aberrations, second_order
+    from eyelab.optics.eye.psf import psf
+    from eyelab.optics.eye.thin import Eye
     from eyelab.reference.metrics import ssim
     from eyelab.reference.tracer import ReferenceRenderer
     from eyelab.render.raster import RasterRenderer
@@ -107,8 +107,8 @@ def chart_against_full_wave(width: int, height: int, spp: int = 64) -> dict:
 
 
 def run_psf_bench(width: int = 1024, height: int = 768, repeats: int = 2) -> dict:
-    from eyelab.optics.psf import ARCMIN, psf
-    from eyelab.optics.zernike import j_from_nm
+    from eyelab.optics.eye.psf import ARCMIN, psf
+    from eyelab.optics.eye.zernike import j_from_nm
 
     bar = progress_bar(len(CASES) + 2, "psf bench", "step")
     rows = []

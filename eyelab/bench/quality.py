@@ -45,9 +45,9 @@ from eyelab.imaging.options import (
     RasterQuality,
     ReferenceQuality,
 )
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import SpectacleLens
 from eyelab.reference.metrics import compare_images, to_linear
 from eyelab.reference.tracer import ReferenceRenderer
 from eyelab.render.raster import RasterRenderer
@@ -98,7 +98,7 @@ OPTIONAL_ROWS = ("variants", "imagebased")
 
 def camera_cases():
     """Camera-lens cases: (scene name, system, field of view deg, near, far)."""
-    from eyelab.optics.system import get_system
+    from eyelab.optics.cameralens.system import get_system
 
     return {"camera_doublet_room": ("room", get_system("doublet").focused(1.5), 40.0, 0.1,
                                     20.0)}

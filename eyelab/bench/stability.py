@@ -23,14 +23,14 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 from eyelab.core.progress import bar as progress_bar
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.eye import Eye
-from eyelab.optics.lens import LensPose, SpectacleLens
-from eyelab.optics.materials import CATALOGUE, Material
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import Sphere, Toric
-from eyelab.optics.trace import FATAL
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.spectacle import LensPose, SpectacleLens
+from eyelab.optics.rays.materials import CATALOGUE, Material
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.surfaces import Sphere, Toric
+from eyelab.optics.rays.trace import FATAL
 
 MATERIALS = [m for k, m in CATALOGUE.items() if k != "air"]
 #: ``eyelab bench stability --quick``: what CI runs (tests/test_bench_quality.py).

@@ -36,9 +36,9 @@ from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.core.errors import SpecError
 from eyelab.core.sampling import disc_seeds
 from eyelab.core.vecmath import UP, cross, unit
-from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
-from eyelab.optics.paths import ObjectPoints, find_chief_rays
-from eyelab.optics.trace import FATAL
+from eyelab.optics.rays.camera import Camera, eye_camera, fit_virtual_camera
+from eyelab.optics.rays.paths import ObjectPoints, find_chief_rays
+from eyelab.optics.rays.trace import FATAL
 
 
 def traverse(g0, g1, shape):

@@ -27,7 +27,7 @@ import numpy as np
 
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import atomic_path, json_default
-from eyelab.optics.camera import Camera
+from eyelab.optics.rays.camera import Camera
 
 DEPTH_MODES = ("ndc", "linear")
 

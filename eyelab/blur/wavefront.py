@@ -4,7 +4,7 @@ Per column of voxels (one NDC x, y): one chief ray through the lens, shared by e
 slice (§4.2; eyelab finds it by Newton path finding, not image processing). Per voxel: the
 wave source is the point of the shared outgoing ray at the slice's centre depth; its wave
 (K = -I/L) is carried through the lens by the column's 4x4 transport matrix
-(:mod:`eyelab.optics.raymatrix`, equal to the step-by-step Eq. 1-5), then accommodation
+(:mod:`eyelab.optics.rays.raymatrix`, equal to the step-by-step Eq. 1-5), then accommodation
 (Eq. 13, or a fixed focus), the thin toric eye (Eq. 7) and the conoid section (Eq. 8). The
 retina -> NDC scaling (Eq. 9) uses the real lens: the Jacobian of the NDC position of the
 scene point seen along a ray, at the voxel's depth, with respect to that ray's direction at
@@ -25,11 +25,11 @@ from eyelab.core.errors import SpecError
 from eyelab.core.parallel import map_row_chunks
 from eyelab.core.progress import bar as progress_bar
 from eyelab.core.vecmath import UP, cross, unit
-from eyelab.optics.camera import Camera, eye_camera, fit_virtual_camera
-from eyelab.optics.paths import ObjectPoints, find_chief_rays
-from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
-from eyelab.optics.surfaces import sym2_eig
-from eyelab.optics.trace import FATAL
+from eyelab.optics.rays.camera import Camera, eye_camera, fit_virtual_camera
+from eyelab.optics.rays.paths import ObjectPoints, find_chief_rays
+from eyelab.optics.rays.raymatrix import apply_isotropic, lens_path_matrix
+from eyelab.optics.rays.surfaces import sym2_eig
+from eyelab.optics.rays.trace import FATAL
 
 #: Angular step (rad) for the retina -> NDC Jacobian: central differences, error ~h^2.
 JACOBIAN_STEP = 1e-5
@@ -57,7 +57,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     reference_depth : depth (m) at which each column's chief ray is aimed at the column
         (default: the dioptric middle of the scene's depth range, or of near..far).
     wavelength_nm : the lens is traced and the eye's power taken (its chromatic aberration,
-        :meth:`~eyelab.optics.eye.Eye.power_shift`) at this wavelength.
+        :meth:`~eyelab.optics.eye.thin.Eye.power_shift`) at this wavelength.
     accommodation : None, or (nz, ny, nx) D per voxel: the eye's accommodation as found at
         another wavelength (the eye has one accommodation state whatever the colour: a
         per-channel field takes it from the field at the eye's reference wavelength);
@@ -419,13 +419,13 @@ def sharing_error(field: BlurField, eye, lens, *, samples: int = 200, seed: int 
     """Error introduced by sharing one chief ray per column (§4.2).
 
     For ``samples`` random computed voxels, the exact chain for the voxel's centre (its own
-    Fermat path, by :func:`~eyelab.optics.analysis.analyze_points`) is compared with the
+    Fermat path, by :func:`~eyelab.optics.chain.analysis.analyze_points`) is compared with the
     field's value (computed for the wave source on the shared path). Returns the offset of
     the wave source from the voxel centre in voxel widths (NDC x, y), and the relative
     difference of the retinal ellipse's semi-axes (exact vs shared; relative to the exact
     major semi-axis, for voxels whose blur exceeds 0.1 arcmin).
     """
-    from eyelab.optics.analysis import analyze_points
+    from eyelab.optics.chain.analysis import analyze_points
 
     rng = np.random.default_rng(seed)
     ok = np.argwhere(field.status == VoxelStatus.OK)

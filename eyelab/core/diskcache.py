@@ -1,8 +1,8 @@
 """Expensive deterministic results kept on disk, computed once per machine.
 
 Some results take seconds and depend only on their inputs and on eyelab's code (an
-as-worn optimised progressive design: :func:`eyelab.optics.optimise.optimised_progressive`;
-a lens's as-worn maps and figures of merit: :mod:`eyelab.optics.mapcache`).
+as-worn optimised progressive design: :func:`eyelab.optics.lens.optimise.optimised_progressive`;
+a lens's as-worn maps and figures of merit: :mod:`eyelab.optics.lens.mapcache`).
 The in-process LRU caches (:mod:`eyelab.core.cache`) forget them when the process ends;
 this cache keeps them between processes, Dask workers included.
 

@@ -6,8 +6,8 @@ reference distribution ray tracer, and those to come)::
 
     result = renderer.render(scene, eye, lens, view, quality)
 
-``scene`` an :class:`eyelab.scene.Scene`; ``eye`` an :class:`eyelab.optics.eye.Eye`;
-``lens`` a :class:`eyelab.optics.lens.SpectacleLens` or None (the naked eye); ``view`` a
+``scene`` an :class:`eyelab.scene.Scene`; ``eye`` an :class:`eyelab.optics.eye.thin.Eye`;
+``lens`` a :class:`eyelab.optics.lens.spectacle.SpectacleLens` or None (the naked eye); ``view`` a
 :class:`View` (what is looked at and how the eye focuses); ``quality`` the renderer's own
 options (a small frozen dataclass, validated with the spec field's name in every error),
 or None for the options the renderer was made with.
@@ -29,11 +29,11 @@ from eyelab.core.checks import check_choice, check_in
 from eyelab.core.color import CVD_KINDS, cvd_linear, decode_srgb, encode_srgb
 from eyelab.core.errors import SpecError
 from eyelab.imaging.memory import check_render_memory
-from eyelab.optics.binocular import MAX_GAZE_DEG
-from eyelab.optics.camera import Camera, eye_camera, gaze_camera
-from eyelab.optics.eye import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
-from eyelab.optics.system import LensSystem
+from eyelab.optics.cameralens.system import LensSystem
+from eyelab.optics.chain.binocular import MAX_GAZE_DEG
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM, MAX_ACCOMMODATION_D, Eye
+from eyelab.optics.rays.camera import Camera, eye_camera, gaze_camera
+from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 
 #: Top-level keys of every renderer's report, in this order.
 REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", "timings_s",
@@ -52,7 +52,7 @@ class View:
     cvd, cvd_severity : colour-vision deficiency of the observer (Machado 2009; None,
     "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB;
     gaze_deg : (right, up) degrees (each within +-60): the eye turns about its centre of
-    rotation behind the head-fixed lens (:func:`eyelab.optics.camera.gaze_camera`), as
+    rotation behind the head-fixed lens (:func:`eyelab.optics.rays.camera.gaze_camera`), as
     ``eyelab analyze --fixation rotating`` turns it toward each point.
 
     In primary gaze the eye's pupil centre is the origin and it looks along -z (eyelab's
@@ -270,10 +270,10 @@ class Renderer(abc.ABC):
 
     def render(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
                progressive: bool = False) -> RenderResult:
-        """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye); the
-        observer may instead be a camera lens (a :class:`~eyelab.optics.system.LensSystem`,
-        no spectacle lens), dispatched here to :meth:`_render_camera`.
-        ``progressive``: also return the images after 1, 2, 4, ... samples (renderers that
+        """Render what ``eye`` sees of ``scene`` through ``lens`` (None: naked eye); the observer
+        may instead be a camera lens (a :class:`~eyelab.optics.cameralens.system.LensSystem`, no
+        spectacle lens), dispatched here to :meth:`_render_camera`. ``progressive``: also return the
+        images after 1, 2, 4, ... samples (renderers that
         refine in passes; others return the final image only)."""
         view, quality = self._checked(view, quality, scene)
         if isinstance(eye, LensSystem):     # the observer is a camera lens, not an eye
@@ -285,6 +285,10 @@ class Renderer(abc.ABC):
                 raise SpecError("render.camera", f"a camera lens renders with "
                                 f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not {self.name!r}")
             return self._render_camera(scene, eye, view, quality, progressive)
+        if not isinstance(eye, Eye):
+            raise SpecError("eye.model", f"renders take the thin eye (eye.model = \"thin\"); "
+                            f"the {eye.model} eye works with eyelab analyze and eyelab maps "
+                            "--kind peripheral")
         if getattr(eye, "aberrations", None) is not None:     # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import render_aberrated
 
@@ -293,8 +297,8 @@ class Renderer(abc.ABC):
 
     def _render_camera(self, scene, camera, view: View, quality, progressive: bool
                        ) -> RenderResult:
-        """What a camera lens system (:class:`~eyelab.optics.system.LensSystem`) sees; for
-        the renderers registered as seeing cameras."""
+        """What a camera lens system (:class:`~eyelab.optics.cameralens.system.LensSystem`)
+        sees; for the renderers registered as seeing cameras."""
         raise NotImplementedError(f"{type(self).__name__} renders eyes only")
 
     def _checked(self, view, quality, scene=None) -> tuple:

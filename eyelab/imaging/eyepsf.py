@@ -1,5 +1,5 @@
 """The eye's higher-order aberrations and diffraction in a rendered image
-(:mod:`eyelab.optics.aberrations`), applied by :meth:`eyelab.imaging.contract.Renderer.
+(:mod:`eyelab.optics.eye.aberrations`), applied by :meth:`eyelab.imaging.contract.Renderer.
 render` to every renderer's image when the eye has ``[eye.aberrations]`` — and only then
 (without them a render is exactly as before, at no cost). In linear light, each colour
 channel at its own wavelength.
@@ -45,7 +45,7 @@ def view_pitch_rad(view) -> float:
 
 def channel_wavelengths() -> tuple:
     """The wavelengths (nm) of the R, G, B channels."""
-    from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+    from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 
     return tuple(RGB_WAVELENGTHS_NM)
 
@@ -85,7 +85,7 @@ def sharp_eye(eye):
     renderer's sharp image for :func:`wave_scatter`."""
     import dataclasses
 
-    from eyelab.optics.eye import MAX_ACCOMMODATION_D
+    from eyelab.optics.eye.thin import MAX_ACCOMMODATION_D
 
     return dataclasses.replace(eye, power_min=eye.emmetropic_power, astigmatism=0.0,
                                accommodation_max=MAX_ACCOMMODATION_D, chromatic=False,
@@ -142,7 +142,7 @@ def wave_scatter(sharp: np.ndarray, mean_d: np.ndarray, j0w: float, mxy: float, 
     eye's (Mxx - Myy) / 2 = ``j0w`` and ``mxy``) plus the higher orders."""
     from scipy.signal import fftconvolve
 
-    from eyelab.optics.aberrations import psf_kernel, second_order
+    from eyelab.optics.eye.aberrations import psf_kernel, second_order
 
     ab = eye.aberrations
     pupil = eye.pupil_diameter * 1e3

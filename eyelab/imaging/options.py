@@ -55,7 +55,7 @@ class RasterQuality:
     lens_grid_px : pixel spacing of the lens mesh that carries the texture coordinates;
     env_oversample : environment-image pixels per eye pixel, in every direction, where the
     lens magnifies most (the lens view is resampled from it; the image's width follows the
-    lens's magnification and distortion, :func:`eyelab.optics.camera.lens_view_density`:
+    lens's magnification and distortion, :func:`eyelab.optics.rays.camera.lens_view_density`:
     a plus lens gets a denser one). 1.5 is the best measured: against 256-spp references
     at 320 x 240 through -3 D and +3 D lenses, SSIM 0.9926-0.9946 at 1.0, 0.9955-0.9967 at
     1.25, 0.9970-0.9979 at 1.5, 0.9963-0.9976 at 2; rim_color / invalid_color : sRGB of

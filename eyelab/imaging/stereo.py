@@ -2,7 +2,7 @@
 linear light — side by side (parallel or crossed free viewing) or as a red/cyan anaglyph
 by Dubois's least-squares projection (E. Dubois, ICASSP 2001; the red/cyan matrices of
 his 2009 note). The optics of two eyes (vergence, consensual accommodation, induced
-prism) are :mod:`eyelab.optics.binocular`."""
+prism) are :mod:`eyelab.optics.chain.binocular`."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 
 from eyelab.core.color import encode_srgb
 from eyelab.core.errors import SpecError
-from eyelab.optics.binocular import SIDES, Binocular, analyze_binocular, prism_rows
-from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.chain.binocular import SIDES, Binocular, analyze_binocular, prism_rows
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 
 #: Binocular images: both side by side for parallel or crossed free viewing, a red/cyan
 #: anaglyph (red filter over the left eye), or one eye alone.

@@ -11,7 +11,8 @@ import math
 import numpy as np
 
 from eyelab.core.fileio import with_units
-from eyelab.optics.analysis import (
+from eyelab.jobs.points import no_path_reason, object_row
+from eyelab.optics.chain.analysis import (
     analyze_points,
     chief_prism,
     lens_angle,
@@ -20,8 +21,9 @@ from eyelab.optics.analysis import (
     prism_row,
     status_text,
 )
-from eyelab.optics.prescription import tabo_axis
-from eyelab.optics.trace import Status
+from eyelab.optics.eye.prescription import tabo_axis
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.rays.trace import Status
 from eyelab.spec import Spec
 from eyelab.spec.schema import FIXATION_MEANINGS
 
@@ -52,6 +54,10 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     """
     if spec.binocular is not None:
         return with_units(analyze_binocular_spec(spec, no_lens=no_lens))
+    if not isinstance(spec.eye, Eye):                   # a schematic eye: exact traces
+        from eyelab.jobs.retinal import schematic_report
+
+        return with_units(schematic_report(spec, no_lens=no_lens))
     lens = None if no_lens else spec.lens
     res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
                          fixation=spec.fixation, accommodation=spec.accommodation,
@@ -62,7 +68,7 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
 
 
 def eye_table(eye) -> dict:
-    """The ``[eye]`` spec keys that make ``eye`` (an :class:`~eyelab.optics.eye.Eye`), in
+    """The ``[eye]`` spec keys that make ``eye`` (an :class:`~eyelab.optics.eye.thin.Eye`), in
     the spec's units (D, deg, mm): how reports write an eye. ``aberrations`` (the
     ``[eye.aberrations]`` keys) only where the eye has them."""
     import dataclasses
@@ -72,16 +78,6 @@ def eye_table(eye) -> dict:
         a = dataclasses.asdict(eye.aberrations)
         out["aberrations"] = dict(a, coefficients_um=list(a["coefficients_um"]))
     return out
-
-
-def _object(points, i) -> dict:
-    dist = float(points.distance[i])
-    d = points.direction[i]
-    return {"distance_m": dist if math.isfinite(dist) else "inf",
-            "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
-                          float(np.degrees(math.atan2(d[1], -d[2])))],
-            "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
-                                float(np.degrees(math.atan2(d[1], d[0])) % 360.0)]}
 
 
 def _eye_report(eye, lens, res, points, spec) -> dict:
@@ -95,9 +91,9 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
     out_points = []
     for i in range(len(points)):
         st = int(res.status[i])
-        entry = {"index": i, "status": status_text(st), "object": _object(points, i)}
+        entry = {"index": i, "status": status_text(st), "object": object_row(points, i)}
         if st & int(Status.MISSED | Status.TIR | Status.NOT_CONVERGED | Status.BEHIND):
-            entry["reason"] = _reason(st)
+            entry["reason"] = no_path_reason(st)
             out_points.append(entry)
             continue
         ch = res.chief
@@ -155,8 +151,8 @@ def _wave(eye, res, i, wavelength_nm) -> dict:
     """Point ``i``'s wave aberration over the eye's pupil: its RMS (um; orders >= 2, the
     eye's defocus and astigmatism for the point included) and that of the eye's higher
     orders, and the Strehl ratio (diffraction included; None past the PSF's grid)."""
-    from eyelab.optics import zernike as zk
-    from eyelab.optics.aberrations import point_strehl, point_wave
+    from eyelab.optics.eye import zernike as zk
+    from eyelab.optics.eye.aberrations import point_strehl, point_wave
 
     c = point_wave(eye, res, i, wavelength_nm)
     return {"rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
@@ -164,12 +160,12 @@ def _wave(eye, res, i, wavelength_nm) -> dict:
 
 
 def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
-    """Both eyes of a binocular spec (:mod:`eyelab.optics.binocular`): the points are in the head
-    frame (the cyclopean pupil at the origin); each eye's report as :func:`analyze_spec`
+    """Both eyes of a binocular spec (:mod:`eyelab.optics.chain.binocular`): the points are in
+    the head frame (the cyclopean pupil at the origin); each eye's report as :func:`analyze_spec`
     gives it (objects in that eye's frame), with one accommodative response per point
     (the less-blurred-eye rule, or ``eye.accommodation_d``) and the binocular prism
     (total horizontal base out, vertical imbalance) at each point."""
-    from eyelab.optics.binocular import SIDES, analyze_binocular, prism_rows
+    from eyelab.optics.chain.binocular import SIDES, analyze_binocular, prism_rows
 
     b = spec.binocular
     an = analyze_binocular(b, spec.points, wavelength_nm=spec.wavelength_nm,
@@ -179,7 +175,7 @@ def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
                            spec) for s in SIDES}
     points = []
     for i in range(len(spec.points)):
-        row = {"index": i, "object": _object(spec.points, i),
+        row = {"index": i, "object": object_row(spec.points, i),
                "accommodation_d": float(an["accommodation_d"][i]),
                "driving_eye": str(an["driving_eye"][i])}
         prism = None if no_lens else prism_rows(b, an, i)
@@ -211,20 +207,14 @@ def _lens_info(lens, wl):
             "back_vertex_powers_d": [f1, f2], "back_vertex_direction_1_deg": math.degrees(a)}
 
 
-def _reason(st):
-    if st & Status.BEHIND:
-        return "the point is behind the eye or the lens: no light path"
-    if st & Status.MISSED:
-        return "not visible through the lens (the chief ray misses the lens aperture)"
-    if st & Status.TIR:
-        return "total internal reflection in the lens"
-    return "the light path did not converge"
-
-
 def format_report(rep: dict) -> str:
     """Human-readable text of a report from :func:`analyze_spec`."""
     if "binocular" in rep:
         return _format_binocular(rep)
+    if rep["eye"].get("model", "thin") != "thin":
+        from eyelab.jobs.retinal import format_schematic
+
+        return format_schematic(rep)
     return "\n".join([f"eyelab analyze — {rep['source']}", *_format_eye(rep)])
 
 

@@ -51,7 +51,7 @@ def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31,
          session: Session | None = None):
     """As-worn maps of the spec's lens over an n x n grid of eye rotations (Fick angles
     about the centre of rotation) within ±half_angle_deg
-    (:class:`~eyelab.optics.asworn.AsWornMaps`)."""
+    (:class:`~eyelab.optics.lens.asworn.AsWornMaps`)."""
     return session_or_default(session).maps(spec, half_angle_deg=half_angle_deg, n=n)
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from eyelab.core.color import CVD_KINDS
 from eyelab.core.errors import SpecError
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
 
 #: CVD types the inspector cycles through (None: normal colour vision).
 CVD_CYCLE = (None, *CVD_KINDS)

@@ -1,5 +1,5 @@
 """The inspector's as-worn maps, without any GL: the lens's mean power error and cylinder
-over eye rotations (:func:`eyelab.optics.asworn.as_worn_maps`, the maps ``eyelab maps``
+over eye rotations (:func:`eyelab.optics.lens.asworn.as_worn_maps`, the maps ``eyelab maps``
 draws) and the point on them where the inspector's line of sight passes.
 
 The maps are drawn over eye rotations about the centre of rotation (Fick angles: azimuth
@@ -39,7 +39,7 @@ MAPS_KEPT = 4
 
 def maps_key(eye, lens, wavelength_nm: float) -> str | None:
     """The content key of the maps of ``lens`` worn by ``eye`` (None without a lens): what
-    :func:`~eyelab.optics.asworn.as_worn_maps` reads — the lens, the eye's centre of
+    :func:`~eyelab.optics.lens.asworn.as_worn_maps` reads — the lens, the eye's centre of
     rotation, the wavelength (nm) and the grid."""
     if lens is None:
         return None
@@ -113,7 +113,7 @@ class GazeMaps:
 
     def _compute(self, key, eye, lens, wavelength_nm) -> None:
         from eyelab.core.errors import SpecError
-        from eyelab.optics.asworn import as_worn_maps
+        from eyelab.optics.lens.asworn import as_worn_maps
 
         t0 = time.perf_counter()
         try:
@@ -174,7 +174,7 @@ class GazeMapsMixin:
                                 self.spec.wavelength_nm)
 
     def maps(self):
-        """The lens's as-worn maps (:class:`~eyelab.optics.asworn.AsWornMaps` on
+        """The lens's as-worn maps (:class:`~eyelab.optics.lens.asworn.AsWornMaps` on
         :data:`~eyelab.jobs.gazemaps.MAP_POINTS`^2 eye rotations within
         +-:data:`~eyelab.jobs.gazemaps.MAP_HALF_ANGLE_DEG`), or None: no lens, not computed
         yet (:meth:`maps_state`) or refused."""

@@ -35,8 +35,8 @@ from eyelab.jobs.controls import (
 from eyelab.jobs.frameloop import FrameLoopMixin
 from eyelab.jobs.gazemaps import GazeMaps, GazeMapsMixin
 from eyelab.jobs.twoeyes import TwoEyesMixin, sided_data
-from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.spec import dump_spec, parse_spec, read_spec_data
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.spec import dump_spec, parse_spec, read_spec_data, thin_eye
 
 
 class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
@@ -101,7 +101,7 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
             data["render"]["scene"] = {**scene, "path": str(Path(scene["path"]).resolve())}
         elif scene is not None:
             data["render"]["scene"] = str(Path(scene).resolve())
-        spec = parse_spec(data, source, base)
+        spec = thin_eye(parse_spec(data, source, base), "the inspector")
         if hasattr(self, "spec") and (spec.binocular is not None) != self.two_eyes:
             now = "two eyes" if spec.binocular is not None else "one eye"
             raise SpecError("binocular", f"the spec now has {now}: open the inspector on it "
@@ -334,9 +334,9 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         """``analyze`` at the gaze point: the scene point on the line of sight, its
         accommodation and blur (arcmin) for the eye turning about its centre of
         rotation (the as-worn model)."""
-        from eyelab.optics.analysis import analyze_points
-        from eyelab.optics.paths import ObjectPoints
-        from eyelab.optics.trace import FATAL
+        from eyelab.optics.chain.analysis import analyze_points
+        from eyelab.optics.rays.paths import ObjectPoints
+        from eyelab.optics.rays.trace import FATAL
         from eyelab.scene.raycast import EmbreeIntersector
 
         if self.two_eyes:

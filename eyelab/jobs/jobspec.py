@@ -198,10 +198,10 @@ def _check_job(data: dict, origin: dict, where: str) -> None:
     of ``origin``, else ``where`` — and the spec field. The memory limit is checked for one
     image: a job with two eyes renders them one after the other."""
     from eyelab.imaging.memory import check_memory, memory_limit
-    from eyelab.spec import parse_spec
+    from eyelab.spec import parse_spec, thin_eye
 
     try:
-        spec = parse_spec(copy.deepcopy(data), "eyelab batch")
+        spec = thin_eye(parse_spec(copy.deepcopy(data), "eyelab batch"), "eyelab batch")
         check_memory(spec.render, memory_limit())
     except SpecError as e:
         # the key itself, a field under it, or a table on its path (a swept "eye.middle.rx"

@@ -1,7 +1,7 @@
 """As-worn maps for a person: contour plots (matplotlib), a text summary of the maps
-computed by :mod:`eyelab.optics.asworn`, and the designer's figures of merit read off them
-(:mod:`eyelab.optics.figures`); both read from the on-disk cache when this eye and lens
-were mapped before (:mod:`eyelab.optics.mapcache`), and lines saying so."""
+computed by :mod:`eyelab.optics.lens.asworn`, and the designer's figures of merit read off them
+(:mod:`eyelab.optics.lens.figures`); both read from the on-disk cache when this eye and lens
+were mapped before (:mod:`eyelab.optics.lens.mapcache`), and lines saying so."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import math
 import numpy as np
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.asworn import AsWornMaps
+from eyelab.optics.lens.asworn import AsWornMaps
 
-#: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.asworn.as_worn_maps`
+#: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.lens.asworn.as_worn_maps`
 #: names in its errors.
 MAPS_FLAGS = {"maps.half_angle_deg": "--half-angle", "maps.n": "--points"}
 #: The grid the figures of merit are read from, whatever grid the maps are drawn on: eye
@@ -21,7 +21,7 @@ MAPS_FLAGS = {"maps.half_angle_deg": "--half-angle", "maps.n": "--points"}
 #: and 0.01 D).
 FIGURES_GRID = {"half_angle_deg": 40.0, "n": 41}
 #: The figures' definitions, in the JSON (``figures.definitions``); the sources are cited
-#: in :mod:`eyelab.optics.figures`.
+#: in :mod:`eyelab.optics.lens.figures`.
 DEFINITIONS = {
     "lens_mm": "where the line of sight leaves the lens's front surface, in its own "
                "coordinates: mm from the lens centre (a progressive lens's fitting cross), x "
@@ -55,14 +55,14 @@ DEFINITIONS = {
 
 
 def named_maps(eye, lens, names: dict | None = None, **kw) -> tuple:
-    """(maps, origin): :func:`~eyelab.optics.asworn.as_worn_maps` (``kw``: its keywords)
-    through the on-disk cache (:func:`eyelab.optics.mapcache.maps`: read back bit for bit
+    """(maps, origin): :func:`~eyelab.optics.lens.asworn.as_worn_maps` (``kw``: its keywords)
+    through the on-disk cache (:func:`eyelab.optics.lens.mapcache.maps`: read back bit for bit
     when this eye, lens and grid were mapped before, for a lens with a complete content
     key); ``origin`` where they came from (the cache's status: ``source`` "disk" or
     "computed", ``path``, ``note``). An error in an argument is named as the caller's user
     wrote it: ``names`` maps the engine's field to that name (e.g. :data:`MAPS_FLAGS`:
     ``--half-angle (maps.half_angle_deg)``)."""
-    from eyelab.optics import mapcache
+    from eyelab.optics.lens import mapcache
 
     try:
         maps, status = mapcache.maps(eye, lens, **kw)
@@ -74,7 +74,7 @@ def named_maps(eye, lens, names: dict | None = None, **kw) -> tuple:
 
 
 def cli_maps(eye, lens, **kw) -> tuple:
-    """``eyelab maps``'s call of :func:`~eyelab.optics.asworn.as_worn_maps`: the same
+    """``eyelab maps``'s call of :func:`~eyelab.optics.lens.asworn.as_worn_maps`: the same
     arguments, an error naming the command's flag (:data:`MAPS_FLAGS`); (maps, origin) as
     :func:`named_maps`."""
     return named_maps(eye, lens, MAPS_FLAGS, **kw)
@@ -129,10 +129,10 @@ def plot_maps(maps: AsWornMaps, path, title: str = "") -> None:
 
 def design_origin(lens) -> dict | None:
     """Where an optimised progressive ``lens``'s design came from in this process
-    (:func:`eyelab.optics.optimise.design_origin`: "computed" by the optimiser, or read
+    (:func:`eyelab.optics.lens.optimise.design_origin`: "computed" by the optimiser, or read
     from the on-disk cache, with the entry's path); None for any other lens. For the
     maps' JSON (``design``) and :func:`design_summary`."""
-    from eyelab.optics.optimise import design_origin as origin
+    from eyelab.optics.lens.optimise import design_origin as origin
 
     return origin(lens)
 
@@ -172,7 +172,7 @@ def maps_summary(maps: AsWornMaps) -> list:
 def maps_figures(eye, lens, *, wavelength_nm: float = 587.56, maps: AsWornMaps | None = None,
                  **grid) -> dict:
     """The figures of merit of ``lens`` worn by ``eye``
-    (:func:`~eyelab.optics.figures.as_worn_figures`), read off as-worn maps on
+    (:func:`~eyelab.optics.lens.figures.as_worn_figures`), read off as-worn maps on
     :data:`FIGURES_GRID` (``grid``: its half_angle_deg / n replaced); ``maps`` (of this eye
     and lens at ``wavelength_nm``) is used instead when it already is on that grid. Ready
     for JSON (:func:`json_ready`). :func:`figures_and_origin` says where they came from."""
@@ -182,11 +182,11 @@ def maps_figures(eye, lens, *, wavelength_nm: float = 587.56, maps: AsWornMaps |
 def figures_and_origin(eye, lens, *, wavelength_nm: float = 587.56,
                        maps: AsWornMaps | None = None, **grid) -> tuple:
     """(figures, origin): :func:`maps_figures`'s figures, through the on-disk cache
-    (:func:`eyelab.optics.mapcache.figures`: read back when this eye, lens, wavelength and
+    (:func:`eyelab.optics.lens.mapcache.figures`: read back when this eye, lens, wavelength and
     grid were measured before, for a lens with a complete content key — the same numbers
     either way); ``origin`` where they came from (the cache's status: ``source`` "disk" or
     "computed", ``path``, ``note``)."""
-    from eyelab.optics import mapcache
+    from eyelab.optics.lens import mapcache
 
     g = dict(FIGURES_GRID, **grid)
     on_grid = maps is not None and len(maps.eye_rotation_x_deg) == g["n"] \

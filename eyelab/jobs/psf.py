@@ -1,5 +1,5 @@
 """``eyelab psf``: the eye's point-spread function at a point of the spec, per colour
-channel, in wave optics (:mod:`eyelab.optics.psf`): the point's defocus and astigmatism
+channel, in wave optics (:mod:`eyelab.optics.eye.psf`): the point's defocus and astigmatism
 through the lens (real chief ray and generalised-Coddington wavefront, as ``analyze``
 traces it, at each channel's wavelength) plus the eye's higher-order aberrations and the
 pupil's diffraction."""
@@ -24,15 +24,15 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     ``spec``'s point ``point``."""
     from eyelab.core.fileio import with_units
     from eyelab.imaging.eyepsf import channel_wavelengths
-    from eyelab.optics import zernike as zk
-    from eyelab.optics.aberrations import point_wave
-    from eyelab.optics.analysis import analyze_points
-    from eyelab.optics.paths import ObjectPoints
-    from eyelab.optics.psf import ARCMIN, mtf, psf
-    from eyelab.optics.trace import FATAL
-    from eyelab.spec.load import one_eye
+    from eyelab.optics.chain.analysis import analyze_points
+    from eyelab.optics.eye import zernike as zk
+    from eyelab.optics.eye.aberrations import point_wave
+    from eyelab.optics.eye.psf import ARCMIN, mtf, psf
+    from eyelab.optics.rays.paths import ObjectPoints
+    from eyelab.optics.rays.trace import FATAL
+    from eyelab.spec.load import one_eye, thin_eye
 
-    spec = one_eye(spec, "eyelab psf")
+    spec = thin_eye(one_eye(spec, "eyelab psf"), "eyelab psf")
     n = len(spec.points)
     if not 0 <= point < n:
         raise SpecError("--point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")

@@ -107,6 +107,9 @@ def demo(spec):
 
         raise SpecError("render.camera", "the demo compares eyes; render a camera lens with "
                                          "eyelab render")
+    from eyelab.spec.load import thin_eye
+
+    thin_eye(spec, "eyelab demo")
     scene = build_scene(rs.scene)
     if spec.binocular is not None:
         return _demo_binocular(spec, scene)
@@ -133,7 +136,7 @@ def demo(spec):
 
 def _demo_binocular(spec, scene):
     from eyelab.imaging.stereo import render_binocular
-    from eyelab.optics.binocular import SIDES
+    from eyelab.optics.chain.binocular import SIDES
 
     rs = spec.render
     b = spec.binocular

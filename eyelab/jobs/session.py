@@ -196,11 +196,11 @@ class Session:
         """:func:`eyelab.maps`: as-worn maps of the spec's lens over an n x n grid of eye
         rotations within ±half_angle_deg (degrees)."""
         from eyelab.core.errors import SpecError
-        from eyelab.optics.asworn import as_worn_maps
-        from eyelab.spec import one_eye
+        from eyelab.optics.lens.asworn import as_worn_maps
+        from eyelab.spec import one_eye, thin_eye
 
         self._check_open()
-        s = one_eye(as_spec(spec), "maps")
+        s = thin_eye(one_eye(as_spec(spec), "maps"), "eyelab.maps (as-worn maps)")
         if s.lens is None:
             raise SpecError("lens", "the spec has no lens to map")
         return as_worn_maps(s.eye, s.lens, half_angle_deg=half_angle_deg, n=n,

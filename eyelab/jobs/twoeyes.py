@@ -12,7 +12,7 @@ import copy
 
 from eyelab.imaging.stereo import SIDES, BinocularResult, binocular_report, compose
 from eyelab.jobs.controls import EXPLICIT_EYE, STEP, edit_spec_data, snap
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
 from eyelab.spec.sides import SHARED_ONLY
 
 #: The eyes the controls edit, cycled by the window's ``e`` key.

@@ -8,7 +8,7 @@ and ``eyelab bench stability`` use them.
 import numpy as np
 
 from eyelab.core.vecmath import any_tangent
-from eyelab.optics.trace import FATAL
+from eyelab.optics.rays.trace import FATAL
 
 
 def bundle_vergence(lens, start, dir_in, finite, pupil, n_chief, x_axis, *,
@@ -95,7 +95,7 @@ def search_path(lens, target, position, finite, direction, *, grid=41, starts=3,
     the ray leaving the front surface and the direction to the object: ``position`` for a
     finite object, ``direction`` -- unit, from the eye toward the object -- for an infinite
     one). From the ``starts`` best rays that pass, scipy's trust-region least squares
-    refines the residual. Independent of :func:`eyelab.optics.paths.find_chief_rays`: an
+    refines the residual. Independent of :func:`eyelab.optics.rays.paths.find_chief_rays`: an
     angular fan around the line to the lens centre (not points on the front surface, nor
     the straight line to the object) and a different solver (not Newton with halving).
 

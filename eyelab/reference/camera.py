@@ -5,9 +5,9 @@ exactly through every surface and the stop (a vignetted ray carries nothing), th
 the scene; the film irradiance E(x') = A(x')/n sum L W T (Heidrich Eq. 3 with many random
 samples; W = cos th' cos th'' / |x'' - x'|^2, T the surfaces' Fresnel transmission),
 normalised by the exact unvignetted, lossless value at the film centre
-(:meth:`eyelab.optics.film.CameraRays.white_level`). Each film point's samples are drawn
+(:meth:`eyelab.optics.cameralens.film.CameraRays.white_level`). Each film point's samples are drawn
 from the bounding disc of its own vignetted bundle, of area A(x') (the ``"bundle"``
-domain of :class:`~eyelab.optics.film.CameraRays`): off the axis the bundle moves away
+domain of :class:`~eyelab.optics.cameralens.film.CameraRays`): off the axis the bundle moves away
 from the film centre's disc, and a disc that follows it holds all of its light with the
 fewest vignetted samples. The truth the image-based renderer's camera images are measured
 against; its approximations (perspective slices, morph, few lens samples) are absent here.
@@ -23,13 +23,13 @@ import numpy as np
 from eyelab.core.parallel import map_row_chunks
 from eyelab.core.sampling import GOLDEN_ANGLE, pixel_jitter
 from eyelab.imaging.contract import finish, new_report
-from eyelab.optics.film import CameraRays
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.optics.cameralens.film import CameraRays
+from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.scene.raycast import EmbreeIntersector
 
 
 def render_camera(scene, system, view, quality, name: str = "reference"):
-    """The film image of ``system`` (a :class:`~eyelab.optics.system.LensSystem`) for
+    """The film image of ``system`` (a :class:`~eyelab.optics.cameralens.system.LensSystem`) for
     ``view`` (pixels, field of view through the paraxial focal length, clipping) with
     ``quality.samples`` rays per pixel and channel (a :class:`ReferenceQuality`); returns
     a :class:`~eyelab.imaging.contract.RenderResult` in the common schema, whose report's

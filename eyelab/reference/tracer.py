@@ -47,7 +47,7 @@ from eyelab.core.sampling import disc_seeds, pixel_jitter
 from eyelab.core.vecmath import UP, cross, unit
 from eyelab.imaging.contract import Renderer, channel_wavelengths, finish, new_report
 from eyelab.imaging.options import ReferenceQuality
-from eyelab.optics.trace import FATAL
+from eyelab.optics.rays.trace import FATAL
 from eyelab.scene.focus import (  # noqa: F401 (fons_accommodation: part of this API)
     fons_accommodation,
     pixel_accommodation,

@@ -1,7 +1,7 @@
 """Blur fields as PyVista data: volumes, Sturm-conoid ellipse glyphs, a conoid inside the eye.
 
 All lengths in the returned datasets are metres in eyelab's world frame (see
-:mod:`eyelab.optics.lens`), except :func:`blur_field_to_pyvista` with ``world=False``,
+:mod:`eyelab.optics.lens.spectacle`), except :func:`blur_field_to_pyvista` with ``world=False``,
 which lays the voxels out on the NDC grid.
 """
 
@@ -181,8 +181,8 @@ def sturm_conoid(eye, wave_k, accommodation: float, *, rays: int = 48, rings: in
 def voxel_conoid(field: BlurField, eye, lens, index, **kwargs):
     """The Sturm conoid (see :func:`sturm_conoid`) of voxel ``index`` = (k, j, i): the wave
     from the voxel's wave source, traced through the lens, with the field's accommodation."""
-    from eyelab.optics.analysis import analyze_points
-    from eyelab.optics.paths import ObjectPoints
+    from eyelab.optics.chain.analysis import analyze_points
+    from eyelab.optics.rays.paths import ObjectPoints
 
     k, j, i = index
     res = analyze_points(eye, lens, ObjectPoints.from_positions(field.sources[k, j, i][None]),

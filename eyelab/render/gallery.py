@@ -8,11 +8,11 @@ import numpy as np
 import pyvista as pv
 
 from eyelab.blur import compute_blur_field
-from eyelab.optics.analysis import analyze_points
-from eyelab.optics.camera import eye_camera
-from eyelab.optics.eye import Eye
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.analysis import analyze_points
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import Eye
+from eyelab.optics.rays.camera import eye_camera
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.render.fields import blur_field_to_pyvista, ellipse_glyphs, save_vti, sturm_conoid
 
 

@@ -1,12 +1,12 @@
-"""As-worn maps (:mod:`eyelab.optics.asworn`) as PyVista data: an image over eye rotations whose
-point arrays are the maps, and their iso-lines — for ParaView or a PyVista window."""
+"""As-worn maps (:mod:`eyelab.optics.lens.asworn`) as PyVista data: an image over eye rotations
+whose point arrays are the maps, and their iso-lines — for ParaView or a PyVista window."""
 
 from __future__ import annotations
 
 import numpy as np
 import pyvista as pv
 
-from eyelab.optics.asworn import AsWornMaps
+from eyelab.optics.lens.asworn import AsWornMaps
 
 MAP_ARRAYS = ("mean_error_d", "cylinder_d", "axis_tabo_deg", "sphere_error_d", "prism_d",
               "object_vergence_d", "object_x_deg", "object_y_deg")

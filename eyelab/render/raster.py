@@ -52,9 +52,9 @@ from eyelab.imaging.contract import (
     new_report,
 )
 from eyelab.imaging.options import RasterQuality
-from eyelab.optics.camera import fit_virtual_camera, fit_window
-from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
+from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import PassAccumulator, encode_linear
 from eyelab.render.channels import channel_spread, grab_pass, note_channels
 from eyelab.render.composite import LensCompositor, compose

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 
-from eyelab.optics.eye import EYE_REFERENCE_NM
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 from eyelab.render.legend import RAMP_PX
 
 

@@ -61,10 +61,10 @@ def passes_for(fields, q, report, label) -> tuple:
 def env_width(cam, vcam, view, q, lens=None) -> int:
     """The environment image's width (px): ``q.env_oversample`` of its pixels per eye pixel
     in every direction where the lens needs them most
-    (:func:`~eyelab.optics.camera.lens_view_density`: its magnification and distortion),
+    (:func:`~eyelab.optics.rays.camera.lens_view_density`: its magnification and distortion),
     in 16-4096. Without ``lens`` (or where no ray passes it), the virtual camera's field
     over the eye's, times the oversampling."""
-    from eyelab.optics.camera import lens_view_density
+    from eyelab.optics.rays.camera import lens_view_density
 
     density = None if lens is None else lens_view_density(lens, cam, vcam, view.width)
     if density is None or density <= 0:

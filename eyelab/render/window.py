@@ -192,14 +192,14 @@ class OffscreenWindow:
         return list(keep.values())
 
     def set_view(self, cam, size, background) -> None:
-        """Camera (eyelab :class:`~eyelab.optics.camera.Camera`), window size (w, h) and
+        """Camera (eyelab :class:`~eyelab.optics.rays.camera.Camera`), window size (w, h) and
         background (sRGB uint8 triple)."""
         self.set_frustum(cam.position, cam.basis[2], cam.basis[1], cam.fov_y_deg, cam.near,
                          cam.far, size, background)
 
     def set_frustum(self, position, forward, up, fov_y_deg, near, far, size,
                     background) -> None:
-        """A symmetric perspective frustum without :class:`~eyelab.optics.camera.Camera`'s
+        """A symmetric perspective frustum without :class:`~eyelab.optics.rays.camera.Camera`'s
         limits (the image-based renderer's slices can be narrower than 1°): position,
         unit forward and up (3,), vertical field of view (deg), clipping (m), window size
         (w, h) and background (sRGB uint8 triple)."""

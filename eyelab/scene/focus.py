@@ -14,10 +14,10 @@ import numpy as np
 
 from eyelab.core.sampling import disc_seeds
 from eyelab.core.vecmath import UP, cross, unit
-from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.optics.paths import ChiefRays
-from eyelab.optics.raymatrix import apply_isotropic, lens_path_matrix
-from eyelab.optics.trace import FATAL
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.optics.rays.paths import ChiefRays
+from eyelab.optics.rays.raymatrix import apply_isotropic, lens_path_matrix
+from eyelab.optics.rays.trace import FATAL
 
 
 def pixel_accommodation(d, scene, inter, eye, lens, view, cam, model: str = "thin",
@@ -89,7 +89,7 @@ def rms_accommodation(eye, lens, points, through, pixel_dirs, pupil=(0.0, 0.0, 0
     z_r (u_k - P0 rho_k - A rho_k) / n2 (paraxial refraction at the eye, n' u' = n u -
     P y), and the A minimising sum |r_k - mean r|^2 is solved in closed form (the spot is
     linear in A), then clamped to [0, amplitude]. NaN where a path fails."""
-    from eyelab.optics.paths import ObjectPoints, find_chief_rays
+    from eyelab.optics.rays.paths import ObjectPoints, find_chief_rays
 
     m = len(points)
     n_in = -pixel_dirs                                     # the pixel's axis, toward the eye

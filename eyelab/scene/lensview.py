@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.camera import Camera
-from eyelab.optics.trace import FATAL, intersect
+from eyelab.optics.rays.camera import Camera
+from eyelab.optics.rays.trace import FATAL, intersect
 
 
 def view_rays_through(lens, cam: Camera, samples: int) -> np.ndarray:

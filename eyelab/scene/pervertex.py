@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from eyelab.optics.trace import FATAL
+from eyelab.optics.rays.trace import FATAL
 
 
 @dataclass

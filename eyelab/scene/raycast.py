@@ -118,7 +118,7 @@ def scene_warnings(scene: Scene, camera, intersector=None) -> list:
     projection in every direction hit a triangle from behind: a room model around the
     eye, or a model centred on the origin), or nothing in view (none of a 32 x 24 grid of
     rays through the view meets a mesh between the near and far planes: the image is the
-    background). ``camera``: :class:`eyelab.optics.camera.Camera`."""
+    background). ``camera``: :class:`eyelab.optics.rays.camera.Camera`."""
     inter = intersector or EmbreeIntersector(scene)
     o = np.asarray(camera.position, float)
     g = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)

@@ -1,5 +1,5 @@
 """``[eye.aberrations]``: an aberrometer's Zernike coefficients for the eye
-(:mod:`eyelab.optics.aberrations`): its schema keys and ranges (the parser:
+(:mod:`eyelab.optics.eye.aberrations`): its schema keys and ranges (the parser:
 :mod:`eyelab.spec.aberrationparse`).
 
 The second order and the eye's Rx are one thing: coefficients with second-order terms and
@@ -11,8 +11,8 @@ both is refused by name, never one silently preferred.
 
 from __future__ import annotations
 
-from eyelab.optics import zernike as zk
-from eyelab.optics.aberrations import REPORT_WAVELENGTH_NM
+from eyelab.optics.eye import zernike as zk
+from eyelab.optics.eye.aberrations import REPORT_WAVELENGTH_NM
 
 WHERE = "eye.aberrations"
 #: The keys' ranges (one place: the schema and the parser take them from here).

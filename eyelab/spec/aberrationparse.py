@@ -1,5 +1,5 @@
 """Parse ``[eye.aberrations]`` (keys: :mod:`eyelab.spec.aberrationkeys`) into an
-:class:`~eyelab.optics.aberrations.Aberrations`, the second order into the eye's Rx."""
+:class:`~eyelab.optics.eye.aberrations.Aberrations`, the second order into the eye's Rx."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import re
 import numpy as np
 
 from eyelab.core.errors import SpecError
-from eyelab.optics import zernike as zk
-from eyelab.optics.aberrations import REPORT_WAVELENGTH_NM, Aberrations
+from eyelab.optics.eye import zernike as zk
+from eyelab.optics.eye.aberrations import REPORT_WAVELENGTH_NM, Aberrations
 from eyelab.spec.aberrationkeys import ALLOWED, WHERE
 from eyelab.spec.tables import check_keys, number
 
@@ -133,11 +133,11 @@ def _rx(second, pupil_mm: float, wavelength_nm: float, vertex_distance: float,
         chromatic: bool):
     """The spectacle Rx the second order (c2-2, c20, c22; OSA frame) gives, at the eye's
     reference wavelength: M(ref) = M(measured) - R(measured), R the chromatic difference
-    of refraction (:func:`eyelab.optics.eye.ocular_lca`) — for a chromatic eye; an
+    of refraction (:func:`eyelab.optics.eye.thin.ocular_lca`) — for a chromatic eye; an
     achromatic one (``eye.chromatic = false``) has the measured refraction everywhere. A
     refraction out of the Rx's range names the coefficients."""
-    from eyelab.optics.eye import ocular_lca
-    from eyelab.optics.prescription import Prescription
+    from eyelab.optics.eye.prescription import Prescription
+    from eyelab.optics.eye.thin import ocular_lca
     m, j0, j45 = zk.second_order_to_power_vector(second[1], second[2], second[0], pupil_mm)
     if chromatic:
         m -= float(ocular_lca(wavelength_nm))

@@ -5,7 +5,7 @@ one Markdown table per spec table (``python -m eyelab.spec.docs`` prints them;
 
 from __future__ import annotations
 
-from eyelab.optics.materials import ALIASES, CATALOGUE
+from eyelab.optics.rays.materials import ALIASES, CATALOGUE
 from eyelab.spec.schema import KEYS, TABLES
 
 

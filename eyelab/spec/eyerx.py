@@ -1,13 +1,13 @@
 """The spectacle Rx an eye takes (``eye.rx``): the eye's own limits
-(:data:`eyelab.optics.eye.LIMITS`) bind before the Rx grammar's
-(:data:`eyelab.optics.prescription.SPHERE_RANGE`, ``CYLINDER_RANGE``), so the powers
+(:data:`eyelab.optics.eye.thin.LIMITS`) bind before the Rx grammar's
+(:data:`eyelab.optics.eye.prescription.SPHERE_RANGE`, ``CYLINDER_RANGE``), so the powers
 ``eye.rx`` accepts are derived from them here, for the reference table and the errors."""
 
 from __future__ import annotations
 
-from eyelab.optics.eye import GH_N_VITREOUS, GH_RETINA_DISTANCE
-from eyelab.optics.eye import LIMITS as EYE_LIMITS
-from eyelab.optics.prescription import CYLINDER_RANGE, SPHERE_RANGE
+from eyelab.optics.eye.prescription import CYLINDER_RANGE, SPHERE_RANGE
+from eyelab.optics.eye.thin import GH_N_VITREOUS, GH_RETINA_DISTANCE
+from eyelab.optics.eye.thin import LIMITS as EYE_LIMITS
 
 
 def eye_rx_ranges(vertex_mm: float, kind: str = "refractive", retina_mm: float | None = None,

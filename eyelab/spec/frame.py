@@ -1,4 +1,4 @@
-"""The ``[frame]`` table: the frame the lenses are cut to (:mod:`eyelab.optics.frame`) —
+"""The ``[frame]`` table: the frame the lenses are cut to (:mod:`eyelab.optics.lens.frame`) —
 a DCS trace file or a built-in shape with its box and bridge — and the fitting data that
 place each lens's fitting point in front of its pupil.
 
@@ -18,7 +18,7 @@ from pathlib import Path
 
 from eyelab.core.checks import check_range
 from eyelab.core.errors import SpecError
-from eyelab.optics.frame import (
+from eyelab.optics.lens.frame import (
     FRAME_SHAPES,
     Frame,
     box_record_notes,
@@ -42,7 +42,7 @@ BLANK_STEP_MM = 5.0
 
 @dataclass(frozen=True)
 class FrameSpec:
-    """A parsed ``[frame]``: the :class:`~eyelab.optics.frame.Frame`, its table's own
+    """A parsed ``[frame]``: the :class:`~eyelab.optics.lens.frame.Frame`, its table's own
     fitting values (mm, None where not written) and the file's records."""
 
     frame: Frame
@@ -118,7 +118,7 @@ def _read(path, base) -> str:
     if not isinstance(path, str) or not path.strip():
         raise SpecError("frame.file", f"must be a path to a DCS trace file, got {path!r}")
     from eyelab.core.fileio import user_path
-    from eyelab.optics.dcs import read_text
+    from eyelab.optics.lens.dcs import read_text
 
     p = user_path("frame.file", path)
     if not p.is_absolute() and base is not None:
@@ -188,8 +188,8 @@ def _with_blank(lens_t: dict, placed) -> dict:
     """``lens_t`` with the blank the frame needs where the default one is too small: the
     minimum blank size (at the table's decentration) rounded up to :data:`BLANK_STEP_MM`,
     at most the largest diameter (a frame needing more is refused by the cut)."""
-    from eyelab.optics.lens import LIMITS as LENS_LIMITS
-    from eyelab.optics.lens import SpectacleLens
+    from eyelab.optics.lens.spectacle import LIMITS as LENS_LIMITS
+    from eyelab.optics.lens.spectacle import SpectacleLens
 
     try:
         dx, dy = (float(v) * 1e-3 for v in lens_t.get("decentration_mm", [0.0, 0.0]))

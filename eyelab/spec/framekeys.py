@@ -4,8 +4,8 @@ builds them with its own ``Key`` and ranges, so no import runs in a circle."""
 
 from __future__ import annotations
 
-from eyelab.optics.frame import FRAME_SHAPES
-from eyelab.optics.frame import LIMITS as FIT_LIMITS
+from eyelab.optics.lens.frame import FRAME_SHAPES
+from eyelab.optics.lens.frame import LIMITS as FIT_LIMITS
 
 #: The reference's heading of the table (:data:`eyelab.spec.schema.TABLES`).
 FRAME_TABLE = ("`[frame]` (the frame the lenses are cut to: renders show its outline, maps "

@@ -12,13 +12,13 @@ from pathlib import Path
 
 from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
-from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
-from eyelab.optics.binocular import SIDES, Binocular
-from eyelab.optics.eye import (
+from eyelab.optics.chain.analysis import FIXATIONS, VERTEX_SPHERES
+from eyelab.optics.chain.binocular import SIDES, Binocular
+from eyelab.optics.eye.thin import (
     Eye,
 )
-from eyelab.optics.lens import SpectacleLens
-from eyelab.optics.paths import ObjectPoints
+from eyelab.optics.lens.spectacle import SpectacleLens
+from eyelab.optics.rays.paths import ObjectPoints
 from eyelab.spec.frame import parse_frame
 from eyelab.spec.parse import ANALYSIS_KEYS, eye_accommodation, parse_points
 from eyelab.spec.render import RenderSpec, parse_render
@@ -39,7 +39,7 @@ class Spec:
     source: str = "<built-in>"
     render: RenderSpec = field(default_factory=RenderSpec)
     vertex_sphere: str = "rotation_centre"
-    #: Two eyes (:class:`eyelab.optics.binocular.Binocular`) when the spec has [binocular] or
+    #: Two eyes (:class:`eyelab.optics.chain.binocular.Binocular`) when the spec has [binocular] or
     #: per-eye tables; ``eye`` and ``lens`` are then the right eye's.
     binocular: Binocular | None = None
     #: What the input says that eyelab did not take as given, one line each (e.g. a trace
@@ -89,6 +89,16 @@ def one_eye(spec: Spec, what: str) -> Spec:
     if spec.binocular is not None:
         raise SpecError("binocular", f"{what} shows one eye; this spec has two ([binocular] "
                                      "or per-eye tables): use eyelab render, demo or analyze")
+    return spec
+
+
+def thin_eye(spec: Spec, what: str) -> Spec:
+    """``spec``, or a one-line error naming ``eye.model`` when its eye is a schematic eye
+    and ``what`` takes the thin eye only."""
+    if not isinstance(spec.eye, Eye):
+        raise SpecError("eye.model", f"{what} takes the thin eye (eye.model = \"thin\"); "
+                        f"the {spec.eye.model} eye works with eyelab analyze and eyelab "
+                        "maps --kind peripheral")
     return spec
 
 

@@ -12,24 +12,23 @@ import math
 
 import numpy as np
 
-from eyelab.core.checks import check_bool, check_choice
+from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
-from eyelab.optics.eye import (
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.thin import (
     AMPLITUDE_MODELS,
     EYE_KINDS,
     Eye,
-    hofstetter_amplitude,
-    watson_yellott_pupil,
 )
-from eyelab.optics.fresnel import COATINGS
-from eyelab.optics.lens import MIN_EDGE_THICKNESS, LensPose, SpectacleLens, check_feasible
-from eyelab.optics.materials import get_material
-from eyelab.optics.paths import ObjectPoints
-from eyelab.optics.pointsfile import FIRST_ROWS, check_covers, read_points
-from eyelab.optics.prescription import Prescription
-from eyelab.optics.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
+from eyelab.optics.lens.pointsfile import FIRST_ROWS, check_covers, read_points
+from eyelab.optics.lens.spectacle import MIN_EDGE_THICKNESS, LensPose, SpectacleLens, check_feasible
+from eyelab.optics.rays.fresnel import COATINGS
+from eyelab.optics.rays.materials import get_material
+from eyelab.optics.rays.paths import ObjectPoints
+from eyelab.optics.rays.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
 from eyelab.spec import tables
 from eyelab.spec.aberrationparse import eye_aberrations
+from eyelab.spec.eyemodel import eye_model, eye_options, parse_schematic
 from eyelab.spec.eyerx import dioptres, eye_rx_ranges
 from eyelab.spec.schema import (
     EYE_VERTEX_MM,
@@ -45,7 +44,7 @@ from eyelab.spec.tables import check_keys, check_rules, choice, number, rx_value
 EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupil_diameter_mm",
             "luminance_cd_m2", "power_min_d", "astigmatism_d", "astigmatism_axis_deg",
             "retina_distance_mm", "n_vitreous", "rotation_centre_mm", "vertex_distance_mm",
-            "chromatic", "accommodation_d", "aberrations"}
+            "chromatic", "accommodation_d", "aberrations", "model", "axial_length_mm"}
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
@@ -66,10 +65,15 @@ DESIGN_ALIASES = {"pal": "progressive", "varifocal": "progressive", "varifocals"
 _FACES = {"F": "front", "B": "back"}
 
 
-def parse_eye(t: dict) -> Eye:
-    """The ``[eye]`` table -> :class:`~eyelab.optics.eye.Eye`: from ``rx`` (the eye its
-    spectacle Rx corrects) or from the explicit powers."""
+def parse_eye(t: dict):
+    """The ``[eye]`` table -> :class:`~eyelab.optics.eye.thin.Eye`: from ``rx`` (the eye its
+    spectacle Rx corrects) or from the explicit powers; with ``model`` a schematic eye
+    (:func:`~eyelab.spec.eyemodel.parse_schematic`)."""
     check_keys(t, EYE_KEYS, "eye")
+    model = eye_model(t)
+    if model != "thin":
+        return parse_schematic(t, model, number(t, "vertex_distance_mm", "eye",
+                                                EYE_VERTEX_MM))
     # enumerations are checked even where the value would be unused; keys that only
     # take effect with another key are refused without it (never silently ignored)
     if "amplitude_model" in t:
@@ -80,7 +84,7 @@ def parse_eye(t: dict) -> Eye:
         number(t, "vertex_distance_mm", "eye")          # a bad value first
     t, aberrations = eye_aberrations(t, number(t, "vertex_distance_mm", "eye", EYE_VERTEX_MM))
     check_rules(t, "eye")      # the aberrations' Rx is eye.rx here (its vertex distance, kind)
-    kw = dict(_eye_options(t), aberrations=aberrations)
+    kw = dict(eye_options(t), aberrations=aberrations)
     if "rx" in t:
         return _eye_from_rx(t, kw)
     for key, attr in (("power_min_d", "power_min"), ("astigmatism_d", "astigmatism"),
@@ -90,30 +94,6 @@ def parse_eye(t: dict) -> Eye:
     if "retina_distance_mm" in t:
         kw["retina_distance"] = number(t, "retina_distance_mm", "eye") * 1e-3
     return Eye(**kw)
-
-
-def _eye_options(t: dict) -> dict:
-    """The :class:`Eye` keywords of ``[eye]`` that do not depend on how the powers are
-    given: amplitude (or age), pupil (or luminance), vitreous, centre of rotation,
-    chromatic aberration."""
-    kw = {}
-    if "age" in t:
-        kw["accommodation_max"] = hofstetter_amplitude(
-            check("eye.age", t["age"]), t.get("amplitude_model", "mean"))
-    elif "accommodation_max_d" in t:
-        kw["accommodation_max"] = number(t, "accommodation_max_d", "eye")
-    if "pupil_diameter_mm" in t:
-        kw["pupil_diameter"] = number(t, "pupil_diameter_mm", "eye") * 1e-3
-    elif "luminance_cd_m2" in t:
-        kw["pupil_diameter"] = watson_yellott_pupil(t["luminance_cd_m2"],
-                                                    t.get("age", 30.0)) * 1e-3
-    if "n_vitreous" in t:
-        kw["n_vitreous"] = number(t, "n_vitreous", "eye")
-    if "rotation_centre_mm" in t:
-        kw["rotation_centre"] = number(t, "rotation_centre_mm", "eye") * 1e-3
-    if "chromatic" in t:
-        kw["chromatic"] = check_bool("eye.chromatic", t["chromatic"])
-    return kw
 
 
 def _eye_from_rx(t: dict, kw: dict) -> Eye:
@@ -251,7 +231,7 @@ def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
 
 
 def _material(value):
-    """``lens.material`` (:func:`~eyelab.optics.materials.get_material`); a number, or a
+    """``lens.material`` (:func:`~eyelab.optics.rays.materials.get_material`); a number, or a
     name no material has, gets "did you mean" the catalogue name it may stand for."""
     try:
         return get_material(value, field="lens.material")
@@ -266,7 +246,7 @@ def _material_hint(value) -> str:
     """What a refused material may have meant: a nominal index written as a number or
     without its last digit ("1.6": "1.60"), the catalogue material of the nearest index,
     or a name spelt nearly so."""
-    from eyelab.optics.materials import ALIASES, CATALOGUE
+    from eyelab.optics.rays.materials import ALIASES, CATALOGUE
 
     names = [k for k in CATALOGUE if k != "air"] + [k for k in ALIASES if "-" not in k]
     try:
@@ -344,8 +324,8 @@ def _progressive(t, rx, where, material, pose, diameter, side=None) -> Spectacle
     progressive`); the design's lengths from the spec, its side the eye's (``side``), else
     the Rx's, else right. A design that does not fit the lens is refused naming the key
     to change (:func:`_progressive_misfit`), never the engine's surface."""
-    from eyelab.optics.optimise import optimised_progressive
-    from eyelab.optics.progressive import ProgressiveDesign, progressive_lens
+    from eyelab.optics.lens.optimise import optimised_progressive
+    from eyelab.optics.lens.progressive import ProgressiveDesign, progressive_lens
 
     if rx.add <= 0:
         raise SpecError("lens.design", f"a progressive lens needs an add in the Rx; "
@@ -383,7 +363,7 @@ def _progressive(t, rx, where, material, pose, diameter, side=None) -> Spectacle
 
 def _optimise(v) -> str:
     """``lens.optimise``: "none" (the analytic design) or a preset's name."""
-    from eyelab.optics.optimise import OPTIMISE_CHOICES
+    from eyelab.optics.lens.optimise import OPTIMISE_CHOICES
 
     return choice("lens.optimise", v, OPTIMISE_CHOICES)
 

@@ -13,7 +13,7 @@ from eyelab.core.errors import SpecError
 from eyelab.imaging.contract import View
 from eyelab.imaging.options import RasterQuality
 from eyelab.imaging.registry import CAMERA_RENDERERS, QUALITIES, RENDERERS, quality_keys
-from eyelab.optics.system import LensSystem
+from eyelab.optics.cameralens.system import LensSystem
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.scene.scene import UNITS, SceneSource
 from eyelab.scene.shading import SHADINGS
@@ -33,7 +33,7 @@ class RenderSpec:
     view: View = View()
     quality: object = field(default_factory=RasterQuality)
     table: dict = field(default_factory=dict)
-    #: A camera lens (:class:`eyelab.optics.system.LensSystem`, focused) that sees the
+    #: A camera lens (:class:`eyelab.optics.cameralens.system.LensSystem`, focused) that sees the
     #: scene instead of the eye: ``[render] camera`` (renderers in :data:`CAMERA_RENDERERS`).
     camera: LensSystem | None = None
 
@@ -112,12 +112,12 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
 
 
 def parse_camera(t: dict):
-    """``[render] camera`` (a named lens system of :data:`eyelab.optics.system.EXAMPLES`),
-    ``camera_focus_m`` (object distance in focus from the first vertex, m, or "inf"; default
-    "inf") and ``camera_f_number`` (the stop made smaller: f / stop diameter; default the
-    lens's full aperture) -> the focused :class:`~eyelab.optics.system.LensSystem`, or None
-    without ``camera``."""
-    from eyelab.optics.system import EXAMPLES, full_f_number, get_system
+    """``[render] camera`` (a named lens system of
+    :data:`eyelab.optics.cameralens.system.EXAMPLES`), ``camera_focus_m`` (object distance in focus
+    from the first vertex, m, or "inf"; default "inf") and ``camera_f_number`` (the stop made
+    smaller: f / stop diameter; default the lens's full aperture) -> the focused
+    :class:`~eyelab.optics.cameralens.system.LensSystem`, or None without ``camera``."""
+    from eyelab.optics.cameralens.system import EXAMPLES, full_f_number, get_system
 
     if "camera" not in t:
         for key in CAMERA_KEYS[1:]:

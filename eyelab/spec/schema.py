@@ -2,7 +2,7 @@
 meaning, in one list (:data:`KEYS`).
 
 A range is declared once. Where the engine checks a value itself — the eye, the lens, a
-progressive design (``LIMITS`` of :mod:`eyelab.optics.eye`, ``.lens``, ``.progressive``),
+progressive design (``LIMITS`` of :mod:`eyelab.optics.eye.thin`, ``.lens``, ``.progressive``),
 the view and each renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View`
 and of the quality classes, whose defaults too) — the schema takes the range from there
 (``eye.rx``'s powers derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows
@@ -31,16 +31,18 @@ from eyelab.imaging.options import (
 )
 from eyelab.imaging.registry import QUALITIES, RENDERERS
 from eyelab.imaging.stereo import OUTPUTS
-from eyelab.optics.analysis import FIXATIONS, VERTEX_SPHERES
-from eyelab.optics.eye import AMPLITUDE_MODELS, EYE_KINDS, EYE_REFERENCE_NM
-from eyelab.optics.eye import LIMITS as EYE_LIMITS
-from eyelab.optics.fresnel import COATINGS
-from eyelab.optics.lens import LIMITS as LENS_LIMITS
-from eyelab.optics.materials import ALIASES, CATALOGUE, RGB_WAVELENGTHS_NM
-from eyelab.optics.optimise import OPTIMISE_CHOICES
-from eyelab.optics.progressive import LIMITS as DESIGN_LIMITS
-from eyelab.optics.surfaces import REVOLVE_AXES
-from eyelab.optics.system import EXAMPLES, full_f_number, get_system
+from eyelab.optics.cameralens.system import EXAMPLES, full_f_number, get_system
+from eyelab.optics.chain.analysis import FIXATIONS, VERTEX_SPHERES
+from eyelab.optics.eye.models import EYE_MODELS, MODEL_MEANINGS
+from eyelab.optics.eye.schematic import LIMITS as SCHEMATIC_LIMITS
+from eyelab.optics.eye.thin import AMPLITUDE_MODELS, EYE_KINDS, EYE_REFERENCE_NM
+from eyelab.optics.eye.thin import LIMITS as EYE_LIMITS
+from eyelab.optics.lens.optimise import OPTIMISE_CHOICES
+from eyelab.optics.lens.progressive import LIMITS as DESIGN_LIMITS
+from eyelab.optics.lens.spectacle import LIMITS as LENS_LIMITS
+from eyelab.optics.rays.fresnel import COATINGS
+from eyelab.optics.rays.materials import ALIASES, CATALOGUE, RGB_WAVELENGTHS_NM
+from eyelab.optics.rays.surfaces import REVOLVE_AXES
 from eyelab.scene.library import SCENE_NAMES
 from eyelab.spec.aberrationkeys import ABERRATION_KEYS, ABERRATION_LIMITS, ABERRATION_TABLE
 from eyelab.spec.eyerx import eye_rx_text
@@ -109,8 +111,8 @@ NOT_WITH = {"eye": (("age", "accommodation_max_d"), ("pupil_diameter_mm", "lumin
 EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d",
                                                   "astigmatism_axis_deg")}}
 #: Every field's range but the renderers' own options (:func:`range_of` has those).
-LIMITS = {**EYE_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS, **View.LIMITS,
-          **POINTS_LIMITS, **ABERRATION_LIMITS, **SCENE_LIMITS, **SPEC_LIMITS}
+LIMITS = {**EYE_LIMITS, **SCHEMATIC_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS,
+          **View.LIMITS, **POINTS_LIMITS, **ABERRATION_LIMITS, **SCENE_LIMITS, **SPEC_LIMITS}
 
 
 def declared(field_name: str) -> str:
@@ -147,6 +149,7 @@ def range_of(field_name: str, renderer: str = "all") -> tuple:
 
 
 RX_EYE = {"eye": {"rx": "-2.00 DS"}}
+SCHEMATIC_EYE = {"eye": {"model": "navarro"}}
 IB = {"render": {"renderer": "imagebased"}}
 RX_LENS = {"eye": {"rx": "-2.00 DS"}, "lens": {"rx": "-2.00 DS"}}
 SURFACES = {"lens": {"front": {"type": "sphere", "radius_mm": 100.0},
@@ -204,6 +207,11 @@ class Key:
 
 KEYS = [
     # ------------------------------------------------------------------- [eye]
+    Key("eye", "model", "choice", "", '`"thin"`', "the eye: "
+        + "; ".join(f'`"{k}"` {v}' for k, v in MODEL_MEANINGS.items()), choices=EYE_MODELS),
+    Key("eye", "axial_length_mm", "number", "mm", "23.92 (the published eye)",
+        "a schematic eye's cornea to retina (its refractive error is axial), instead of "
+        "`rx`", base=SCHEMATIC_EYE),
     Key("eye", "rx", "text", "", "none (an emmetrope)",
         "the eye's refraction as a clinician's spectacle Rx, at `vertex_distance_mm`",
         range_text=eye_rx_text(EYE_VERTEX_MM)),
@@ -287,7 +295,7 @@ KEYS = [
         "which the add fades beside the corridor (small: a hard design)",
         base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
     Key("lens", "optimise", "choice", "", '`"none"`', "progressive: optimise the front as "
-        'worn with a preset (`"soft"`, `"hard"`; `eyelab/optics/optimise.py`) or keep the '
+        'worn with a preset (`"soft"`, `"hard"`; `eyelab/optics/lens/optimise.py`) or keep the '
         "analytic design", choices=OPTIMISE_CHOICES,
         base={"lens": {"rx": "-2.00 DS add +2.00", "design": "progressive"}}),
     Key("lens", "front", "text", "", "none", "explicit surfaces instead of a lens made "

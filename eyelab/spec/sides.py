@@ -9,8 +9,8 @@ import math
 
 from eyelab.core.checks import check_choice
 from eyelab.core.errors import SpecError
-from eyelab.optics.binocular import SIDES
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.chain.binocular import SIDES
+from eyelab.optics.eye.prescription import Prescription
 from eyelab.spec.parse import BINOCULAR_KEYS, parse_eye, parse_lens
 from eyelab.spec.schema import LIMITS, check
 from eyelab.spec.tables import check_keys, check_rules, number, rx_value
@@ -58,7 +58,7 @@ def _for_side(where, side, own, fn):
 
 
 def parse_binocular(data: dict, frame=None):
-    """A spec with two eyes -> :class:`eyelab.optics.binocular.Binocular`.
+    """A spec with two eyes -> :class:`eyelab.optics.chain.binocular.Binocular`.
 
     ``[eye]`` and ``[lens]`` hold what both sides share; ``[eye.right]``, ``[eye.left]``,
     ``[lens.right]``, ``[lens.left]`` any key of their table for one side (over the
@@ -72,7 +72,7 @@ def parse_binocular(data: dict, frame=None):
     trace file's IPD records).
     """
     from eyelab.imaging.stereo import OUTPUTS
-    from eyelab.optics.binocular import Binocular
+    from eyelab.optics.chain.binocular import Binocular
     from eyelab.spec.frame import binocular_pupils, fitted_lens, frame_for
 
     bt = data.get("binocular", {})
@@ -88,6 +88,7 @@ def parse_binocular(data: dict, frame=None):
     output = check_choice("binocular.output", bt.get("output", "side-by-side"), OUTPUTS)
     eye_shared, eye_sides = _split_sides(data.get("eye", {}), "eye")
     lens_shared, lens_sides = _split_sides(data.get("lens"), "lens")
+    _thin_eyes(eye_shared, eye_sides)
     eyes, lenses = {}, {}
     for side in SIDES:
         letter = side[0].upper()
@@ -157,6 +158,18 @@ def eye_rx_of(t: dict):
         derived, _ = eye_aberrations(t, number(t, "vertex_distance_mm", "eye", EYE_VERTEX_MM))
         return derived.get("rx")
     return None
+
+
+def _thin_eyes(shared: dict, sides: dict) -> None:
+    """Two eyes are thin eyes: a schematic model or key is refused, named by a side's own
+    key where one has it (its schematic length first), else by ``eye.model``."""
+    merged = [{**shared, **sides[s]} for s in SIDES]
+    if all(m.get("model", "thin") == "thin" and "axial_length_mm" not in m for m in merged):
+        return
+    own = [(s, k) for s in SIDES for k in ("axial_length_mm", "model") if k in sides[s]]
+    side, key = own[0] if own else (SIDES[0], "model")
+    raise SpecError(_written("eye", side, sides[side], key), "two eyes take the thin eye "
+                    "(eye.model = \"thin\"); analyse a schematic eye one at a time")
 
 
 def parse_one_eye(data: dict, frame=None) -> tuple:

@@ -1,5 +1,5 @@
 """``[lens.front]`` / ``[lens.back]`` ``type = "points"``: a surface from a points file
-(:mod:`eyelab.optics.pointsfile`), its spec keys as the schema lists them, and the spec's
+(:mod:`eyelab.optics.lens.pointsfile`), its spec keys as the schema lists them, and the spec's
 folder that relative file paths are read from."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from pathlib import Path
 
 from eyelab.core.errors import SpecError
 from eyelab.core.fileio import user_path
-from eyelab.optics.pointsfile import FIRST_ROWS, FORMATS
-from eyelab.optics.pointsfile import LIMITS as POINTS_LIMITS
+from eyelab.optics.lens.pointsfile import FIRST_ROWS, FORMATS
+from eyelab.optics.lens.pointsfile import LIMITS as POINTS_LIMITS
 
 __all__ = ["POINTS_KEYS", "POINTS_LIMITS", "TYPE_BASE", "absolute_files", "file_refs", "spec_file",
            "with_spec_folder"]

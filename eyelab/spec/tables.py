@@ -6,7 +6,7 @@ from __future__ import annotations
 import difflib
 
 from eyelab.core.errors import SpecError
-from eyelab.optics.prescription import Prescription
+from eyelab.optics.eye.prescription import Prescription
 from eyelab.spec.schema import EXCLUSIVE_WITH, NOT_WITH, ONLY_WITH, SURFACE_TYPE_KEYS, check
 
 #: Keys that moved: where they are now (an old spec gets an error that says so).

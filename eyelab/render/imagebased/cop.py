@@ -75,7 +75,7 @@ def fit_cop_least_squares(origins, dirs, dtype=np.float64):
     """The COP closest to all rays in the least-squares sense (Gremban et al. 1988, the
     method Heidrich et al. compare with): solves sum (I - d d^T) e = sum (I - d d^T) q
     (in ``dtype``)."""
-    from eyelab.optics.camera import least_squares_point
+    from eyelab.optics.rays.camera import least_squares_point
 
     return least_squares_point(origins, dirs, dtype)[0]
 

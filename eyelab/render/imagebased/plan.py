@@ -19,7 +19,7 @@ samples of the slices weighted by W_i(x') = cos th' cos th'' / |x'' - x'|^2 (§3
 in linear light.
 
 Two kinds of system make the rays (a ``rays(film_px, sample, wavelength)`` method):
-:class:`CameraRays` (a :class:`~eyelab.optics.system.LensSystem` and its film) and
+:class:`CameraRays` (a :class:`~eyelab.optics.cameralens.system.LensSystem` and its film) and
 :class:`EyeRays` (the thin toric eye of the other renderers, with or without a spectacle
 lens: the eye's pupil is the image-sided surface, the eye camera's image the film).
 """

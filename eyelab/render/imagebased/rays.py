@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from eyelab.core.vecmath import unit
-from eyelab.optics.film import RaySet
-from eyelab.optics.trace import FATAL
+from eyelab.optics.cameralens.film import RaySet
+from eyelab.optics.rays.trace import FATAL
 
 
 class EyeRays:

@@ -21,9 +21,9 @@ import numpy as np
 
 from eyelab.imaging.contract import Renderer, channel_wavelengths, finish, new_report
 from eyelab.imaging.options import ImageBasedQuality
-from eyelab.optics.eye import EYE_REFERENCE_NM
-from eyelab.optics.film import CameraRays
-from eyelab.optics.materials import RGB_WAVELENGTHS_NM
+from eyelab.optics.cameralens.film import CameraRays
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import DECODE16
 from eyelab.render.imagebased.morph import bilinear, morph_pixels
 from eyelab.render.imagebased.plan import plan_projections
@@ -32,12 +32,12 @@ from eyelab.render.imagebased.rays import EyeRays
 
 class ImageBasedRenderer(Renderer):
     """``render(scene, observer, lens, view, quality)``: ``observer`` an
-    :class:`~eyelab.optics.eye.Eye` (with ``lens`` a spectacle lens or None; a fixed
+    :class:`~eyelab.optics.eye.thin.Eye` (with ``lens`` a spectacle lens or None; a fixed
     ``view.focus_d`` or each film point's own accommodation) or a
-    :class:`~eyelab.optics.system.LensSystem` camera (``lens`` None; the film height
+    :class:`~eyelab.optics.cameralens.system.LensSystem` camera (``lens`` None; the film height
     follows ``view.fov_y_deg`` through the paraxial focal length; the lens samples are
     fixed points of a disc that holds every film point's vignetted bundle, the
-    ``"cover"`` domain of :class:`~eyelab.optics.film.CameraRays`, and the film
+    ``"cover"`` domain of :class:`~eyelab.optics.cameralens.film.CameraRays`, and the film
     irradiance is their mean radiance times the system's exact relative illumination:
     :func:`_normalisation`).
 
@@ -168,7 +168,7 @@ class ImageBasedRenderer(Renderer):
 
     def _relative_illumination(self, maker, radiometry, base_key, wls, w, h):
         """(h*w, channels) a camera's relative illumination at the pixel centres
-        (:meth:`~eyelab.optics.film.CameraRays.relative_illumination`), kept with the
+        (:meth:`~eyelab.optics.cameralens.film.CameraRays.relative_illumination`), kept with the
         plans (:attr:`illumination`, LRU; a second frame does not trace the bundles
         again); None for radiance or an eye."""
         if radiometry != "irradiance" or not hasattr(maker, "relative_illumination"):
@@ -192,7 +192,7 @@ def _normalisation(radiometry, wsum, rel) -> np.ndarray:
     by. Radiance: each film point's sum of W_i over the samples that reach it (the losses
     stay in the image). Irradiance of a camera lens system: that sum over the film point's
     relative illumination ``rel`` (``CameraRays.relative_illumination`` of
-    :mod:`eyelab.optics.film`: int W dA over its vignetted bundle, integrated once over
+    :mod:`eyelab.optics.cameralens.film`: int W dA over its vignetted bundle, integrated once over
     the traced bundle, over the film centre's unvignetted value; 0 where no light passes).
 
     Why not the plain sum of Eq. 3 over the samples (each standing for its share of the

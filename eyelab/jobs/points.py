@@ -1,0 +1,33 @@
+"""The rows of point reports shared by the thin eye's and the schematic eye's analysis:
+an object as the report writes it, and why a point has no light path."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from eyelab.optics.rays.trace import Status
+
+
+def object_row(points, i) -> dict:
+    """Point ``i`` of ``points`` as a report writes its object: distance (m or "inf"),
+    field angles and polar field angles (deg)."""
+    dist = float(points.distance[i])
+    d = points.direction[i]
+    return {"distance_m": dist if math.isfinite(dist) else "inf",
+            "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
+                          float(np.degrees(math.atan2(d[1], -d[2])))],
+            "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
+                                float(np.degrees(math.atan2(d[1], d[0])) % 360.0)]}
+
+
+def no_path_reason(st) -> str:
+    """Why a point with status ``st`` has no light path, in words."""
+    if st & Status.BEHIND:
+        return "the point is behind the eye or the lens: no light path"
+    if st & Status.MISSED:
+        return "not visible through the lens (the chief ray misses the lens aperture)"
+    if st & Status.TIR:
+        return "total internal reflection in the lens"
+    return "the light path did not converge"

@@ -1,0 +1,238 @@
+"""A schematic eye's point analysis and its peripheral refraction over the visual field
+(:mod:`eyelab.optics.chain.retina`): the JSON reports of ``eyelab analyze`` and ``eyelab
+maps --kind peripheral``, their text, and the map's figure (matplotlib).
+
+Peripheral refraction is what myopia research measures: the refraction M, J0, J45 (power
+vectors, Thibos et al. 1997) along each line of sight while the eye fixates straight
+ahead, and the relative peripheral refraction RPR = M - M(on axis). Its tangential and
+sagittal parts are the refraction across and along the meridian.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from eyelab.jobs.points import no_path_reason, object_row
+from eyelab.optics.chain.retina import RetinalTrace, trace_field, trace_objects
+from eyelab.optics.rays.trace import Status
+
+#: The quantities of a line of sight, by report key: what each means (units by suffix).
+DEFINITIONS = {
+    "m_d": "spherical equivalent of the refraction along the line of sight (D; negative: "
+           "myopic), where the chief ray crosses the corneal vertex plane",
+    "j0_d, j45_d": "the refraction's Jackson cross-cylinders (Thibos et al. 1997) in the "
+                   "eye's frame: x the wearer's right, y up",
+    "tangential_d, sagittal_d": "the refraction across and along the meridian of the "
+                                "field point (the astigmatic foci's directions)",
+    "rpr_d": "relative peripheral refraction: m_d less m_d on the eye's axis",
+    "focus_behind_retina_mm": "where the tangential and sagittal focal lines lie along the "
+                              "chief ray, behind the retina (negative: in front of it)",
+    "retina_mm": "where the chief ray lands on the retina, in the eye's frame (the corneal "
+                 "vertex at the origin, z toward the retina)",
+    "object_field_deg": "the object's field angles as seen from the eye's corneal vertex "
+                        "(through a lens the line of sight is bent: this is where it points)",
+}
+
+
+def _row(r: RetinalTrace, i: int) -> dict:
+    obj = r.object_points
+    d = obj.direction[i]
+    return {
+        "object_field_deg": [math.degrees(math.atan2(d[0], -d[2])),
+                             math.degrees(math.atan2(d[1], -d[2]))],
+        "field_deg": [float(v) for v in r.field_deg[i]],
+        "eccentricity_deg": float(r.eccentricity_deg[i]),
+        "meridian_deg": float(r.meridian_deg[i]),
+        "accommodation_d": float(r.accommodation[i]),
+        "m_d": float(r.m[i]), "j0_d": float(r.j0[i]), "j45_d": float(r.j45[i]),
+        "tangential_d": float(r.tangential[i]), "sagittal_d": float(r.sagittal[i]),
+        "focus_behind_retina_mm": [float(v) * 1e3 for v in r.focus[i]],
+        "image_vergence_d": [float(v) for v in r.image_vergence[i]],
+        "retina_mm": [float(v) * 1e3 for v in r.retina[i]],
+    }
+
+
+def schematic_report(spec, *, no_lens: bool = False) -> dict:
+    """``eyelab analyze`` of a spec whose eye is schematic: per point, the real chief ray to
+    the retina and the refraction along it (:data:`DEFINITIONS`), naked (``no_lens``) or
+    through the spec's lens; fixation and accommodation as the spec says (``auto``:
+    the fixation's accommodation at each point's distance)."""
+    eye = spec.eye
+    lens = None if no_lens else spec.lens
+    r = trace_objects(eye, lens, spec.points, fixation=spec.fixation,
+                      accommodation=spec.accommodation, wavelength_nm=spec.wavelength_nm)
+    points = []
+    for i in range(len(spec.points)):
+        st = int(r.status[i])
+        entry = {"index": i, "status": Status.describe(st), "object": object_row(spec.points, i)}
+        if not r.ok[i]:
+            entry["reason"] = no_path_reason(st)
+        else:
+            entry.update(_row(r, i))
+        points.append(entry)
+    return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
+            "lens": None if lens is None else {"rx": None if lens.rx is None
+                                               else lens.rx.format()},
+            "wavelength_nm": spec.wavelength_nm, "fixation": spec.fixation,
+            "accommodation": "the fixation's: the eye focuses the object on its axis at each "
+            "point's distance (paraxially)" if spec.accommodation is None
+            else spec.accommodation,
+            "definitions": DEFINITIONS, "points": points}
+
+
+def _eye_optics(eye, spec) -> dict:
+    wl = spec.wavelength_nm
+    z_ep, mag = eye.entrance_pupil(0.0, wl)
+    return {"refraction_d": eye.refraction(0.0, wl), "power_d": eye.power(0.0, wl),
+            "entrance_pupil_mm": z_ep * 1e3, "stop_radius_mm": eye.stop_radius(0.0, wl) * 1e3}
+
+
+def format_schematic(rep: dict) -> str:
+    """The text of :func:`schematic_report`."""
+    e = rep["eye"]
+    lines = [f"eyelab analyze — {rep['source']}",
+             f"eye: {e['model']} schematic eye, axial length {e['axial_length_mm']:.3f} mm, "
+             f"paraxial refraction {e['refraction_d']:+.3f} D, power {e['power_d']:.3f} D, "
+             f"entrance pupil {e['pupil_diameter_mm']:.2f} mm at {e['entrance_pupil_mm']:.3f}"
+             " mm",
+             "lens: none (naked eye)" if rep["lens"] is None else f"lens: {rep['lens']['rx']}",
+             f"wavelength {rep['wavelength_nm']} nm, fixation {rep['fixation']}, "
+             f"accommodation {rep['accommodation']}"]
+    for p in rep["points"]:
+        o = p["object"]
+        dist = o["distance_m"] if o["distance_m"] == "inf" else f"{o['distance_m']:g} m"
+        lines.append(f"\npoint {p['index']}: {dist} at field ({o['field_deg'][0]:+.1f}, "
+                     f"{o['field_deg'][1]:+.1f}) deg — {p['status']}")
+        if "reason" in p:
+            lines.append(f"  {p['reason']}")
+            continue
+        lines.append(f"  on the retina at ({p['retina_mm'][0]:+.3f}, {p['retina_mm'][1]:+.3f},"
+                     f" {p['retina_mm'][2]:.3f}) mm, {p['eccentricity_deg']:.2f} deg off axis;"
+                     f" accommodation {p['accommodation_d']:.3f} D")
+        lines.append(f"  refraction M {p['m_d']:+.3f} D, J0 {p['j0_d']:+.3f}, J45 "
+                     f"{p['j45_d']:+.3f}; tangential {p['tangential_d']:+.3f}, sagittal "
+                     f"{p['sagittal_d']:+.3f} D; focal lines "
+                     "{:+.3f} / {:+.3f} mm behind the retina".format(
+                         *p["focus_behind_retina_mm"]))
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ peripheral map
+def peripheral_map(spec, *, half_angle_deg: float = 40.0, n: int = 33,
+                   distance_m: float = math.inf) -> dict:
+    """Peripheral refraction over the visual field of the spec's schematic eye fixating
+    straight ahead, naked and (where the spec has one) through its lens: an n x n grid of
+    field angles within +-``half_angle_deg`` and 1-degree profiles along the horizontal
+    and vertical meridians, objects at ``distance_m``. The accommodation is the spec's
+    ``eye.accommodation_d``, else the one that focuses the straight-ahead object (naked
+    and through the lens each its own)."""
+    from eyelab.core.checks import check_in
+
+    check_in("maps.half_angle_deg", half_angle_deg, {"maps.half_angle_deg": (1.0, 60.0)})
+    check_in("maps.n", n, {"maps.n": (3, 201)})
+    grid = np.linspace(-half_angle_deg, half_angle_deg, int(n))
+    gx, gy = np.meshgrid(grid, grid)
+    line = np.arange(-math.floor(half_angle_deg), math.floor(half_angle_deg) + 1.0)
+    out = {"source": spec.source, "eye": spec.eye.spec_keys(),
+           "distance_m": "inf" if math.isinf(distance_m) else distance_m,
+           "wavelength_nm": spec.wavelength_nm, "definitions": DEFINITIONS,
+           "grid": {"field_x_deg": grid.tolist(), "field_y_deg": grid.tolist()}}
+    for name, lens in (("naked", None), ("lens", spec.lens)):
+        if name == "lens" and lens is None:
+            out[name] = None
+            continue
+        kw = dict(accommodation=spec.accommodation, wavelength_nm=spec.wavelength_nm)
+        field = trace_field(spec.eye, lens, gx.ravel(), gy.ravel(), distance_m, **kw)
+        acc = float(field.accommodation[0])
+        kw["accommodation"] = acc
+        m0 = float(trace_field(spec.eye, lens, 0.0, 0.0, distance_m, **kw).m[0])
+        part = {"accommodation_d": acc, "m_on_axis_d": m0}
+        for key, v in (("m_d", field.m), ("j0_d", field.j0), ("j45_d", field.j45),
+                       ("tangential_d", field.tangential), ("sagittal_d", field.sagittal),
+                       ("rpr_d", field.m - m0)):
+            part[key] = np.where(np.isfinite(v), v, np.nan).reshape(gx.shape).tolist()
+        part["profiles"] = {}
+        for meridian, (fx, fy) in (("horizontal", (line, 0.0 * line)),
+                                   ("vertical", (0.0 * line, line))):
+            prof = trace_field(spec.eye, lens, fx, fy, distance_m, **kw)
+            part["profiles"][meridian] = {"field_deg": line.tolist(),
+                                          "points": [dict(_row(prof, i), rpr_d=float(
+                                              prof.m[i] - m0)) for i in range(len(line))]}
+        out[name] = part
+    return out
+
+
+def plot_peripheral(rep: dict, path, title: str) -> None:
+    """The map's figure: M and RPR along both meridians, the tangential and sagittal
+    refraction along the horizontal one (naked dashed, through the lens solid), and RPR
+    over the visual field (through the lens where there is one)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.5), constrained_layout=True)
+    parts = [(k, rep[k]) for k in ("naked", "lens") if rep[k] is not None]
+    style = {"naked": "--", "lens": "-"}
+    label = {"naked": "naked eye", "lens": "through the lens"}
+    for name, part in parts:
+        for meridian, colour in (("horizontal", "tab:blue"), ("vertical", "tab:green")):
+            prof = part["profiles"][meridian]
+            x = prof["field_deg"]
+            lw = 3.0 if meridian == "horizontal" else 1.3    # both seen where they agree
+            axes[0, 0].plot(x, [p["m_d"] for p in prof["points"]], style[name], color=colour,
+                            lw=lw, label=f"{label[name]}, {meridian}")
+            axes[0, 1].plot(x, [p["rpr_d"] for p in prof["points"]], style[name],
+                            color=colour, lw=lw, label=f"{label[name]}, {meridian}")
+        prof = part["profiles"]["horizontal"]
+        x = prof["field_deg"]
+        axes[1, 0].plot(x, [p["tangential_d"] for p in prof["points"]], style[name],
+                        color="tab:red", label=f"tangential, {label[name]}")
+        axes[1, 0].plot(x, [p["sagittal_d"] for p in prof["points"]], style[name],
+                        color="tab:purple", label=f"sagittal, {label[name]}")
+    for ax, ylabel in ((axes[0, 0], "M (D)"), (axes[0, 1], "relative peripheral refraction "
+                                                            "(D)"),
+                       (axes[1, 0], "refraction, horizontal meridian (D)")):
+        ax.axhline(0.0, color="0.6", lw=0.8)
+        ax.set_xlabel("field angle (deg; + toward the wearer's right / up)")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    name, part = parts[-1]
+    g = rep["grid"]
+    rpr = np.array(part["rpr_d"], float)
+    lim = max(0.25, float(np.nanmax(np.abs(rpr))))
+    im = axes[1, 1].contourf(g["field_x_deg"], g["field_y_deg"], rpr, levels=np.linspace(
+        -lim, lim, 21), cmap="RdBu_r")
+    cs = axes[1, 1].contour(g["field_x_deg"], g["field_y_deg"], rpr, levels=np.arange(
+        -math.floor(lim), math.floor(lim) + 0.5, 0.5), colors="k", linewidths=0.6)
+    axes[1, 1].clabel(cs, fontsize=7, fmt="%+.1f")
+    axes[1, 1].set_aspect("equal")
+    axes[1, 1].set_xlabel("field x (deg, + toward the wearer's right)")
+    axes[1, 1].set_ylabel("field y (deg, + up)")
+    axes[1, 1].set_title(f"RPR {label[name]} (D; + hyperopic)", fontsize=10)
+    fig.colorbar(im, ax=axes[1, 1], shrink=0.85)
+    fig.suptitle(title, fontsize=11)
+    fig.savefig(path, dpi=100, format="png")
+    plt.close(fig)
+
+
+def peripheral_summary(rep: dict) -> list:
+    """One line per part: M on axis and the RPR at +-30 deg (or the map's edge) along the
+    horizontal meridian."""
+    lines = []
+    for name in ("naked", "lens"):
+        part = rep[name]
+        if part is None:
+            continue
+        prof = part["profiles"]["horizontal"]
+        x = np.array(prof["field_deg"])
+        at = min(30.0, float(x.max()))
+        pick = {v: prof["points"][int(np.argmin(np.abs(x - v)))] for v in (-at, at)}
+        lines.append(f"{'naked eye' if name == 'naked' else 'through the lens'}: M on axis "
+                     f"{part['m_on_axis_d']:+.3f} D (accommodation {part['accommodation_d']:.3f}"
+                     f" D); RPR at {-at:+.0f} / {at:+.0f} deg horizontally "
+                     f"{pick[-at]['rpr_d']:+.3f} / {pick[at]['rpr_d']:+.3f} D")
+    return lines

@@ -1,0 +1,135 @@
+"""A schematic eye from a spec: ``eyelab analyze`` and ``eyelab maps --kind peripheral``,
+the refusals of what takes the thin eye only, and the published trends of peripheral
+refraction."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from eyelab.apps.cli import main
+from eyelab.core.errors import SpecError
+from eyelab.spec import parse_spec
+
+MYOPE = """[eye]
+model = "navarro"
+rx = "-3.00"
+{extra}
+[lens]
+rx = "-3.00"
+"""
+EMMETROPE = """[eye]
+model = "navarro"
+{extra}"""
+
+
+def _maps(tmp_path, text, name):
+    spec = tmp_path / f"{name}.toml"
+    spec.write_text(text.format(extra=""))
+    out, js = tmp_path / f"{name}.png", tmp_path / f"{name}.json"
+    assert main(["maps", str(spec), "-o", str(out), "--json", str(js), "--half-angle", "40",
+                 "--points", "9"]) == 0
+    assert out.stat().st_size > 20000
+    return json.loads(js.read_text())
+
+
+@pytest.mark.parametrize("name, text", [("emmetrope", EMMETROPE), ("myope", MYOPE)])
+def test_the_map_equals_analysis_at_its_eccentricities(tmp_path, name, text):
+    """The acceptance: every value on the map's horizontal and vertical profiles equals
+    ``eyelab analyze``'s for the same object (<= 1e-6 D), naked and through the lens, each
+    with its default accommodation (the fixation's)."""
+    rep = _maps(tmp_path, text, name)
+    for part in ("naked", "lens"):
+        if rep[part] is None:
+            continue
+        rows = [p for meridian in ("horizontal", "vertical")
+                for p in rep[part]["profiles"][meridian]["points"]][::5]
+        points = "".join(f"\n[[points]]\nfield_deg = [{p['object_field_deg'][0]!r}, "
+                         f"{p['object_field_deg'][1]!r}]\n" for p in rows)
+        spec = tmp_path / f"{name}-{part}.toml"
+        spec.write_text(text.format(extra="")
+                        + '\n[analysis]\nfixation = "fixed"\n' + points)
+        out = tmp_path / f"{name}-{part}-analyze.json"
+        flags = ["--no-lens"] if part == "naked" else []
+        assert main(["analyze", str(spec), "--json", "-o", str(out), *flags]) == 0
+        got = json.loads(out.read_text())["points"]
+        assert len(got) == len(rows)
+        for p, q in zip(rows, got, strict=True):
+            for key in ("m_d", "j0_d", "j45_d", "tangential_d", "sagittal_d"):
+                assert abs(p[key] - q[key]) <= 1e-6, (part, key, p[key], q[key])
+            assert abs(p["eccentricity_deg"] - q["eccentricity_deg"]) <= 1e-9
+            assert q["accommodation_d"] == pytest.approx(rep[part]["accommodation_d"],
+                                                         abs=1e-12)
+
+
+def test_single_vision_correction_leaves_peripheral_hyperopia(tmp_path):
+    """Published trends, as signs and ranges (a schematic eye is one eye, not a
+    population): an axial myope's periphery is relatively hyperopic along the horizontal
+    meridian (Atchison, Pritchard & Schmid 2006, Vision Res 46:1450), the single-vision
+    lens that corrects its fovea makes it more so (Lin et al. 2010, Optom Vis Sci 87:4:
+    the rationale of myopia-control lenses), and the emmetropic eye's oblique astigmatism
+    at 30 deg is in the 1.5-3 D that measured eyes show there (Gustafsson et al. 2001,
+    Ophthalmic Physiol Opt 21:393)."""
+    myope = _maps(tmp_path, MYOPE, "m")
+    emm = _maps(tmp_path, EMMETROPE, "e")
+
+    def at(part, deg):
+        prof = part["profiles"]["horizontal"]
+        return prof["points"][prof["field_deg"].index(deg)]
+
+    for deg in (-30.0, 30.0):
+        naked, lens = at(myope["naked"], deg)["rpr_d"], at(myope["lens"], deg)["rpr_d"]
+        assert 0.2 < naked < 1.5 and lens > naked
+        row = at(emm["naked"], deg)
+        assert 1.5 < row["sagittal_d"] - row["tangential_d"] < 3.0
+    assert abs(myope["lens"]["m_on_axis_d"]) < 0.01
+
+
+@pytest.mark.parametrize("eye, field, words", [
+    ({"model": "navarro", "chromatic": False}, "eye.chromatic", "not read by the navarro"),
+    ({"model": "navarro", "power_min_d": 60}, "eye.power_min_d", "not read by the navarro"),
+    ({"axial_length_mm": 24}, "eye.axial_length_mm", "only read by a schematic eye"),
+    ({"model": "navarro", "axial_length_mm": 15}, "eye.axial_length_mm", "16"),
+    ({"model": "navarro", "rx": "-2.00 / -1.00 x 90"}, "eye.rx", "no cylinder"),
+    ({"model": "navarro", "age": 10}, "eye.age", "0-10 D"),
+    ({"model": "navarro", "rx": "-3", "axial_length_mm": 24}, "eye.axial_length_mm",
+     "either"),
+    ({"model": "gullstrand"}, "eye.model", "'thin', 'navarro'"),
+])
+def test_bad_schematic_eyes_are_refused_by_name(eye, field, words):
+    with pytest.raises(SpecError) as e:
+        parse_spec({"eye": eye})
+    assert e.value.field == field and words in str(e.value)
+
+
+@pytest.mark.parametrize("command", [["render"], ["demo"], ["psf", "-o", "x.npy"],
+                                     ["maps", "--kind", "asworn"]])
+def test_what_takes_the_thin_eye_refuses_a_schematic_one(tmp_path, capsys, command):
+    spec = tmp_path / "s.toml"
+    spec.write_text(MYOPE.format(extra=""))
+    out = tmp_path / "out.png"
+    args = [command[0], str(spec), *command[1:]]
+    if "-o" not in command:
+        args += ["-o", str(out)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "eye.model" in err[0], err
+    assert not out.exists() and not (tmp_path / "x.npy").exists()
+
+
+def test_a_peripheral_map_needs_a_schematic_eye(tmp_path, capsys):
+    assert main(["maps", "--kind", "peripheral", "-o", str(tmp_path / "m.png")]) == 2
+    assert "eye.model" in capsys.readouterr().err
+    assert not (tmp_path / "m.png").exists()
+
+
+def test_analyze_text_of_a_schematic_eye(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text(MYOPE.format(extra="") + '\n[analysis]\nfixation = "fixed"\n'
+                    "[[points]]\nfield_deg = [25, 0]\n")
+    assert main(["analyze", str(spec)]) == 0
+    text = capsys.readouterr().out
+    assert "navarro schematic eye" in text and "refraction M +" in text
+    assert np.isfinite(float(text.split("refraction M ")[1].split(" D")[0]))
