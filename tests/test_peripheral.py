@@ -133,3 +133,21 @@ def test_analyze_text_of_a_schematic_eye(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "navarro schematic eye" in text and "refraction M +" in text
     assert np.isfinite(float(text.split("refraction M ")[1].split(" D")[0]))
+
+
+def test_the_guides_numbers_are_the_maps(tmp_path):
+    """docs/guide/schematic-eye.md quotes the example's RPR at +-30 deg, naked and through
+    the lens, from this command's output."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    guide = (root / "docs" / "guide" / "schematic-eye.md").read_text()
+    js = tmp_path / "m.json"
+    assert main(["maps", str(root / "examples" / "myope.toml"), "-o", str(tmp_path / "m.png"),
+                 "--json", str(js)]) == 0
+    rep = json.loads(js.read_text())
+    for part in ("naked", "lens"):
+        prof = rep[part]["profiles"]["horizontal"]
+        rpr = prof["points"][prof["field_deg"].index(30.0)]["rpr_d"]
+        assert f"{rpr:+.2f} D" in guide, (part, rpr)
+    assert (root / "docs" / "gallery" / "myope-periphery.png").is_file()
