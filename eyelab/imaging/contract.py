@@ -285,15 +285,25 @@ class Renderer(abc.ABC):
                 raise SpecError("render.camera", f"a camera lens renders with "
                                 f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not {self.name!r}")
             return self._render_camera(scene, eye, view, quality, progressive)
-        if not isinstance(eye, Eye):
-            raise SpecError("eye.model", f"renders take the thin eye (eye.model = \"thin\"); "
-                            f"the {eye.model} eye works with eyelab analyze and eyelab maps "
-                            "--kind peripheral")
+        if not isinstance(eye, Eye):            # a schematic eye: its retinal image
+            from eyelab.imaging.registry import SCHEMATIC_RENDERERS
+
+            if self.name not in SCHEMATIC_RENDERERS:
+                raise SpecError("eye.model", f"the {eye.model} eye's retinal image renders "
+                                f"with {' or '.join(map(repr, SCHEMATIC_RENDERERS))}, not "
+                                f"{self.name!r}")
+            return self._render_schematic(scene, eye, lens, view, quality, progressive)
         if getattr(eye, "aberrations", None) is not None:     # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import render_aberrated
 
             return render_aberrated(self, scene, eye, lens, view, quality, progressive)
         return self._render(scene, eye, lens, view, quality, progressive)
+
+    def _render_schematic(self, scene, eye, lens, view: View, quality, progressive: bool
+                          ) -> RenderResult:
+        """The retinal image of a schematic eye fixating along the view's line of sight;
+        for the renderers registered as seeing schematic eyes."""
+        raise NotImplementedError(f"{type(self).__name__} renders thin eyes only")
 
     def _render_camera(self, scene, camera, view: View, quality, progressive: bool
                        ) -> RenderResult:

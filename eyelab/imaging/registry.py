@@ -19,12 +19,14 @@ from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQu
 @dataclass(frozen=True)
 class RendererEntry:
     """One renderer: ``name`` (``render.renderer``), its options class ``quality``, its
-    implementation ``"module:Class"`` and whether it renders camera lens systems."""
+    implementation ``"module:Class"``, whether it renders camera lens systems and whether
+    it renders a schematic eye's retinal image."""
 
     name: str
     quality: type
     implementation: str
     sees_cameras: bool
+    sees_schematic_eyes: bool = False
 
     def load(self) -> type:
         """The renderer class (imports its module)."""
@@ -35,7 +37,7 @@ class RendererEntry:
 REGISTRY = {e.name: e for e in (
     RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False),
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
-                  True),
+                  True, sees_schematic_eyes=True),
     RendererEntry("imagebased", ImageBasedQuality,
                   "eyelab.render.imagebased:ImageBasedRenderer", True),
 )}
@@ -45,6 +47,8 @@ RENDERERS = tuple(REGISTRY)
 QUALITIES = {name: e.quality for name, e in REGISTRY.items()}
 #: Renderers that can look through a camera lens system instead of the eye.
 CAMERA_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_cameras)
+#: Renderers that render a schematic eye's retinal image at fixation.
+SCHEMATIC_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_schematic_eyes)
 
 
 def quality_keys(renderer: str) -> tuple:

@@ -71,6 +71,11 @@ class ReferenceRenderer(Renderer):
             return fons_pattern(q.fons_n, q.fons_m)
         return disc_seeds(q.samples)
 
+    def _render_schematic(self, scene, eye, lens, view, q, progressive):
+        from eyelab.reference.retinal import render_retinal
+
+        return render_retinal(self.name, scene, eye, lens, view, q)
+
     def _render_camera(self, scene, camera, view, q, progressive):
         from eyelab.reference.camera import render_camera
 

@@ -258,17 +258,19 @@ def trace_field(eye: SchematicEye, lens, field_x_deg, field_y_deg, distance=np.i
 
 
 def fixation_accommodation(eye: SchematicEye, lens, distance,
-                           wavelength_nm: float = EYE_REFERENCE_NM):
-    """The accommodation (D, shaped like ``distance``) of an eye looking straight ahead at
-    an object at each ``distance`` (m): the one whose paraxial refraction equals the mean
-    vergence arriving along the eye's axis (through the lens), which meets the stop's
-    centre whatever the accommodation."""
+                           wavelength_nm: float = EYE_REFERENCE_NM, *, rot=None, vertex=None):
+    """The accommodation (D, shaped like ``distance``) of an eye looking along its axis at
+    an object at each ``distance`` (m from the world origin, on the axis's object-side ray
+    through the lens): the one whose paraxial refraction equals the mean vergence arriving
+    along the axis, which meets the stop's centre whatever the accommodation. The eye
+    looks straight ahead from the origin unless ``rot``, ``vertex`` place it."""
     distance = np.atleast_1d(np.asarray(distance, float))
-    rot, vertex = _eye_in_world(eye, "fixed", None)
+    if rot is None:
+        rot, vertex = _eye_in_world(eye, "fixed", None)
     out = np.zeros(distance.shape)
     for d in np.unique(distance):
-        axis = trace_lines(eye, lens, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),
-                           np.array([d]), rot=rot, vertex=vertex,
+        axis = trace_lines(eye, lens, np.asarray(vertex, float)[None], rot[:, 2][None],
+                           np.array([d]), rot=rot, vertex=np.asarray(vertex, float),
                            wavelength_nm=wavelength_nm)
         out[distance == d] = axis.accommodation[0]
     return out

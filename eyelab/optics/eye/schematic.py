@@ -84,6 +84,12 @@ class SchematicEye:
         check_in("eye.pupil_diameter_mm", self.pupil_diameter * 1e3, THIN_LIMITS)
         check_in("eye.rotation_centre_mm", self.rotation_centre * 1e3, THIN_LIMITS)
 
+    #: The eye's media disperse (Navarro 1985): renders trace each colour at its own
+    #: wavelength, as for a thin eye with ``chromatic = True``.
+    chromatic = True
+    #: Its aberrations are its surfaces' (traced), not a Zernike set.
+    aberrations = None
+
     # ------------------------------------------------------------------ geometry
     def geometry(self, accommodation: float = 0.0) -> dict:
         """Radii, conics (mm) and thicknesses (mm) at ``accommodation`` (D), with the
