@@ -33,6 +33,8 @@ BENCHES = {
                "figures of merit", ()),
     "psf": ("the eye's wave-optics PSF: its cost; the frame with higher-order aberrations",
             ("repeats",)),
+    "schematic": ("a schematic eye's retinal image: raster frame cost against the thin "
+                  "eye's, raster against the reference's rays from the retina", ("repeats",)),
 }
 
 
@@ -222,6 +224,12 @@ def _bench_psf(args):
     return run_psf_bench(repeats=args.repeats)
 
 
+def _bench_schematic(args):
+    from eyelab.bench.schematic import run_schematic_bench
+
+    return run_schematic_bench(repeats=args.repeats)
+
+
 def _bench_design(args):
     from eyelab.bench.design import run_design_bench
 
@@ -240,7 +248,7 @@ _BENCH_RUNS = {"optics": _bench_optics, "blurfield": _bench_blurfield,
                "stability": _bench_stability, "memory": _bench_memory,
                "inspect": _bench_inspect, "batch": _bench_batch,
                "imagebased": _bench_imagebased, "design": _bench_design,
-               "psf": _bench_psf}
+               "psf": _bench_psf, "schematic": _bench_schematic}
 
 
 def _read_json(flag, path):

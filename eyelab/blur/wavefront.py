@@ -122,6 +122,13 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         col_status = np.zeros(ncol, np.uint8)
         d_rev = None
     timings["paths_s"] = time.perf_counter() - t
+    schem = None
+    if not hasattr(eye, "power_matrix"):       # a schematic eye: eyelab/blur/schematic.py
+        from eyelab.blur.schematic import schematic_columns
+
+        schem = schematic_columns(eye, lens, -dirs_cam if lens is None else chief.dir_out,
+                                  pupil, focus, wavelength_nm, reference_depth)
+        col_status = col_status | schem["status"]
     x_eye_cols = None
     t_mats = None
     if lens is not None:
@@ -142,7 +149,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     def run(a, b):
         _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_status,
                       t_mats, jac_rays, pupil, focus, out, matrix, status, sources, counters,
-                      wavelength_nm, accommodation)
+                      wavelength_nm, accommodation, schem)
 
     t = time.perf_counter()
     with progress_bar(ncol, f"blur field {nz}x{ny}x{nx} at {wavelength_nm:g} nm",
@@ -164,7 +171,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         "focus": ("best effort per voxel (Eq. 13)" if accommodation is None else
                   "given per voxel") if focus is None else float(focus),
         "wavelength_nm": float(wavelength_nm),
-        "eye_power_shift_d": eye.power_shift(wavelength_nm),
+        "eye_power_shift_d": eye.power_shift(wavelength_nm) if schem is None else None,
         "voxels_total": int(np.prod(shape)),
         "voxels_computed": int(ncol * len(ks)),
         "voxel_status": counts,
@@ -298,6 +305,30 @@ def _dilate1(ok):
     return out
 
 
+def _thin_eye(eye, kxx, kxy, kyy, kbar, focus, given_acc, ks, iy, ix, cols, wavelength_nm):
+    """Accommodation (Eq. 13 or the focus), the angular blur matrix (c, m, 2, 2: the
+    retinal matrix of Eq. 8 times -n2/z_r: a retinal offset h is a line of sight turned by
+    -n2 h / z_r, the nodal point at the lens) and Eq. 8's eigen-decomposition."""
+    n2, zr, rp = eye.n_vitreous, eye.retina_distance, eye.pupil_diameter / 2
+    if focus is None:
+        acc = eye.accommodation_for(kbar)                                # Eq. 13
+        if given_acc is not None:
+            g = given_acc[ks[None, :], iy[cols][:, None], ix[cols][:, None]]
+            acc = np.where(np.isnan(g), acc, g)
+    else:
+        acc = np.full_like(kbar, min(max(float(focus), 0.0), eye.accommodation_max))
+    pxx, pxy, pyy = eye.power_matrix(acc, wavelength_nm)
+    k11 = kxx / n2 + pxx / n2                                            # Eq. 7
+    k12 = kxy / n2 + pxy / n2
+    k22 = kyy / n2 + pyy / n2
+    m11 = rp * (1.0 - zr * k11)                                          # Eq. 8
+    m12 = -rp * zr * k12
+    m22 = rp * (1.0 - zr * k22)
+    scale = -n2 / zr
+    g = scale * np.stack([np.stack([m11, m12], -1), np.stack([m12, m22], -1)], -2)
+    return acc, g, sym2_eig(m11, m12, m22)
+
+
 def _jacobian_rays(lens, pupil, d_rev, x_eye, wavelength_nm):
     """Rays leaving the lens for eye-side directions perturbed by +-h along x_eye, y_eye."""
     h = JACOBIAN_STEP
@@ -321,7 +352,7 @@ def _point_at_depth(cam_pos, fwd, q, d, w):
 
 def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_status, t_mats,
                   jac_rays, pupil, focus, out, matrix, status, sources, counters,
-                  wavelength_nm, given_acc):
+                  wavelength_nm, given_acc, schem=None):
     cols = slice(a, b)
     w = depths[ks]
     cop = np.asarray(camera.position, float)
@@ -338,7 +369,6 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
         behind |= (to_pupil @ np.array([0.0, 0.0, 1.0])) <= 0
     st[behind] = VoxelStatus.BEHIND
     ok = st == 0
-    n2, zr, rp = eye.n_vitreous, eye.retina_distance, eye.pupil_diameter / 2
     if lens is None:
         dist = np.linalg.norm(src - pupil, axis=-1)
         v = -1.0 / np.where(ok, dist, 1.0)
@@ -354,21 +384,15 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
         t = t_mats[cols][:, None]
         kxx, kxy, kyy, _ = apply_isotropic(t, v)
     kbar = 0.5 * (kxx + kyy)
-    if focus is None:
-        acc = eye.accommodation_for(kbar)                                # Eq. 13
-        if given_acc is not None:
-            g = given_acc[ks[None, :], iy[cols][:, None], ix[cols][:, None]]
-            acc = np.where(np.isnan(g), acc, g)
+    if schem is not None:                  # the schematic eye's own optics
+        from eyelab.blur.schematic import schematic_blur
+
+        sb = schematic_blur(schem, cols, kxx, kxy, kyy)
+        g, l2, l1, omega, major = sb["g"], sb["a"], sb["b"], sb["omega"], sb["major"]
+        acc = np.full_like(kbar, schem["accommodation"])
     else:
-        acc = np.full_like(kbar, min(max(float(focus), 0.0), eye.accommodation_max))
-    pxx, pxy, pyy = eye.power_matrix(acc, wavelength_nm)
-    k11 = kxx / n2 + pxx / n2                                            # Eq. 7
-    k12 = kxy / n2 + pxy / n2
-    k22 = kyy / n2 + pyy / n2
-    m11 = rp * (1.0 - zr * k11)                                          # Eq. 8
-    m12 = -rp * zr * k12
-    m22 = rp * (1.0 - zr * k22)
-    l1, l2, cs, sn = sym2_eig(m11, m12, m22)
+        acc, g, (l1, l2, cs, sn) = _thin_eye(eye, kxx, kxy, kyy, kbar, focus, given_acc, ks,
+                                             iy, ix, cols, wavelength_nm)
     # retina -> NDC (Eq. 9): NDC of the scene point seen along a ray turned by theta at the
     # eye; a retinal offset h corresponds to theta = -n2 h / z_r (nodal point at the lens)
     jac = np.empty((c, m, 2, 2))
@@ -386,14 +410,10 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
                 p, _ = _point_at_depth(cop, fwd, qq[cols], dd[cols], w)
             ndc_pm.append(camera.world_to_ndc(p.reshape(-1, 3))[:, :2].reshape(c, m, 2))
         jac[..., :, col_k] = (ndc_pm[0] - ndc_pm[1]) / (2 * h)
-    scale = -n2 / zr
-    bm = np.empty((c, m, 2, 2))
-    bm[..., 0, 0] = scale * (jac[..., 0, 0] * m11 + jac[..., 0, 1] * m12)
-    bm[..., 0, 1] = scale * (jac[..., 0, 0] * m12 + jac[..., 0, 1] * m22)
-    bm[..., 1, 0] = scale * (jac[..., 1, 0] * m11 + jac[..., 1, 1] * m12)
-    bm[..., 1, 1] = scale * (jac[..., 1, 0] * m12 + jac[..., 1, 1] * m22)
+    bm = np.einsum("cmij,cmjk->cmik", jac, g)
     bm[~ok] = 0.0
-    if lens is None and eye.astigmatism == 0.0 and focus is None and given_acc is None \
+    if schem is None and lens is None and eye.astigmatism == 0.0 and focus is None \
+            and given_acc is None \
             and eye.power_shift(wavelength_nm) == 0.0:
         # a spherical naked eye focuses every source inside its accommodation range exactly:
         # mark those voxels zero instead of keeping ~1e-16 round-off
@@ -403,8 +423,10 @@ def _column_block(a, b, eye, lens, camera, depths, ks, iy, ix, q, d_out, col_sta
         l1 = np.where(in_range, 0.0, l1)
         l2 = np.where(in_range, 0.0, l2)
         counters["in_focus_skipped"] += int(in_range.sum())
-    major = np.maximum(np.abs(l1), np.abs(l2)) * n2 / zr * RAD_TO_ARCMIN
-    omega = np.mod(np.arctan2(cs, -sn), math.pi)
+    if schem is None:
+        major = np.maximum(np.abs(l1), np.abs(l2)) * eye.n_vitreous / eye.retina_distance \
+            * RAD_TO_ARCMIN
+        omega = np.mod(np.arctan2(cs, -sn), math.pi)
     jj, ii = iy[cols], ix[cols]
     for arr, val in ((out["a"], l2), (out["b"], l1), (out["omega"], omega),
                      (out["major"], major), (out["acc"], acc)):

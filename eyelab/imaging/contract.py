@@ -301,9 +301,21 @@ class Renderer(abc.ABC):
 
     def _render_schematic(self, scene, eye, lens, view: View, quality, progressive: bool
                           ) -> RenderResult:
-        """The retinal image of a schematic eye fixating along the view's line of sight;
-        for the renderers registered as seeing schematic eyes."""
-        raise NotImplementedError(f"{type(self).__name__} renders thin eyes only")
+        """The retinal image of a schematic eye fixating along the view's line of sight
+        with one accommodation (the view's ``focus_d``, else the fixation's:
+        :func:`~eyelab.imaging.retinal.view_accommodation`); renderers registered as seeing
+        schematic eyes draw it with their eye-side machinery, whose blur fields take the
+        schematic eye's optics (:mod:`eyelab.blur.schematic`) and whose camera is
+        :func:`eye_view_camera`."""
+        from eyelab.imaging.retinal import view_accommodation
+
+        acc = view_accommodation(scene, eye, lens, view)
+        result = self._render(scene, eye, lens, view.replace(focus_d=acc), quality,
+                              progressive)
+        result.report["details"]["schematic_eye"] = {
+            "model": eye.model, "accommodation_d": acc,
+            "fixation": "fixed (the view's line of sight)"}
+        return result
 
     def _render_camera(self, scene, camera, view: View, quality, progressive: bool
                        ) -> RenderResult:
@@ -339,6 +351,18 @@ class Renderer(abc.ABC):
 
     def __exit__(self, *exc):
         self.close()
+
+
+def eye_view_camera(view: View, eye) -> Camera:
+    """The camera an eye sees the view with: the thin eye's from its pupil at the corneal
+    vertex (:meth:`View.camera`); a schematic eye's from the centre of its entrance pupil,
+    where its lines of sight cross (the same gaze and field)."""
+    cam = view.camera(eye.rotation_centre)
+    if isinstance(eye, Eye):
+        return cam
+    z_ep, _ = eye.entrance_pupil(0.0)
+    pos = np.asarray(cam.position, float) - z_ep * np.asarray(cam.forward, float)
+    return dataclasses.replace(cam, position=tuple(float(v) for v in pos))
 
 
 def channel_wavelengths(eye, lens, chromatic: bool, report=None) -> tuple:

@@ -35,7 +35,8 @@ class RendererEntry:
 
 
 REGISTRY = {e.name: e for e in (
-    RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False),
+    RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False,
+                  sees_schematic_eyes=True),
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
                   True, sees_schematic_eyes=True),
     RendererEntry("imagebased", ImageBasedQuality,

@@ -27,7 +27,7 @@ import numpy as np
 from eyelab.core.parallel import map_row_chunks
 from eyelab.core.sampling import disc_seeds, pixel_jitter
 from eyelab.imaging.contract import channel_wavelengths, finish, new_report
-from eyelab.optics.chain.retina import fixation_accommodation
+from eyelab.imaging.retinal import view_accommodation
 from eyelab.optics.chain.retinal_rays import (
     camera_frame,
     rays_from_retina,
@@ -37,24 +37,6 @@ from eyelab.optics.chain.retinal_rays import (
 from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 from eyelab.optics.rays.trace import FATAL
 from eyelab.scene.raycast import EmbreeIntersector, scene_warnings
-
-
-def view_accommodation(eye, lens, view, inter, rot, vertex) -> float:
-    """The eye's accommodation for a view: ``view.focus_d`` (clipped to the eye's range) or
-    the fixation's (the scene point on its axis; at infinity where the axis hits nothing)."""
-    if view.focus_d is not None:
-        return float(min(max(view.focus_d, 0.0), eye.accommodation_max))
-    axis = rot[:, 2]
-    o, d = vertex[None], -axis[None]
-    if lens is not None:
-        r = lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
-        if (r["status"][0] & np.uint8(FATAL)) == 0:
-            o, d = r["out_points"], r["out_dirs"]
-    hit = inter.intersect(o + 1e-7 * d, d)
-    t = float(hit.t[0])
-    dist = float(np.linalg.norm(o[0] + t * d[0])) if math.isfinite(t) else math.inf
-    return float(fixation_accommodation(eye, lens, dist, EYE_REFERENCE_NM, rot=rot,
-                                        vertex=vertex)[0])
 
 
 def render_retinal(name, scene, eye, lens, view, q):
@@ -67,7 +49,7 @@ def render_retinal(name, scene, eye, lens, view, q):
     rot, vertex = camera_frame(cam)
     inter = EmbreeIntersector(scene)
     report["warnings"] = scene_warnings(scene, cam, inter)
-    acc = view_accommodation(eye, lens, view, inter, rot, vertex)
+    acc = view_accommodation(scene, eye, lens, view, inter)
     wls = channel_wavelengths(eye, lens, q.chromatic, report)
     w, h = view.width, view.height
     # retinal points at the pixel corners (the reference wavelength's chief rays)
@@ -142,10 +124,10 @@ def render_retinal(name, scene, eye, lens, view, q):
     report["samples"].update(target=k, done={"pixel": k})
     report["timings_s"]["trace"] = dt
     report["details"].update(channels_traced=len(wls), rays=rays, rays_per_s=rays / dt,
-                             model=eye.model, fixation="fixed (the view's line of sight)",
-                             accommodation_d=acc,
                              lines_of_sight_off_retina=int((st_corner & np.uint8(FATAL)
                                                             ).astype(bool).sum()))
+    report["details"]["schematic_eye"] = {"model": eye.model, "accommodation_d": acc,
+                                          "fixation": "fixed (the view's line of sight)"}
     return finish(report, view, linear=out.reshape(h, w, 3), t_start=t0)
 
 

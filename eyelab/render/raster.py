@@ -48,6 +48,7 @@ from eyelab.imaging.contract import (
     RenderResult,
     View,
     channel_wavelengths,
+    eye_view_camera,
     finish,
     new_report,
 )
@@ -209,7 +210,7 @@ class RasterRenderer(Renderer):
         report["details"].setdefault("fields", {})
         report["details"].setdefault("refinement", [])
         timings = report["timings_s"]
-        cam = view.camera(eye.rotation_centre)
+        cam = eye_view_camera(view, eye)
         report["warnings"], _ = self._cached(
             "small", content_key(warnings=scene.content_key, camera=cam),
             lambda: scene_warnings(scene, cam), report, "scene_warnings")

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from eyelab.core.vecmath import any_tangent, cross, dot
-from eyelab.optics.chain.retina import aim_at_stop
+from eyelab.optics.chain.retina import _eye_part, aim_at_stop
 from eyelab.optics.eye.schematic import SchematicEye
 from eyelab.optics.rays.trace import Status, intersect, refract
 
@@ -123,3 +123,33 @@ def _to_stop(placed, n, rot, stop, retina, v0, e1, e2, ab):
     s = dot(stop - o, normal) / dot(d, normal)
     q = o + s[:, None] * d - stop
     return np.stack([q @ rot[:, 0], q @ rot[:, 1]], -1), (o, d, st)
+
+
+def needed_wave(eye: SchematicEye, rot, vertex, dirs, x_axis, accommodation: float,
+                wavelength_nm: float):
+    """The wave (kxx, kxy, kyy; 1/m = D in air) each line of sight entering the eye along
+    ``dirs`` (n, 3) needs to be focused on the retina, where its chief ray (aimed at the
+    stop's centre) crosses the entrance pupil's plane, in the basis (x, N x x) with x =
+    ``x_axis`` (n, 3) across each ray: the far point's wave (:func:`~eyelab.optics.chain.
+    retina.trace_lines`' refraction with nothing arriving). Also the status (n,)."""
+    from eyelab.optics.rays.wavefront import Wavefront
+
+    dirs = np.atleast_2d(np.asarray(dirs, float))
+    points, st = aim_at_stop(eye, rot, vertex, dirs, accommodation, wavelength_nm)
+    # the chain takes the wave where the ray crosses the corneal vertex plane
+    normal = np.broadcast_to(rot[:, 2], dirs.shape)
+    back = dot(points - vertex, normal) / dot(dirs, normal)
+    ref = points - back[:, None] * dirs
+    flat = Wavefront.spherical(dirs, np.inf)              # nothing arriving: E = need
+    got = _eye_part(eye, rot, vertex, accommodation, wavelength_nm, ref, dirs, flat)
+    euu, euv, evv = got["err"].T
+    # from the basis (u, N x u) (u: the eye's x across the ray) to (x, N x x)
+    u = rot[:, 0] - dot(np.broadcast_to(rot[:, 0], dirs.shape), dirs)[:, None] * dirs
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    c, s = dot(x_axis, u), dot(x_axis, cross(dirs, u))
+    kxx = c * c * euu + 2 * c * s * euv + s * s * evv
+    kyy = s * s * euu - 2 * c * s * euv + c * c * evv
+    kxy = c * s * (evv - euu) + (c * c - s * s) * euv
+    need = Wavefront(dirs.copy(), np.array(x_axis, float), kxx, kxy, kyy,
+                     np.zeros(len(dirs), np.uint8)).transfer(back)   # on to the pupil's plane
+    return (need.k11, need.k12, need.k22), st | got["status"] | need.status
