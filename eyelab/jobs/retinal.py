@@ -16,6 +16,7 @@ import numpy as np
 
 from eyelab.jobs.points import no_path_reason, object_row
 from eyelab.optics.chain.retina import RetinalTrace, trace_field, trace_objects
+from eyelab.optics.chain.retinal_wave import retinal_waves
 from eyelab.optics.rays.trace import Status
 
 #: The quantities of a line of sight, by report key: what each means (units by suffix).
@@ -31,14 +32,25 @@ DEFINITIONS = {
                               "chief ray, behind the retina (negative: in front of it)",
     "retina_mm": "where the chief ray lands on the retina, in the eye's frame (the corneal "
                  "vertex at the origin, z toward the retina)",
+    "rms_um, rms_higher_um": "the wave aberration's RMS over the pupil (the stop), all of "
+                             "it and with defocus, astigmatism and tilts removed: the wave "
+                             "a point source at the retinal point sends out through eye and "
+                             "lens, against the object's (ANSI Z80.28 sign)",
+    "strehl": "the point-spread function's peak over the aberration-free peak of the same "
+              "pupil, at the wavelength (wherever the peak lies)",
     "object_field_deg": "the object's field angles as seen from the eye's corneal vertex "
                         "(through a lens the line of sight is bent: this is where it points)",
 }
 
 
-def _row(r: RetinalTrace, i: int) -> dict:
+def _row(r: RetinalTrace, i: int, wave=None) -> dict:
+    """Line of sight ``i``'s report row; with its :class:`~eyelab.optics.chain.retinal_wave.
+    RetinalWave`, the wave's measures too."""
     obj = r.object_points
     d = obj.direction[i]
+    measures = {} if wave is None else {
+        "rms_um": wave.rms * 1e6, "rms_higher_um": wave.rms_higher * 1e6,
+        "strehl": wave.strehl}
     return {
         "object_field_deg": [math.degrees(math.atan2(d[0], -d[2])),
                              math.degrees(math.atan2(d[1], -d[2]))],
@@ -51,7 +63,7 @@ def _row(r: RetinalTrace, i: int) -> dict:
         "focus_behind_retina_mm": [float(v) * 1e3 for v in r.focus[i]],
         "image_vergence_d": [float(v) for v in r.image_vergence[i]],
         "retina_mm": [float(v) * 1e3 for v in r.retina[i]],
-    }
+    } | measures
 
 
 def schematic_report(spec, *, no_lens: bool = False) -> dict:
@@ -63,6 +75,8 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
     lens = None if no_lens else spec.lens
     r = trace_objects(eye, lens, spec.points, fixation=spec.fixation,
                       accommodation=spec.accommodation, wavelength_nm=spec.wavelength_nm)
+    waves = retinal_waves(eye, lens, r, fixation=spec.fixation,
+                          wavelength_nm=spec.wavelength_nm)
     points = []
     for i in range(len(spec.points)):
         st = int(r.status[i])
@@ -70,7 +84,7 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
         if not r.ok[i]:
             entry["reason"] = no_path_reason(st)
         else:
-            entry.update(_row(r, i))
+            entry.update(_row(r, i, waves[i]))
         points.append(entry)
     return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
             "lens": None if lens is None else {"rx": None if lens.rx is None
@@ -116,6 +130,8 @@ def format_schematic(rep: dict) -> str:
                      f"{p['sagittal_d']:+.3f} D; focal lines "
                      "{:+.3f} / {:+.3f} mm behind the retina".format(
                          *p["focus_behind_retina_mm"]))
+        lines.append(f"  wave RMS {p['rms_um']:.3f} um ({p['rms_higher_um']:.3f} um above "
+                     f"second order), Strehl ratio {p['strehl']:.3f}")
     return "\n".join(lines)
 
 

@@ -53,6 +53,7 @@ class RetinalTrace:
         behind the retina (m; negative: in front of it, a myopic line)
     entry, entry_dir : (n, 3) where the chief ray meets the lens's front surface (the
         corneal vertex plane without a lens) and its direction there (world)
+    eye_dir : (n, 3) the chief ray's direction in the air before the eye (world, into it)
     status : (n,) uint8 (:class:`~eyelab.optics.rays.trace.Status`)
     """
 
@@ -72,6 +73,7 @@ class RetinalTrace:
     focus: np.ndarray
     entry: np.ndarray
     entry_dir: np.ndarray
+    eye_dir: np.ndarray
     status: np.ndarray
 
     @property
@@ -364,7 +366,7 @@ def _result(rot, dirs, objects, acc, part, status, entry, entry_dir) -> RetinalT
         refraction=nan(err), m=nan(0.5 * (euu + evv)), j0=nan(0.5 * (euu - evv)),
         j45=nan(euv), tangential=nan(tan), sagittal=nan(sag),
         image_vergence=nan(part["image"]), focus=nan(part["focus"]), entry=entry,
-        entry_dir=entry_dir, status=status)
+        entry_dir=entry_dir, eye_dir=np.array(dirs, float), status=status)
 
 
 def trace_objects(eye: SchematicEye, lens, objects: ObjectPoints, *, fixation: str = "fixed",

@@ -40,12 +40,19 @@ def camera_frame(camera) -> tuple:
 def _trace(placed, n, pairs, o, d):
     """Rays through ``placed[i]`` for each (i, n_before, n_after) of ``pairs`` in order:
     (points, directions, status)."""
+    return _trace_path(placed, n, pairs, o, d)[:3]
+
+
+def _trace_path(placed, n, pairs, o, d):
+    """:func:`_trace` and the optical path (n,) from ``o`` to the last surface (m)."""
     st = np.zeros(len(o), np.uint8)
+    path = np.zeros(len(o))
     for i, n1, n2 in pairs:
         h = intersect(placed[i], o, d)
+        path = path + n[n1] * np.linalg.norm(h.points - o, axis=1)
         d, _, _, _, s = refract(d, h.normals, n[n1] / n[n2])
         o, st = h.points, st | h.status | s
-    return o, d, st
+    return o, d, st, path
 
 
 def retina_points(eye: SchematicEye, rot, vertex, dirs, accommodation: float,
@@ -63,7 +70,7 @@ def retina_points(eye: SchematicEye, rot, vertex, dirs, accommodation: float,
 
 
 def rays_from_retina(eye: SchematicEye, rot, vertex, retina, v0, targets, jac_rows,
-                     accommodation: float, wavelength_nm: float):
+                     accommodation: float, wavelength_nm: float, *, path: bool = False):
     """Rays from retinal points out of the eye through given points of the stop.
 
     retina : (m, 3) world points on the retina; v0 : (m, 3) unit directions into the eye
@@ -71,7 +78,8 @@ def rays_from_retina(eye: SchematicEye, rot, vertex, retina, v0, targets, jac_ro
     x, y from the stop's centre); jac_rows : (m,) the row of :func:`stop_jacobians`' result
     each ray takes its Jacobian from (its pixel's), with that result as ``jac_rows[1]``.
 
-    Returns (origins (m, 3) on the cornea's front, directions (m, 3) scene-ward, ok (m,)).
+    Returns (origins (m, 3) on the cornea's front, directions (m, 3) scene-ward, ok (m,));
+    with ``path``, also the optical path (m,) from the retina to the cornea's front (m).
     """
     rows, jac = jac_rows
     placed, n, _ = eye.placed(rot, vertex, accommodation, wavelength_nm)
@@ -86,11 +94,11 @@ def rays_from_retina(eye: SchematicEye, rot, vertex, retina, v0, targets, jac_ro
         ab = ab - np.einsum("mij,mj->mi", inv, r)
         if np.all(np.abs(r) < RETINA_TOL):
             break
-    got, (o, d, st) = _to_stop(placed, n, rot, stop, retina, v0, e1, e2, ab)
+    got, (o, d, st, inner) = _to_stop(placed, n, rot, stop, retina, v0, e1, e2, ab)
     ok = np.all(np.abs(got - targets) < 1e3 * RETINA_TOL, axis=1)
-    o, d, s2 = _trace(placed, n, ((1, 2, 1), (0, 1, 0)), o, d)
+    o, d, s2, outer = _trace_path(placed, n, ((1, 2, 1), (0, 1, 0)), o, d)
     ok &= ((st | s2) & np.uint8(Status.MISSED | Status.TIR)) == 0
-    return o, d, ok
+    return (o, d, ok, inner + outer) if path else (o, d, ok)
 
 
 def stop_jacobians(eye: SchematicEye, rot, vertex, retina, v0, accommodation: float,
@@ -115,14 +123,15 @@ def stop_jacobians(eye: SchematicEye, rot, vertex, retina, v0, accommodation: fl
 def _to_stop(placed, n, rot, stop, retina, v0, e1, e2, ab):
     """The stop-plane crossing (m, 2; eye x, y from the stop's centre) of reverse rays from
     the retina with directions -(v0 + a e1 + b e2), and (points, directions, status) of
-    each ray at the crystalline lens's front surface, travelling out."""
+    each ray at the crystalline lens's front surface, travelling out, and its optical path
+    from the retina)."""
     v = v0 + ab[:, :1] * e1 + ab[:, 1:] * e2
     v /= np.linalg.norm(v, axis=1, keepdims=True)
-    o, d, st = _trace(placed, n, ((3, 4, 3), (2, 3, 2)), retina, -v)
+    o, d, st, path = _trace_path(placed, n, ((3, 4, 3), (2, 3, 2)), retina, -v)
     normal = np.broadcast_to(rot[:, 2], d.shape)
     s = dot(stop - o, normal) / dot(d, normal)
     q = o + s[:, None] * d - stop
-    return np.stack([q @ rot[:, 0], q @ rot[:, 1]], -1), (o, d, st)
+    return np.stack([q @ rot[:, 0], q @ rot[:, 1]], -1), (o, d, st, path)
 
 
 def needed_wave(eye: SchematicEye, rot, vertex, dirs, x_axis, accommodation: float,
