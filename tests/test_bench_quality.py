@@ -1,4 +1,6 @@
-"""The quick quality and stability benchmarks, as CI runs them."""
+"""The quick quality and stability benchmarks. The stability bench runs in the default
+suite; the quality bench (four minutes on two cores: it renders every quick case at
+every sample count with both renderers) is marked slow."""
 
 import pytest
 
@@ -11,6 +13,7 @@ def quality():
     return run_quality_bench(quick=True)
 
 
+@pytest.mark.slow
 def test_quick_quality_raster_beats_reference_at_equal_time(quality):
     """At the interactive setting S = 8 the raster image is closer to the converged reference
     than the reference renderer gets in the same wall time, on every quick case (measured
@@ -20,6 +23,7 @@ def test_quick_quality_raster_beats_reference_at_equal_time(quality):
     assert quality["checks"]["raster_wins_at_equal_time_S8"]
 
 
+@pytest.mark.slow
 def test_quick_quality_raster_ssim_at_32_passes(quality):
     """At S = 32 the raster image reaches SSIM >= 0.95 against the converged reference on
     every standard scene (measured 0.971-0.998 at 160x120, linear light)."""
@@ -28,6 +32,7 @@ def test_quick_quality_raster_ssim_at_32_passes(quality):
     assert min(s32) >= 0.95
 
 
+@pytest.mark.slow
 def test_quick_quality_default_has_no_ghosting(quality):
     """At the default quality (S = 8, the reconstruction filter on) every quick case reaches
     SSIM >= 0.97 against the converged reference (measured 0.980-0.995), and the filter is
@@ -39,6 +44,7 @@ def test_quick_quality_default_has_no_ghosting(quality):
         "raster_ssim_at_default_min"] - 0.03
 
 
+@pytest.mark.slow
 def test_quick_quality_reference_converges_with_samples(quality):
     for c in quality["cases"]:
         e = [m["rmse"] for m in c["reference"]]
@@ -54,6 +60,7 @@ def test_quick_stability_all_clear():
     assert res["rederived"]["vergence_checked"] > 100 and res["rederived"]["missed_checked"] > 10
 
 
+@pytest.mark.slow
 def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):
     """Full-size runs are done one configuration at a time and merged: the merge of the
     halves reproduces the whole run's checks; mismatched ladders are refused by name."""
@@ -70,6 +77,7 @@ def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):
         merge_results([halves[0], dict(halves[1], reference_spp=[1])])
 
 
+@pytest.mark.slow
 def test_quick_quality_has_image_based_rows_and_a_camera_case(quality):
     """Heidrich's renderer beside the others on every case, and on the camera-lens case
     against the camera's own converged reference (README: 0.942 at 16 samples)."""
