@@ -185,6 +185,9 @@ def _side_cases() -> list:
 
 PAL = {"rx": "-1.00 DS add +2.00", "design": "progressive"}
 CAMERA = {"renderer": "reference", "camera": "doublet"}
+#: A DIMS-like honeycomb (eyelab.spec.lenslets); a case's None drops a key.
+LENSLETS = {"layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03, "pitch_mm": 1.43,
+            "clear_zone_mm": 9.4, "zone_mm": 33.0}
 #: Two eyes, progressive lenses and cameras: the rules between keys and tables.
 STRUCTURE = {
     # two eyes
@@ -250,6 +253,44 @@ STRUCTURE = {
         "render.camera_f_number"),
     "a camera focused inside its first vertex": (
         {"render": {**CAMERA, "camera_focus_m": 0.05}}, "render.camera_focus_m"),
+    # lenslet arrays: layouts that overlap, leave the lens, hold nothing, or mix keys
+    **{f"lenslets: {name}": ({"lens": {"rx": "-3.00", "lenslets": {
+        key: v for key, v in {**LENSLETS, **t}.items() if v is not None}}},
+        f"lens.lenslets.{k}")
+       for name, t, k in (
+           ("a pitch below the diameter", {"pitch_mm": 1.0}, "pitch_mm"),
+           ("a zero pitch", {"pitch_mm": 0}, "pitch_mm"),
+           ("a zone beyond the lens", {"zone_mm": 70}, "zone_mm"),
+           ("a clear zone wider than the zone", {"clear_zone_mm": 34}, "clear_zone_mm"),
+           ("an annulus too narrow for a lenslet", {"clear_zone_mm": 32.5}, "zone_mm"),
+           ("no add", {"add_d": 0}, "add_d"),
+           ("rings keys in a honeycomb", {"per_ring": [3]}, "per_ring"),
+           ("rings overlapping", {"layout": "rings", "pitch_mm": None, "clear_zone_mm": None,
+                                  "zone_mm": None, "ring_diameters_mm": [10.0, 11.0]},
+            "ring_diameters_mm"),
+           ("too many on a ring", {"layout": "rings", "pitch_mm": None, "clear_zone_mm": None,
+                                   "zone_mm": None, "ring_diameters_mm": [10.0],
+                                   "per_ring": [40]}, "per_ring"),
+           ("counts for other rings", {"layout": "rings", "pitch_mm": None,
+                                       "clear_zone_mm": None, "zone_mm": None,
+                                       "ring_diameters_mm": [10.0], "per_ring": [3, 4]},
+            "per_ring"),
+           ("a ring off the lens", {"layout": "rings", "pitch_mm": None, "clear_zone_mm": None,
+                                    "zone_mm": None, "ring_diameters_mm": [60.0]},
+            "ring_diameters_mm"),
+           ("centres overlapping", {"layout": "list", "pitch_mm": None, "clear_zone_mm": None,
+                                    "zone_mm": None, "centres_mm": [[5, 0], [5.5, 0]]},
+            "centres_mm"),
+           ("a centre off the lens", {"layout": "list", "pitch_mm": None,
+                                      "clear_zone_mm": None, "zone_mm": None,
+                                      "centres_mm": [[29.8, 0]]}, "centres_mm"),
+           ("a centre that is not a pair", {"layout": "list", "pitch_mm": None,
+                                            "clear_zone_mm": None, "zone_mm": None,
+                                            "centres_mm": [[5, 0, 1]]}, "centres_mm"),
+           ("no centres", {"layout": "list", "pitch_mm": None, "clear_zone_mm": None,
+                           "zone_mm": None, "centres_mm": []}, "centres_mm"),
+           ("no layout", {"layout": None}, "layout"),
+           ("a layout misspelt", {"layout": "hexagonal"}, "layout"))},
 }
 
 

@@ -19,14 +19,16 @@ from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQu
 @dataclass(frozen=True)
 class RendererEntry:
     """One renderer: ``name`` (``render.renderer``), its options class ``quality``, its
-    implementation ``"module:Class"``, whether it renders camera lens systems and whether
-    it renders a schematic eye's retinal image."""
+    implementation ``"module:Class"``, whether it renders camera lens systems, whether it
+    renders a schematic eye's retinal image and whether it renders the simultaneous images
+    of a lenslet lens (:mod:`eyelab.optics.lens.lenslets`)."""
 
     name: str
     quality: type
     implementation: str
     sees_cameras: bool
     sees_schematic_eyes: bool = False
+    sees_lenslets: bool = False
 
     def load(self) -> type:
         """The renderer class (imports its module)."""
@@ -38,7 +40,7 @@ REGISTRY = {e.name: e for e in (
     RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False,
                   sees_schematic_eyes=True),
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
-                  True, sees_schematic_eyes=True),
+                  True, sees_schematic_eyes=True, sees_lenslets=True),
     RendererEntry("imagebased", ImageBasedQuality,
                   "eyelab.render.imagebased:ImageBasedRenderer", True),
 )}
@@ -50,6 +52,8 @@ QUALITIES = {name: e.quality for name, e in REGISTRY.items()}
 CAMERA_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_cameras)
 #: Renderers that render a schematic eye's retinal image at fixation.
 SCHEMATIC_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_schematic_eyes)
+#: Renderers that render a lenslet lens's simultaneous images.
+LENSLET_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_lenslets)
 
 
 def quality_keys(renderer: str) -> tuple:

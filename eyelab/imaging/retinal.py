@@ -31,6 +31,9 @@ def view_accommodation(scene, eye, lens, view, inter=None) -> float:
 
 
 def _fixation(scene, eye, lens, view, inter) -> float:
+    from eyelab.optics.lens.lenslets import carrier
+
+    lens = carrier(lens)            # a lenslet lens: the eye focuses its carrier's image
     if inter is None:
         from eyelab.scene.raycast import EmbreeIntersector
 

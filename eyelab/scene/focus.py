@@ -26,8 +26,12 @@ def pixel_accommodation(d, scene, inter, eye, lens, view, cam, model: str = "thi
     centre): the view's fixed focus, or for the first scene point along the chief ray
     (through the lens where it passes it; embree) the accommodation by ``rule`` — Eq. 13 on
     the wave of that point carried along the chief ray (the blur field's rule), Fons et
-    al.'s for ``model`` "fons", or the real-ray RMS rule ("rms"). Returns (acc (m,), the
-    RMS rule's differences from Eq. 13 where it was used (k,))."""
+    al.'s for ``model`` "fons", or the real-ray RMS rule ("rms"). Through a lenslet lens
+    the eye focuses the carrier's image. Returns (acc (m,), the RMS rule's differences from
+    Eq. 13 where it was used (k,))."""
+    from eyelab.optics.lens.lenslets import carrier
+
+    lens = carrier(lens)            # a lenslet lens: the eye focuses its carrier's image
     m = len(d)
     pupil = np.asarray(cam.position, float)
     if view.focus_d is not None:

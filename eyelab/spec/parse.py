@@ -48,7 +48,7 @@ EYE_KEYS = {"rx", "kind", "age", "amplitude_model", "accommodation_max_d", "pupi
 LENS_KEYS = {"rx", "material", "base_curve_d", "center_thickness_mm", "diameter_mm",
              "vertex_distance_mm", "pantoscopic_tilt_deg", "wrap_deg", "decentration_mm",
              "front", "back", "torus", "coating", "design", "corridor_mm", "inset_mm",
-             "softness_mm", "optimise"}
+             "softness_mm", "optimise", "lenslets"}
 #: Keys only a progressive design takes.
 PROGRESSIVE_KEYS = ("corridor_mm", "inset_mm", "softness_mm", "optimise")
 SURFACE_KEYS = {k for keys in SURFACE_TYPE_KEYS.values() for k in keys}
@@ -196,7 +196,15 @@ def _points(t, where, diameter, side=None):
 def parse_lens(t: dict, eye_rx=None, side: str | None = None) -> SpectacleLens:
     """The [lens] table -> :class:`SpectacleLens` (``eye_rx``: the eye's Rx, the lens's
     when it has none; ``side``: "R"/"L", the eye a progressive design is made for when the
-    Rx does not say)."""
+    Rx does not say), with its ``[lens.lenslets]`` on the front."""
+    lens = _lens(t, eye_rx, side)
+    if "lenslets" in t:
+        from eyelab.spec.lenslets import parse_lenslets
+        lens = parse_lenslets(t["lenslets"], lens)
+    return lens
+
+
+def _lens(t: dict, eye_rx, side) -> SpectacleLens:
     check_keys(t, LENS_KEYS, "lens")
     pose = _lens_pose(t)
     material = _material(t.get("material", "cr39"))

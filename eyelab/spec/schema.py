@@ -1,13 +1,11 @@
 """The spec's schema: every table and key with its type, unit, range, default, choices and
-meaning, in one list (:data:`KEYS`).
-
-A range is declared once. Where the engine checks a value itself — the eye, the lens, a
-progressive design (``LIMITS`` of :mod:`eyelab.optics.eye.thin`, ``.lens``, ``.progressive``),
-the view and each renderer's options (``LIMITS`` of :class:`~eyelab.imaging.contract.View`
-and of the quality classes, whose defaults too) — the schema takes the range from there
-(``eye.rx``'s powers derived by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows
-are :data:`SPEC_LIMITS`.
-The parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the spec reference's
+meaning, in one list (:data:`KEYS`). A range is declared once. Where the engine checks a
+value itself — the eye, the lens, a progressive design (``LIMITS`` of
+:mod:`eyelab.optics.eye.thin`, ``.lens``, ``.progressive``), the view and each renderer's
+options (``LIMITS`` of :class:`~eyelab.imaging.contract.View` and of the quality classes,
+whose defaults too) — the schema takes the range from there (``eye.rx``'s powers derived
+by :mod:`eyelab.spec.eyerx`); the ranges only the spec knows are :data:`SPEC_LIMITS`. The
+parsers (:mod:`eyelab.spec.parse`, ...) check against :data:`LIMITS`, the spec reference's
 tables are generated from :data:`KEYS` (:mod:`eyelab.spec.docs`), and so is the bad-spec
 corpus (``tests/badspecs.py``); ``tests/test_specdoc.py`` checks that every key is
 accepted at both ends of its range and refused just beyond, naming itself.
@@ -47,6 +45,7 @@ from eyelab.scene.library import SCENE_NAMES
 from eyelab.spec.aberrationkeys import ABERRATION_KEYS, ABERRATION_LIMITS, ABERRATION_TABLE
 from eyelab.spec.eyerx import eye_rx_text
 from eyelab.spec.framekeys import FIT_LIMITS, FRAME_TABLE, frame_keys
+from eyelab.spec.lensletkeys import LENSLET_KEYS, LENSLET_LIMITS, LENSLET_TABLE
 from eyelab.spec.scenekeys import SCENE_LIMITS, SCENE_TABLE, scene_keys
 from eyelab.spec.surfacefile import POINTS_BASE, POINTS_KEYS, POINTS_LIMITS, TYPE_BASE
 from eyelab.spec.valuetext import number_text, option_default
@@ -112,7 +111,8 @@ EXCLUSIVE_WITH = {"eye": {"key": "rx", "others": ("power_min_d", "astigmatism_d"
                                                   "astigmatism_axis_deg")}}
 #: Every field's range but the renderers' own options (:func:`range_of` has those).
 LIMITS = {**EYE_LIMITS, **SCHEMATIC_LIMITS, **LENS_LIMITS, **DESIGN_LIMITS, **FIT_LIMITS,
-          **View.LIMITS, **POINTS_LIMITS, **ABERRATION_LIMITS, **SCENE_LIMITS, **SPEC_LIMITS}
+          **LENSLET_LIMITS, **View.LIMITS, **POINTS_LIMITS, **ABERRATION_LIMITS,
+          **SCENE_LIMITS, **SPEC_LIMITS}
 
 
 def declared(field_name: str) -> str:
@@ -484,13 +484,13 @@ KEYS = [
             base={"render": {"renderer": r, "camera": "doublet"}}))),
     # ---------------------------------------------------------- [render.scene]
     *scene_keys(Key),
-] + [Key(*a, **kw) for a, kw in POINTS_KEYS + ABERRATION_KEYS]  # points; eye.aberrations
+] + [Key(*a, **kw) for a, kw in POINTS_KEYS + ABERRATION_KEYS + LENSLET_KEYS]
 
 #: Headings of the generated tables, in order.
 TABLES = {"eye": "`[eye]`", "eye.aberrations": ABERRATION_TABLE,
           "lens": "`[lens]` (omit for the naked eye)",
           "lens.front": "`[lens.front]`, `[lens.back]` (surfaces; the toric keys below "
-          "apply to either)", "lens.back": None,
+          "apply to either)", "lens.back": None, "lens.lenslets": LENSLET_TABLE,
           "analysis": "`[analysis]`",
           "binocular": "`[binocular]` (two eyes; with it, or alone, `[eye.right]`, "
           "`[eye.left]`, `[lens.right]` and `[lens.left]` hold any key of their table for "

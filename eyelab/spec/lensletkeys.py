@@ -1,0 +1,70 @@
+"""``[lens.lenslets]``'s rows of the spec's reference (:data:`eyelab.spec.schema.KEYS`),
+apart from its parser (:mod:`eyelab.spec.lenslets`, which reads the schema): a lenslet
+array on the lens's front surface (the myopia-control designs,
+:mod:`eyelab.optics.lens.lenslets`).
+
+``layout`` = ``"honeycomb"`` (``pitch_mm``, within ``clear_zone_mm`` to ``zone_mm``),
+``"rings"`` (``ring_diameters_mm``, ``per_ring`` counts or as many as fit contiguously) or
+``"list"`` (``centres_mm``); ``diameter_mm`` and ``add_d`` (each lenslet's add as worn,
+designed); ``conic`` of the lenslets' added sag. A layout whose lenslets overlap, reach
+beyond the lens, or hold none is refused naming the key that places them.
+"""
+
+from __future__ import annotations
+
+from eyelab.optics.lens.lenslets import LAYOUTS
+from eyelab.optics.lens.lenslets import LIMITS as LENSLET_LIMITS
+
+WHERE = "lens.lenslets"
+#: The keys each layout reads (besides the common ones).
+LAYOUT_KEYS = {"honeycomb": ("pitch_mm", "clear_zone_mm", "zone_mm"),
+               "rings": ("ring_diameters_mm", "per_ring"), "list": ("centres_mm",)}
+COMMON_KEYS = ("layout", "add_d", "diameter_mm", "conic")
+ALLOWED = set(COMMON_KEYS).union(*LAYOUT_KEYS.values())
+#: A DIMS-like honeycomb (docs/SCIENCE.md §12: 396 lenslets of +3.50 D, 1.03 mm, in the
+#: annulus 9.4-33 mm; the pitch 1.43 mm is the one that puts 396 lattice lenslets there).
+DIMS_LIKE = {"layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03, "pitch_mm": 1.43,
+             "clear_zone_mm": 9.4, "zone_mm": 33.0}
+#: A spec with lenslets (the schema's examples, the tests and the corpus read it).
+BASE = {"lens": {"rx": "-3.00 DS", "lenslets": DIMS_LIKE}}
+RINGS_BASE = {"lens": {"rx": "-3.00 DS", "lenslets": {
+    "layout": "rings", "add_d": 3.5, "diameter_mm": 1.12,
+    "ring_diameters_mm": [10.0, 12.5, 15.0]}}}
+LIST_BASE = {"lens": {"rx": "-3.00 DS", "lenslets": {
+    "layout": "list", "add_d": 3.5, "diameter_mm": 1.0, "centres_mm": [[6.0, 0.0]]}}}
+LENSLET_TABLE = ("`[lens.lenslets]` (a lenslet array on the front surface: the myopia-control "
+                 "designs; docs/guide/lenslets.md)")
+LENSLET_KEYS = (
+    (("lens", "lenslets", "text", "", "none", "a lenslet array on the front surface: "
+      "table `[lens.lenslets]`"), {"range_text": "a table"}),
+    ((WHERE, "layout", "choice", "", "required", "honeycomb: a hexagonal lattice in an "
+      "annulus; rings: concentric rings; list: centres one by one"),
+     {"choices": LAYOUTS, "base": BASE,
+      "choice_base": {"rings": RINGS_BASE, "list": LIST_BASE}}),
+    ((WHERE, "add_d", "number", "D", "required", "each lenslet's add as worn: the mean "
+      "power along the line of sight through its centre less the carrier's there "
+      "(designed; not 0)"), {"base": BASE}),
+    ((WHERE, "diameter_mm", "number", "mm", "required", "each lenslet's diameter"),
+     {"base": BASE, "edges": False}),
+    ((WHERE, "conic", "number", "", "0 (spherical)", "conic constant of the lenslets' "
+      "added sag (aspherical lenslets)"), {"base": BASE}),
+    ((WHERE, "pitch_mm", "number", "mm", "required (honeycomb)", "centre to centre; not "
+      "below `diameter_mm`"), {"base": BASE, "edges": False}),
+    ((WHERE, "clear_zone_mm", "number", "mm", "0", "honeycomb: the clear centre's "
+      "diameter (no lenslet reaches into it)"), {"base": BASE, "edges": False}),
+    ((WHERE, "zone_mm", "number", "mm", "the lens's diameter less 2 mm", "honeycomb: the "
+      "treatment zone's outer diameter"), {"base": BASE, "edges": False}),
+    ((WHERE, "ring_diameters_mm", "text", "mm", "required (rings)", "the rings' "
+      "diameters (a list)"), {"range_text": "a list of numbers in [1, 90]",
+                              "base": RINGS_BASE}),
+    ((WHERE, "per_ring", "text", "", "as many as fit", "rings: lenslets on each ring (a "
+      "list of integers, one per ring)"), {"range_text": "integers in [1, 2000]",
+                                           "base": RINGS_BASE}),
+    ((WHERE, "centres_mm", "text", "mm", "required (list)", "the lenslets' centres [[x, y], "
+      "...] on the lens (x toward the wearer's right, y up)"),
+     {"range_text": "pairs in [-45, 45]", "base": LIST_BASE}),
+)
+
+
+__all__ = ["ALLOWED", "BASE", "LAYOUT_KEYS", "LENSLET_KEYS", "LENSLET_LIMITS",
+           "LENSLET_TABLE", "WHERE"]
