@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from eyelab.core.fileio import with_units
-from eyelab.jobs.points import no_path_reason, object_row
+from eyelab.jobs.points import format_lenslets, lenslet_row, no_path_reason, object_row
 from eyelab.optics.chain.analysis import (
     analyze_points,
     chief_prism,
@@ -59,8 +59,15 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
 
         return with_units(schematic_report(spec, no_lens=no_lens))
     lens = None if no_lens else spec.lens
+    acc = spec.accommodation
+    if acc is None and lens is not None and hasattr(lens.front, "delta_curvature"):
+        from eyelab.optics.lens.lenslets import carrier  # the eye focuses the carrier's
+
+        acc = analyze_points(spec.eye, carrier(lens), spec.points,
+                             wavelength_nm=spec.wavelength_nm,
+                             fixation=spec.fixation).accommodation
     res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
-                         fixation=spec.fixation, accommodation=spec.accommodation,
+                         fixation=spec.fixation, accommodation=acc,
                          vertex_sphere=spec.vertex_sphere)
     report = {"source": spec.source}
     report.update(_eye_report(spec.eye, lens, res, spec.points, spec))
@@ -129,6 +136,9 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
             "matrix_um": (res.retina_matrix[i] * 1e6).tolist(),
         }
         entry["wave"] = _wave(eye, res, i, spec.wavelength_nm)
+        if lens is not None and hasattr(lens.front, "delta_curvature"):
+            entry["lenslets"] = lenslet_row(lens, points, i, res.pupil[i], ch.dir_out[i],
+                                            eye.pupil_diameter / 2, spec.wavelength_nm)
         out_points.append(entry)
     k1, k2 = eye.refraction()
     return {
@@ -304,6 +314,8 @@ def _format_eye(rep: dict) -> list:
                      f"{b['major_um']:.2f} x {b['minor_um']:.2f} um semi-axes "
                      f"({b['major_arcmin']:.2f}' x {b['minor_arcmin']:.2f}'), major axis "
                      f"{b['major_axis_deg']:.1f} deg")
+        if "lenslets" in p:
+            lines.append(format_lenslets(p["lenslets"]))
         if "wave" in p:
             w = p["wave"]
             strehl = "n/a" if w["strehl"] is None else f"{w['strehl']:.3f}"

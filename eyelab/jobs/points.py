@@ -31,3 +31,24 @@ def no_path_reason(st) -> str:
     if st & Status.TIR:
         return "total internal reflection in the lens"
     return "the light path did not converge"
+
+
+def lenslet_row(lens, points, i, pupil, axis, pupil_radius, wavelength_nm) -> dict:
+    """Point ``i``'s beam through a lenslet lens (:func:`~eyelab.optics.lens.lenslets.
+    beam_lenslets`): the fraction of the pupil's light through lenslets, how many lenslets
+    it meets and their add as worn."""
+    from eyelab.optics.lens.lenslets import beam_lenslets
+
+    b = beam_lenslets(lens, points, i, pupil, axis, pupil_radius, wavelength_nm)
+    return {"fraction": b["fraction"], "count": len(b["lenslets"]),
+            "indices": b["lenslets"], "add_d": lens.front.add_d, "rays": b["rays"]}
+
+
+def format_lenslets(row: dict) -> str:
+    """The text line of :func:`lenslet_row`."""
+    return (f"  lenslets: {100 * row['fraction']:.1f} % of the pupil's light through "
+            f"{row['count']} lenslet{'s' if row['count'] != 1 else ''} of "
+            f"{row['add_d']:+.2f} D add (a second image, "
+            f"{'myopically' if row['add_d'] > 0 else 'hyperopically'} defocused)"
+            if row["count"] else "  lenslets: the pupil's light misses them (the carrier "
+            "only)")

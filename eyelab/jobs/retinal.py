@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from eyelab.jobs.points import no_path_reason, object_row
+from eyelab.jobs.points import format_lenslets, lenslet_row, no_path_reason, object_row
 from eyelab.optics.chain.retina import RetinalTrace, trace_field, trace_objects
 from eyelab.optics.chain.retinal_wave import retinal_waves
 from eyelab.optics.rays.trace import Status
@@ -85,6 +85,8 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
             entry["reason"] = no_path_reason(st)
         else:
             entry.update(_row(r, i, waves[i]))
+            if lens is not None and hasattr(lens.front, "delta_curvature"):
+                entry["lenslets"] = _lenslets(eye, lens, r, i, spec)
         points.append(entry)
     return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
             "lens": None if lens is None else {"rx": None if lens.rx is None
@@ -94,6 +96,16 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
             "point's distance (paraxially)" if spec.accommodation is None
             else spec.accommodation,
             "definitions": DEFINITIONS, "points": points}
+
+
+def _lenslets(eye, lens, r: RetinalTrace, i: int, spec) -> dict:
+    """Line of sight ``i``'s beam through the lens's lenslets, over the entrance pupil."""
+    from eyelab.optics.chain.retina import eye_in_world
+
+    rot, vertex = eye_in_world(eye, spec.fixation, r.eye_dir[i])
+    z_ep, _ = eye.entrance_pupil(float(r.accommodation[i]), spec.wavelength_nm)
+    return lenslet_row(lens, r.object_points, i, vertex + rot @ np.array([0.0, 0.0, z_ep]),
+                       r.eye_dir[i], eye.pupil_diameter / 2, spec.wavelength_nm)
 
 
 def _eye_optics(eye, spec) -> dict:
@@ -132,6 +144,8 @@ def format_schematic(rep: dict) -> str:
                          *p["focus_behind_retina_mm"]))
         lines.append(f"  wave RMS {p['rms_um']:.3f} um ({p['rms_higher_um']:.3f} um above "
                      f"second order), Strehl ratio {p['strehl']:.3f}")
+        if "lenslets" in p:
+            lines.append(format_lenslets(p["lenslets"]))
     return "\n".join(lines)
 
 

@@ -21,7 +21,7 @@ LAYOUT_KEYS = {"honeycomb": ("pitch_mm", "clear_zone_mm", "zone_mm"),
                "rings": ("ring_diameters_mm", "per_ring"), "list": ("centres_mm",)}
 COMMON_KEYS = ("layout", "add_d", "diameter_mm", "conic")
 ALLOWED = set(COMMON_KEYS).union(*LAYOUT_KEYS.values())
-#: A DIMS-like honeycomb (docs/SCIENCE.md §12: 396 lenslets of +3.50 D, 1.03 mm, in the
+#: A DIMS-like honeycomb (docs/SCIENCE.md §12b: 396 lenslets of +3.50 D, 1.03 mm, in the
 #: annulus 9.4-33 mm; the pitch 1.43 mm is the one that puts 396 lattice lenslets there).
 DIMS_LIKE = {"layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03, "pitch_mm": 1.43,
              "clear_zone_mm": 9.4, "zone_mm": 33.0}

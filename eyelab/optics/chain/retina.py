@@ -81,7 +81,7 @@ class RetinalTrace:
         return (self.status & np.uint8(FATAL)) == 0
 
 
-def _eye_in_world(eye: SchematicEye, fixation: str, gaze):
+def eye_in_world(eye: SchematicEye, fixation: str, gaze):
     """(rotation (3, 3), corneal vertex (3,)) of the eye: fixed — looking along the world's
     +z from the origin; rotating — turned about its centre of rotation (Listing's law: the
     smallest rotation from the primary position) so that its axis runs along ``gaze``, the
@@ -250,7 +250,7 @@ def trace_field(eye: SchematicEye, lens, field_x_deg, field_y_deg, distance=np.i
                                        np.asarray(distance, float))
     toward = np.stack([np.tan(fx), np.tan(fy), -np.ones_like(fx)], -1).reshape(-1, 3)
     dirs = -toward / np.linalg.norm(toward, axis=1, keepdims=True)
-    rot, vertex = _eye_in_world(eye, "fixed", None)
+    rot, vertex = eye_in_world(eye, "fixed", None)
     if accommodation is None:
         accommodation = float(fixation_accommodation(eye, lens, dist.ravel()[:1],
                                                      wavelength_nm)[0])
@@ -268,7 +268,7 @@ def fixation_accommodation(eye: SchematicEye, lens, distance,
     looks straight ahead from the origin unless ``rot``, ``vertex`` place it."""
     distance = np.atleast_1d(np.asarray(distance, float))
     if rot is None:
-        rot, vertex = _eye_in_world(eye, "fixed", None)
+        rot, vertex = eye_in_world(eye, "fixed", None)
     out = np.zeros(distance.shape)
     for d in np.unique(distance):
         axis = trace_lines(eye, lens, np.asarray(vertex, float)[None], rot[:, 2][None],
@@ -386,14 +386,14 @@ def trace_objects(eye: SchematicEye, lens, objects: ObjectPoints, *, fixation: s
             np.asarray(accommodation, float), (len(objects),))
         rows = []
         for i in range(len(objects)):
-            rot, vertex = _eye_in_world(eye, "rotating", chief.dir_out[i])
+            rot, vertex = eye_in_world(eye, "rotating", chief.dir_out[i])
             rows.append(trace_lines(eye, lens, cor[None], chief.dir_out[i:i + 1],
                                     objects.distance[i:i + 1], rot=rot, vertex=vertex,
                                     accommodation=None if acc is None else acc[i:i + 1],
                                     wavelength_nm=wavelength_nm,
                                     status=chief.status[i:i + 1]))
         return _concat(rows)
-    rot, vertex = _eye_in_world(eye, "fixed", None)
+    rot, vertex = eye_in_world(eye, "fixed", None)
     n = len(objects)
     acc = fixation_accommodation(eye, lens, objects.distance, wavelength_nm) \
         if accommodation is None else np.broadcast_to(np.asarray(accommodation, float),

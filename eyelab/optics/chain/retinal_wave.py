@@ -33,7 +33,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from eyelab.core.vecmath import dot
-from eyelab.optics.chain.retina import RetinalTrace, _eye_in_world
+from eyelab.optics.chain.retina import RetinalTrace, eye_in_world
 from eyelab.optics.chain.retinal_rays import rays_from_retina, retina_points, stop_jacobians
 from eyelab.optics.eye.schematic import SchematicEye
 from eyelab.optics.rays.trace import FATAL
@@ -82,7 +82,7 @@ def retinal_waves(eye: SchematicEye, lens, trace: RetinalTrace, *, fixation: str
         if trace.status[i] & np.uint8(FATAL):
             out.append(None)
             continue
-        rot, vertex = _eye_in_world(eye, fixation, trace.eye_dir[i])
+        rot, vertex = eye_in_world(eye, fixation, trace.eye_dir[i])
         obj = trace.object_points
         target = obj.positions()[i] if obj.finite[i] else None
         out.append(line_wave(eye, lens, rot, vertex, trace.eye_dir[i],

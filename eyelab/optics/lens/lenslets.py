@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 
 from eyelab.core.errors import SpecError
 from eyelab.optics.rays.surfaces import SagDerivatives, Surface
+from eyelab.optics.rays.trace import FATAL
 
 #: The layouts, by spec value.
 LAYOUTS = ("honeycomb", "rings", "list")
@@ -286,6 +287,63 @@ def design_lenslets(lens, eye=None, *, wavelength_nm: float = 587.56):
     return lens
 
 
+# ---------------------------------------------------------------------------- beams
+#: Front-surface samples across a beam's footprint (:func:`beam_lenslets`).
+BEAM_GRID = 160
+#: The footprint's sampled square: this many pupil radii about the chief ray's entry.
+BEAM_MARGIN = 1.5
+
+
+def beam_lenslets(lens, objects, i: int, pupil, axis, pupil_radius: float,
+                  wavelength_nm: float = 587.56, grid: int = BEAM_GRID) -> dict:
+    """Which part of the light from object ``i`` of ``objects``
+    (:class:`~eyelab.optics.rays.paths.ObjectPoints`) entering a pupil of ``pupil_radius``
+    (m) centred at ``pupil`` (3,) across ``axis`` (3,, into the eye) passes lenslets. The
+    light falls evenly on the lens's front (a distant object; a near one's irradiance
+    varies by under (footprint / distance)^2 across it): rays from the object to a square
+    grid of front-surface points (:data:`BEAM_GRID` across :data:`BEAM_MARGIN` pupil
+    radii about the chief ray's entry), traced through the lens; those that enter the
+    pupil are the beam's footprint, each carrying the light of its grid cell (so a plus
+    lenslet's converging pencil counts all its light, though it fills less of the pupil).
+
+    Returns {"fraction": of the beam's light through lenslets; "lenslets": the indices
+    met; "rays": the footprint's samples}."""
+    from eyelab.core.vecmath import unit
+    from eyelab.optics.rays.paths import ObjectPoints, find_chief_rays
+
+    surf = lens.front
+    axis = unit(np.asarray(axis, float)[None])[0]
+    pupil = np.asarray(pupil, float)
+    one = ObjectPoints(objects.direction[i:i + 1], objects.distance[i:i + 1])
+    chief = find_chief_rays(lens, pupil, one, wavelength_nm)
+    front, _ = lens.placed_surfaces()
+    centre = (chief.entry[0] - front.translation) @ front.rotation
+    half = BEAM_MARGIN * pupil_radius * max(1.0, 1.0 / max(abs(axis[2]), 0.3))
+    c = (np.arange(grid) + 0.5) / grid * 2 - 1
+    gx, gy = np.meshgrid(centre[0] + half * c, centre[1] + half * c)
+    gx, gy = gx.ravel(), gy.ravel()
+    local = np.stack([gx, gy, surf.sag(gx, gy)], -1)
+    on_front = local @ front.rotation.T + front.translation
+    if one.finite[0]:
+        start = one.positions()[0]
+        d = unit(on_front - start)
+        origins = on_front - 1e-3 * d
+    else:
+        d = np.broadcast_to(-one.direction[0], on_front.shape)
+        origins = on_front - 1e-3 * d
+    r = lens.trace(origins, np.ascontiguousarray(d), wavelength_nm)
+    ok = (r["status"] & np.uint8(FATAL)) == 0
+    q, u = r["out_points"], r["out_dirs"]
+    s = ((pupil - q) @ axis) / (u @ axis)
+    at = q + s[:, None] * u - pupil
+    inside = ok & (np.sum(at * at, axis=1) - (at @ axis) ** 2 <= pupil_radius ** 2)
+    idx = surf.which(gx, gy)
+    through = inside & (idx >= 0)
+    return {"fraction": float(through.sum() / max(inside.sum(), 1)),
+            "lenslets": sorted(int(v) for v in np.unique(idx[through])),
+            "rays": int(inside.sum())}
+
+
 # ---------------------------------------------------------------------------- areas
 def circle_overlap(d, r1, r2) -> np.ndarray:
     """Area (m^2) of the intersection of circles of radii r1, r2 with centres d apart."""
@@ -311,6 +369,7 @@ def lenslet_fraction(surf: LensletSurface, centre, radius: float) -> float:
     return float(circle_overlap(d, radius, surf.radius).sum() / (math.pi * radius ** 2))
 
 
-__all__ = ["LAYOUTS", "LIMITS", "LensletSurface", "carrier", "check_layout", "circle_overlap",
+__all__ = ["LAYOUTS", "LIMITS", "LensletSurface", "beam_lenslets", "carrier", "check_layout",
+           "circle_overlap",
            "design_lenslets", "honeycomb", "lenslet_adds", "lenslet_fraction",
            "lines_through", "rings", "with_lenslets"]
