@@ -38,6 +38,10 @@ DEFINITIONS = {
                              "lens, against the object's (ANSI Z80.28 sign)",
     "strehl": "the point-spread function's peak over the aberration-free peak of the same "
               "pupil, at the wavelength (wherever the peak lies)",
+    "through_focus": "with lenslets: the intensity at the chief ray's image point over the "
+                     "aberration-free one, with the retina moved to where a wave vergence_d "
+                     "more converging at the entrance pupil focuses (the forward wave); "
+                     "peaks: the carrier's image and the lenslets'",
     "object_field_deg": "the object's field angles as seen from the eye's corneal vertex "
                         "(through a lens the line of sight is bent: this is where it points)",
 }
@@ -87,6 +91,7 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
             entry.update(_row(r, i, waves[i]))
             if lens is not None and hasattr(lens.front, "delta_curvature"):
                 entry["lenslets"] = _lenslets(eye, lens, r, i, spec)
+                entry["through_focus"] = _through_focus(eye, lens, r, i, spec)
         points.append(entry)
     return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
             "lens": None if lens is None else {"rx": None if lens.rx is None
@@ -106,6 +111,25 @@ def _lenslets(eye, lens, r: RetinalTrace, i: int, spec) -> dict:
     z_ep, _ = eye.entrance_pupil(float(r.accommodation[i]), spec.wavelength_nm)
     return lenslet_row(lens, r.object_points, i, vertex + rot @ np.array([0.0, 0.0, z_ep]),
                        r.eye_dir[i], eye.pupil_diameter / 2, spec.wavelength_nm)
+
+
+#: The through-focus range (D) beyond the lenslets' add and its step.
+FOCUS_MARGIN_D, FOCUS_STEP_D = 1.5, 0.05
+
+
+def _through_focus(eye, lens, r: RetinalTrace, i: int, spec) -> dict:
+    """Line of sight ``i``'s image through focus (the forward wave,
+    :mod:`eyelab.optics.chain.forward_wave`): from -1.5 D to the add + 1.5 D."""
+    from eyelab.optics.chain.forward_wave import focus_peaks, forward_wave, through_focus
+    from eyelab.optics.chain.retina import eye_in_world
+
+    rot, vertex = eye_in_world(eye, spec.fixation, r.eye_dir[i])
+    wave = forward_wave(eye, lens, rot, vertex, r.object_points, i,
+                        float(r.accommodation[i]), wavelength_nm=spec.wavelength_nm)
+    add = lens.front.add_d
+    lo, hi = min(0.0, add) - FOCUS_MARGIN_D, max(0.0, add) + FOCUS_MARGIN_D
+    tf = through_focus(wave, np.round(np.arange(lo, hi + 1e-9, FOCUS_STEP_D), 10))
+    return dict(tf, peaks=focus_peaks(tf))
 
 
 def _eye_optics(eye, spec) -> dict:
@@ -146,6 +170,10 @@ def format_schematic(rep: dict) -> str:
                      f"second order), Strehl ratio {p['strehl']:.3f}")
         if "lenslets" in p:
             lines.append(format_lenslets(p["lenslets"]))
+        if "through_focus" in p:
+            peaks = ", ".join(f"{v:+.2f} D ({a:.3f})" for v, a in p["through_focus"]["peaks"])
+            lines.append(f"  through focus (intensity at the image point over the "
+                         f"aberration-free peak): peaks at {peaks}")
     return "\n".join(lines)
 
 
