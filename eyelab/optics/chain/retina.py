@@ -115,26 +115,23 @@ def _through_cornea(placed, n, origins, dirs):
 
 
 def aim_at_stop(eye: SchematicEye, rot, vertex, dirs, accommodation,
-                wavelength_nm: float = EYE_REFERENCE_NM, stop_xy=None):
+                wavelength_nm: float = EYE_REFERENCE_NM):
     """Points (n, 3) on the eye's entrance-pupil plane (world) through which rays of the
     given world directions (n, 3) in air pass the centre of the stop (the stop moves with
-    ``accommodation``, D, scalar or (n,)) — or its points ``stop_xy`` (n, 2; m, the eye's
-    x, y from the centre); and a status (n,) with NOT_CONVERGED where Newton's method did
-    not reach :data:`AIM_TOL`."""
+    ``accommodation``, D, scalar or (n,)); and a status (n,) with NOT_CONVERGED where
+    Newton's method did not reach :data:`AIM_TOL`."""
     dirs = np.atleast_2d(np.asarray(dirs, float))
     acc = np.broadcast_to(np.asarray(accommodation, float), (len(dirs),))
-    off = np.zeros((len(dirs), 2)) if stop_xy is None else np.broadcast_to(
-        np.asarray(stop_xy, float), (len(dirs), 2))
     points = np.zeros(dirs.shape)
     status = np.zeros(len(dirs), np.uint8)
     for a in np.unique(acc):
         rows = np.flatnonzero(acc == a)
         points[rows], status[rows] = _aim(eye, rot, vertex, dirs[rows], float(a),
-                                          wavelength_nm, off[rows])
+                                          wavelength_nm)
     return points, status
 
 
-def _aim(eye, rot, vertex, dirs, accommodation, wavelength_nm, off):
+def _aim(eye, rot, vertex, dirs, accommodation, wavelength_nm):
     placed, n, _ = eye.placed(rot, vertex, accommodation, wavelength_nm)
     z_ep, _ = eye.entrance_pupil(accommodation, wavelength_nm)
     stop = vertex + rot @ np.array([0.0, 0.0, eye.stop_z(accommodation)])
@@ -147,9 +144,9 @@ def _aim(eye, rot, vertex, dirs, accommodation, wavelength_nm, off):
         o, d, st = _through_cornea(placed, n, p - dirs * 0.05, dirs)
         s = dot(stop - o, normal) / dot(d, normal)
         q = o + s[:, None] * d - stop
-        return np.stack([q @ ex, q @ ey], -1) - off, st
+        return np.stack([q @ ex, q @ ey], -1), st
 
-    ab = np.array(off, float, copy=True)
+    ab = np.zeros((len(dirs), 2))
     h = 1e-7
     for _ in range(AIM_MAX_ITER):
         r, st = miss(ab)
