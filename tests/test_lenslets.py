@@ -314,3 +314,15 @@ def test_analyze_of_a_schematic_eye_gives_the_image_through_focus(tmp_path):
     assert (a > 0).all() and (a <= 1).all()
     best = max(tf["peaks"], key=lambda p: p[1])
     assert abs(best[0]) <= 0.5 and best[1] == pytest.approx(a.max())
+
+
+def test_as_worn_maps_of_a_lenslet_lens_are_its_carriers_and_say_so(dims):
+    """A map's grid (2 deg apart) would hit or miss the 1 mm lenslets at random: the maps
+    are the carrier's, exactly, and their model says the lenslets are left out."""
+    from eyelab.optics.lens.asworn import as_worn_maps
+
+    eye = Eye()
+    a = as_worn_maps(eye, dims, half_angle_deg=20.0, n=9)
+    b = as_worn_maps(eye, carrier(dims), half_angle_deg=20.0, n=9)
+    assert np.array_equal(a.mean_error_d, b.mean_error_d, equal_nan=True)
+    assert "396 lenslets" in a.model["lenslets"] and "lenslets" not in b.model

@@ -158,6 +158,8 @@ def maps_summary(maps: AsWornMaps) -> list:
              f"centre of rotation), {len(maps.eye_rotation_x_deg)}^2 points; object "
              f"distances: {maps.model['up']} looking straight ahead and up; looking down, "
              f"{maps.model['down']}"]
+    if "lenslets" in maps.model:
+        lines.append(maps.model["lenslets"])
     for key, label in (("mean_error_d", "mean power error"), ("cylinder_d", "cylinder")):
         z = getattr(maps, key)
         lines.append(f"{label}: centre {z[c, c]:+.3f} D, range {np.nanmin(z):+.3f} .. "

@@ -18,10 +18,14 @@ Object distances follow a documented model: for the eye looking straight ahead a
 infinity; looking down, the object vergence grows linearly with the eye's downward rotation
 to ``near_vergence_d`` at ``near_rotation_deg`` down and stays there (reading below the
 horizon); the object lies on the traced line of sight at 1/vergence from the turned pupil.
+
+A lenslet lens (:mod:`eyelab.optics.lens.lenslets`) is mapped by its carrier, as the model
+says: its lenslets, each smaller than the grid's spacing, would be hit or missed at random.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -192,6 +196,12 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
     if lens is None or lens.rx is None:
         raise SpecError("lens.rx", "as-worn maps compare the lens with its prescription: "
                                    "make the lens from an Rx")
+    lenslets = None
+    if hasattr(lens.front, "delta_curvature"):      # the carrier's maps (module doc)
+        lenslets = (f"the carrier's maps: the {len(lens.front.centres)} lenslets of "
+                    f"{lens.front.add_d:+.2f} D add, each smaller than the grid's spacing, "
+                    "are left out (eyelab analyze gives a beam's share through them)")
+        lens = dataclasses.replace(lens, front=lens.front.base)
     half = check_range("maps.half_angle_deg", half_angle_deg, 1.0, 60.0)
     if not (isinstance(n, int) and 3 <= n <= 201):
         raise SpecError("maps.n", f"must be an integer in [3, 201], got {n!r}")
@@ -227,7 +237,8 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
                        "down, constant below; the object on the line of sight traced out "
                        "through the lens, at 1/vergence from the turned pupil",
                        "near_vergence_d": near_vergence_d,
-                       "near_rotation_deg": near_rotation_deg},
+                       "near_rotation_deg": near_rotation_deg,
+                       **({} if lenslets is None else {"lenslets": lenslets})},
                       marks, np.where(ok, ox, np.nan).reshape(n, n),
                       np.where(ok, oy, np.nan).reshape(n, n), objects)
 
