@@ -384,7 +384,7 @@ def channel_wavelengths(eye, lens, chromatic: bool, report=None) -> tuple:
 def _check_lenslets(name: str, lens) -> None:
     """Refuse, naming ``lens.lenslets``, a lenslet lens for a renderer that draws one image
     per scene point (its blur fields would sample the lenslets as if they were smooth)."""
-    if lens is None or not hasattr(lens.front, "delta_curvature"):
+    if lens is None or not lens.has_lenslets:
         return
     from eyelab.imaging.registry import LENSLET_RENDERERS
 

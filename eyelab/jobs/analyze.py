@@ -60,7 +60,7 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
         return with_units(schematic_report(spec, no_lens=no_lens))
     lens = None if no_lens else spec.lens
     acc = spec.accommodation
-    if acc is None and lens is not None and hasattr(lens.front, "delta_curvature"):
+    if acc is None and lens is not None and lens.has_lenslets:
         from eyelab.optics.lens.lenslets import carrier  # the eye focuses the carrier's
 
         acc = analyze_points(spec.eye, carrier(lens), spec.points,
@@ -136,7 +136,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
             "matrix_um": (res.retina_matrix[i] * 1e6).tolist(),
         }
         entry["wave"] = _wave(eye, res, i, spec.wavelength_nm)
-        if lens is not None and hasattr(lens.front, "delta_curvature"):
+        if lens is not None and lens.has_lenslets:
             entry["lenslets"] = lenslet_row(lens, points, i, res.pupil[i], ch.dir_out[i],
                                             eye.pupil_diameter / 2, spec.wavelength_nm)
         out_points.append(entry)

@@ -89,7 +89,7 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
             entry["reason"] = no_path_reason(st)
         else:
             entry.update(_row(r, i, waves[i]))
-            if lens is not None and hasattr(lens.front, "delta_curvature"):
+            if lens is not None and lens.has_lenslets:
                 entry["lenslets"] = _lenslets(eye, lens, r, i, spec)
                 entry["through_focus"] = _through_focus(eye, lens, r, i, spec)
         points.append(entry)

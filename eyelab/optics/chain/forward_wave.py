@@ -105,7 +105,7 @@ def forward_wave(eye: SchematicEye, lens, rot, vertex, objects: ObjectPoints, i:
     e1 = any_tangent(d0[None])[0]
     e2 = cross(d0[None], e1[None])[0]
     xi = np.stack([(on - on0) @ e1, (on - on0) @ e2], -1)
-    zone = (np.full(len(gxy), -1) if lens is None or not hasattr(lens.front, "which")
+    zone = (np.full(len(gxy), -1) if lens is None or not lens.has_lenslets
             else lens.front.which(gxy[:, 0], gxy[:, 1]))
     ok = f["ok"]
     amp = np.sqrt(_area_ratio(gxy, xi, zone, ok))

@@ -197,7 +197,7 @@ def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,
         raise SpecError("lens.rx", "as-worn maps compare the lens with its prescription: "
                                    "make the lens from an Rx")
     lenslets = None
-    if hasattr(lens.front, "delta_curvature"):      # the carrier's maps (module doc)
+    if lens.has_lenslets:      # the carrier's maps (module doc)
         lenslets = (f"the carrier's maps: the {len(lens.front.centres)} lenslets of "
                     f"{lens.front.add_d:+.2f} D add, each smaller than the grid's spacing, "
                     "are left out (eyelab analyze gives a beam's share through them)")

@@ -152,7 +152,7 @@ def _bump(u, v, dc, k, a):
 def carrier(lens):
     """``lens`` without its lenslets (the carrier the eye focuses through: the sharp image
     it chooses, the lenslets' images being the defocus), or ``lens`` itself."""
-    if lens is None or not isinstance(lens.front, LensletSurface):
+    if lens is None or not lens.has_lenslets:
         return lens
     return dataclasses.replace(lens, front=lens.front.base)
 

@@ -1,17 +1,15 @@
 """Spectacle lenses: two surfaces, a centre thickness, a material and a pose in front of the eye.
 
-World frame (used throughout eyelab): origin at the centre of the eye's entrance pupil
-(the thin eye lens at the corneal vertex, Kakimoto Table 2); x to the wearer's right,
-y up; the wearer looks along -z, so light from the scene travels +z. The retina is at
-z = +z_r.
-
-Lens frame: origin at the back vertex, z along the lens's optical axis toward the eye,
-x, y as in the world when the lens is not tilted. Lens frame -> world:
-p_w = R p_l + t with t = (decentration_x, decentration_y, -vertex_distance) and
-R = R_y(-wrap) R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the cheeks, wrap
-turns the +x rim (the temporal rim of a right eye's lens) toward the face; a left eye's lens of a
-face-form frame has the opposite wrap (:mod:`eyelab.optics.chain.binocular`). The rotation is about
-the back vertex. The front surface's vertex is at z_l = -center_thickness.
+World frame (used throughout eyelab): origin at the centre of the eye's entrance pupil (the
+thin eye lens at the corneal vertex, Kakimoto Table 2); x to the wearer's right, y up; the
+wearer looks along -z, so light from the scene travels +z. The retina is at z = +z_r.
+Lens frame: origin at the back vertex, z along the lens's optical axis toward the eye, x, y
+as in the world when the lens is not tilted. Lens frame -> world: p_w = R p_l + t with
+t = (decentration_x, decentration_y, -vertex_distance) and R = R_y(-wrap)
+R_x(-pantoscopic_tilt): pantoscopic tilt turns the lower rim toward the cheeks, wrap turns
+the +x rim (the temporal rim of a right eye's lens) toward the face; a left eye's lens of a
+face-form frame has the opposite wrap (:mod:`eyelab.optics.chain.binocular`). The rotation
+is about the back vertex. The front surface's vertex is at z_l = -center_thickness.
 """
 
 from __future__ import annotations
@@ -145,17 +143,14 @@ class SpectacleLens:
         In their local frames (sag along +z, toward the eye). For a usual meniscus both
         curvatures are positive (centres of curvature on the eye's side).
     center_thickness : float, m, in (0.0002, 0.03]
-    material : Material
+    material : Material; pose : LensPose
     diameter : float, m, in [0.01, 0.09]
-    pose : LensPose
-    rx : Prescription or None
-        The prescription the lens was designed for, if any (informational).
+    rx : Prescription or None, the prescription the lens was designed for (informational)
     coating : "none" (Fresnel reflection of the bare surfaces) or "ar" (anti-reflection:
         :data:`eyelab.optics.rays.fresnel.AR_REFLECTANCE` per surface)
-    outline : :class:`eyelab.optics.lens.frame.Outline` or None
-        The frame's shape the lens is cut to, in the lens frame (x, y m; the fitting point
-        at the origin), inside the round blank of ``diameter``; rays meeting either
-        surface outside it miss (:meth:`trace`). None: the round blank itself.
+    outline : :class:`eyelab.optics.lens.frame.Outline` or None, the frame's shape the lens
+        is cut to, in the lens frame (x, y m; the fitting point at the origin), inside the
+        round blank; rays meeting either surface outside it miss. None: the round blank.
     """
 
     front: Surface
@@ -202,6 +197,11 @@ class SpectacleLens:
             raise SpecError("lens.coating", f"must be one of {', '.join(map(repr, COATINGS))},"
                                             f" got {self.coating!r}")
         self.check_feasible(min_edge=0.0)
+
+    @property
+    def has_lenslets(self) -> bool:
+        """Whether the front carries lenslets (:mod:`eyelab.optics.lens.lenslets`)."""
+        return getattr(self.front, "delta_curvature", None) is not None
 
     # ------------------------------------------------------------- thickness
     def thickness(self, r, theta) -> np.ndarray:
