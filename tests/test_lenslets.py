@@ -19,6 +19,7 @@ import pytest
 
 from eyelab.optics.eye.prescription import Prescription
 from eyelab.optics.eye.thin import Eye
+from eyelab.optics.lens.asworn import lines_of_sight_through
 from eyelab.optics.lens.lenslets import (
     LensletSurface,
     carrier,
@@ -26,7 +27,6 @@ from eyelab.optics.lens.lenslets import (
     honeycomb,
     lenslet_adds,
     lenslet_fraction,
-    lines_through,
     rings,
     with_lenslets,
 )
@@ -108,7 +108,7 @@ def test_each_lenslet_adds_its_nominal_power_as_worn(dims):
     assert np.corrcoef(r, s.delta_curvature)[0, 1] < -0.9
     assert s.delta_curvature.max() < 3.5 / (dims.material.n(587.56) - 1)
     pick = np.argsort(r)[np.linspace(0, len(r) - 1, 10).astype(int)]
-    lines = lines_through(eye, dims, s.centres[pick])
+    lines = lines_of_sight_through(eye, dims, s.centres[pick])
     cor = np.array([0.0, 0.0, eye.rotation_centre])
     radius = eye.rotation_centre + dims.pose.vertex_distance
     flat = carrier(dims)

@@ -161,27 +161,33 @@ def objects_on_lines_of_sight(eye, lens, lines, vergence_d,
 
 def line_of_sight_through(eye, lens, point, wavelength_nm: float = 587.56,
                           iterations: int = 20) -> np.ndarray:
-    """(3,) unit line of sight from the eye's centre of rotation whose ray, traced out
-    through ``lens``, leaves the front surface at lens point ``point`` = (x, y) (m, lens
-    frame): the eye rotation that looks through that point (fixed-point iteration on the
-    aim, from the straight line to the point, until the ray leaves within 1e-9 m of it)."""
+    """(3,) :func:`lines_of_sight_through` one lens point ``point`` = (x, y)."""
+    return lines_of_sight_through(eye, lens, [point], wavelength_nm, iterations)[0]
+
+
+def lines_of_sight_through(eye, lens, points, wavelength_nm: float = 587.56,
+                           iterations: int = 20) -> np.ndarray:
+    """(n, 3) unit lines of sight from the eye's centre of rotation whose rays, traced out
+    through ``lens``, leave the front surface at lens points ``points`` (n, 2; m, lens
+    frame): the eye rotations that look through them (fixed-point iteration on the aim,
+    from the straight line to each point, until every ray leaves within 1e-9 m of it; a
+    row whose ray fails keeps the straight line)."""
     front, _ = lens.placed_surfaces()
     cor = np.array([0.0, 0.0, eye.rotation_centre])
-    x, y = point
-    p_local = np.array([x, y, float(front.surface.sag(np.array([x]), np.array([y]))[0])])
-    p = np.asarray(front.rotation) @ p_local + np.asarray(front.translation)
-    aim = p.copy()
-    f = (aim - cor) / np.linalg.norm(aim - cor)
+    pts = np.atleast_2d(np.asarray(points, float))
+    local = np.stack([pts[:, 0], pts[:, 1], front.surface.sag(pts[:, 0], pts[:, 1])], -1)
+    p = local @ np.asarray(front.rotation).T + np.asarray(front.translation)
+    straight = (p - cor) / np.linalg.norm(p - cor, axis=1, keepdims=True)
+    aim, f = p.copy(), straight.copy()
     for _ in range(iterations):
-        res = lens.trace(cor[None], f[None], wavelength_nm, reverse=True)
-        if (res["status"][0] & np.uint8(FATAL)) != 0:
-            return (p - cor) / np.linalg.norm(p - cor)
-        miss = p - res["out_points"][0]
-        if np.linalg.norm(miss) < 1e-9:
+        res = lens.trace(np.broadcast_to(cor, f.shape), f, wavelength_nm, reverse=True)
+        failed = (res["status"] & np.uint8(FATAL)) != 0
+        miss = np.where(failed[:, None], 0.0, p - res["out_points"])
+        if np.linalg.norm(miss, axis=1).max() < 1e-9:
             break
         aim = aim + miss
-        f = (aim - cor) / np.linalg.norm(aim - cor)
-    return f
+        f = (aim - cor) / np.linalg.norm(aim - cor, axis=1, keepdims=True)
+    return np.where(failed[:, None], straight, f)
 
 
 def as_worn_maps(eye, lens, *, half_angle_deg: float = 30.0, n: int = 31,

@@ -227,10 +227,10 @@ def lenslet_adds(lens, eye, wavelength_nm: float = 587.56) -> np.ndarray:
     sphere along the line of sight through its centre, less the carrier's on the same
     line (objects at infinity; the eye turning about its centre of rotation)."""
     from eyelab.optics.chain.analysis import analyze_points
-    from eyelab.optics.lens.asworn import objects_on_lines_of_sight
+    from eyelab.optics.lens.asworn import lines_of_sight_through, objects_on_lines_of_sight
 
     surf = lens.front
-    lines = lines_through(eye, lens, surf.centres, wavelength_nm)
+    lines = lines_of_sight_through(eye, lens, surf.centres, wavelength_nm)
     powers = []
     for ln in (lens, carrier(lens)):
         objects, _ = objects_on_lines_of_sight(eye, ln, lines, 0.0, wavelength_nm)
@@ -239,28 +239,6 @@ def lenslet_adds(lens, eye, wavelength_nm: float = 587.56) -> np.ndarray:
         k11, _, k22 = res.wave_vertex_sphere.in_basis(res.eye_x)
         powers.append(0.5 * (k11 + k22))
     return powers[0] - powers[1]
-
-
-def lines_through(eye, lens, points, wavelength_nm: float = 587.56,
-                  iterations: int = 30) -> np.ndarray:
-    """(n, 3) lines of sight from the eye's centre of rotation whose rays, traced out through
-    ``lens``, leave its front surface at lens points ``points`` (n, 2; m): the fixed-point
-    aim of :func:`~eyelab.optics.lens.asworn.line_of_sight_through`, all points at once."""
-    front, _ = lens.placed_surfaces()
-    cor = np.array([0.0, 0.0, eye.rotation_centre])
-    pts = np.asarray(points, float)
-    z = front.surface.sag(pts[:, 0], pts[:, 1])
-    target = np.stack([pts[:, 0], pts[:, 1], z], -1) @ np.asarray(front.rotation).T \
-        + np.asarray(front.translation)
-    aim = target.copy()
-    for _ in range(iterations):
-        f = (aim - cor) / np.linalg.norm(aim - cor, axis=1, keepdims=True)
-        res = lens.trace(np.broadcast_to(cor, f.shape), f, wavelength_nm, reverse=True)
-        miss = target - res["out_points"]
-        if np.abs(miss).max() < 1e-10:
-            break
-        aim = aim + miss
-    return (aim - cor) / np.linalg.norm(aim - cor, axis=1, keepdims=True)
 
 
 def design_lenslets(lens, eye=None, *, wavelength_nm: float = 587.56):
@@ -372,4 +350,4 @@ def lenslet_fraction(surf: LensletSurface, centre, radius: float) -> float:
 __all__ = ["LAYOUTS", "LIMITS", "LensletSurface", "beam_lenslets", "carrier", "check_layout",
            "circle_overlap",
            "design_lenslets", "honeycomb", "lenslet_adds", "lenslet_fraction",
-           "lines_through", "rings", "with_lenslets"]
+           "rings", "with_lenslets"]
