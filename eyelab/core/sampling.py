@@ -21,6 +21,17 @@ def disc_seeds(n: int) -> np.ndarray:
     return np.column_stack([r * np.cos(t), r * np.sin(t)])
 
 
+def equal_area_seeds(n: int) -> np.ndarray:
+    """(n, 2) points of the unit disc that each stand for an equal share of its area
+    (:func:`disc_seeds`, Vogel's spiral: the most even spread), moved to the disc's exact
+    mean (0) and covariance (I/4) (n >= 3; 1: the centre; 2: an antithetic pair)."""
+    if n < 3:
+        return pass_samples(n)[0]
+    s = disc_seeds(n)
+    s = s - s.mean(axis=0)
+    return s @ _whitening(s).T
+
+
 def seeds_for(samples: int) -> np.ndarray:
     """The blur-disc seeds of S passes, (S, 2) in (about) the unit disc: see
     :func:`pass_samples`."""

@@ -58,14 +58,17 @@ class RasterQuality:
     lens's magnification and distortion, :func:`eyelab.optics.rays.camera.lens_view_density`:
     a plus lens gets a denser one). 1.5 is the best measured: against 256-spp references
     at 320 x 240 through -3 D and +3 D lenses, SSIM 0.9926-0.9946 at 1.0, 0.9955-0.9967 at
-    1.25, 0.9970-0.9979 at 1.5, 0.9963-0.9976 at 2; rim_color / invalid_color : sRGB of
-    the lens rim and of pixels whose rays fail in the lens.
+    1.25, 0.9970-0.9979 at 1.5, 0.9963-0.9976 at 2; lenslet_samples : pupil samples of the
+    view through a lenslet lens (:mod:`eyelab.scene.lensletrays`: one lens-view draw each
+    where the sample meets lenslets); rim_color / invalid_color : sRGB of the lens rim and
+    of pixels whose rays fail in the lens.
     """
 
     #: Ranges of the options, by spec field (the schema documents them from here).
     LIMITS: ClassVar[dict] = {"render.samples": (1, MAX_PASSES), "render.field_shape": (1, 512),
                               "render.lens_rings": (2, 256), "render.lens_segments": (8, 1024),
-                              "render.lens_grid_px": (1, 64), "render.env_oversample": (0.5, 4)}
+                              "render.lens_grid_px": (1, 64), "render.env_oversample": (0.5, 4),
+                              "render.lenslet_samples": (1, MAX_PASSES)}
 
     samples: int = DEFAULT_SAMPLES
     field_shape: tuple = (128, 32, 32)
@@ -80,6 +83,7 @@ class RasterQuality:
     lens_segments: int = 96
     lens_grid_px: int = 8
     env_oversample: float = 1.5
+    lenslet_samples: int = 32
     rim_color: tuple = (30, 30, 30)
     invalid_color: tuple = (128, 128, 128)
 
@@ -99,6 +103,7 @@ class RasterQuality:
         check_in("render.lens_segments", self.lens_segments, self.LIMITS, integer=True)
         check_in("render.lens_grid_px", self.lens_grid_px, self.LIMITS, integer=True)
         check_in("render.env_oversample", self.env_oversample, self.LIMITS)
+        check_in("render.lenslet_samples", self.lenslet_samples, self.LIMITS, integer=True)
         for name in ("rim_color", "invalid_color"):
             object.__setattr__(self, name, check_rgb(f"render.{name}", getattr(self, name)))
 

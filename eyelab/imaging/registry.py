@@ -38,7 +38,7 @@ class RendererEntry:
 
 REGISTRY = {e.name: e for e in (
     RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False,
-                  sees_schematic_eyes=True),
+                  sees_schematic_eyes=True, sees_lenslets=True),
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
                   True, sees_schematic_eyes=True, sees_lenslets=True),
     RendererEntry("imagebased", ImageBasedQuality,

@@ -100,13 +100,11 @@ class LensCompositor:
         draw. The grid's attributes are uploaded when ``grid_key`` changes."""
         if grid_key != self._grid_key:
             set_geometry(self._pd, grid_v, grid_f)
-            uv = [uv_sets[0]] * 3 if len(uv_sets) == 1 else list(uv_sets)
-            set_tcoords(self._pd, uv[1])
+            self._set_uv(uv_sets)
             n = len(grid_v)
             t = (np.ones((3, n)) if transmittance is None
                  else np.broadcast_to(np.asarray(transmittance, float), (3, n)))
-            for name, arr in (("uvR", uv[0]), ("uvB", uv[2]), ("lensT", t.T)):
-                add_point_array(self._pd, name, arr)
+            add_point_array(self._pd, "lensT", t.T)
             self._grid_key = grid_key
         set_image_rgba_gl(self._image, env_rgba)
         with self._lens_stage() as ren:
@@ -116,6 +114,34 @@ class LensCompositor:
             finally:
                 ren.RemoveActor(self._actor)
         return rgba[::-1, :, :3].copy()
+
+    def _set_uv(self, uv_sets) -> None:
+        uv = [uv_sets[0]] * 3 if len(uv_sets) == 1 else list(uv_sets)
+        set_tcoords(self._pd, uv[1])
+        add_point_array(self._pd, "uvR", uv[0])
+        add_point_array(self._pd, "uvB", uv[2])
+
+    def moved_views(self, env_rgba, uv_sets, transmittance, moves, rect):
+        """After :meth:`lens_view` (its grid uploaded), the grid textured with ``env_rgba``
+        (its shape) at ``uv_sets + m`` times ``transmittance`` (as :meth:`lens_view`'s)
+        times ``w`` for each (m (channels, n, 2), w (n,)) of ``moves``: yields each view's
+        pixels in ``rect`` = (x0, y0, x1, y1) (GL order, x1, y1 exclusive) as (y1 - y0,
+        x1 - x0, 3) uint8, row 0 at the top; only the rectangle is rendered and read
+        (:meth:`~eyelab.render.window.OffscreenWindow.grab_rect_rgba`)."""
+        self._grid_key = None                 # the attributes below are not the grid's own
+        set_image_rgba_gl(self._image, env_rgba)
+        n = len(uv_sets[0])
+        t = (np.ones((3, n)) if transmittance is None
+             else np.broadcast_to(np.asarray(transmittance, float), (3, n)))
+        with self._lens_stage() as ren:
+            ren.AddActor(self._actor)
+            try:
+                for m, w in moves:
+                    self._set_uv(uv_sets + m)
+                    add_point_array(self._pd, "lensT", (t * w).T)
+                    yield self.window.grab_rect_rgba(rect)[::-1, :, :3].copy()
+            finally:
+                ren.RemoveActor(self._actor)
 
     def masks(self, lens_v, lens_f, valid, key):
         """(invalid, inside, rim) (h, w) bool masks of the lens outline mesh: inside the

@@ -32,14 +32,7 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import (
-    compensated,
-    pixel_svd,
-    pixel_voxels,
-    reconstruct,
-    sigma_map,
-    sigma_volume,
-)
+from eyelab.blur.reconstruct import compensated, pixel_svd, sigma_volume
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.progress import bar as progress_bar
@@ -54,20 +47,24 @@ from eyelab.imaging.contract import (
 )
 from eyelab.imaging.options import RasterQuality
 from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.optics.lens.lenslets import carrier
 from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
 from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
-from eyelab.render.accumulate import PassAccumulator, encode_linear
+from eyelab.render.accumulate import PassAccumulator
 from eyelab.render.channels import channel_spread, grab_pass, note_channels
 from eyelab.render.composite import LensCompositor, compose
+from eyelab.render.lensletview import lenslet_lens_view
 from eyelab.render.stages import (
     env_width,
     field_details,
     lens_details,
     lens_geometry,
+    lenslet_geometry,
     passes_for,
     progressive_checkpoints,
     scene_items,
     select_channel,
+    stage_mean,
 )
 from eyelab.render.window import OffscreenWindow
 from eyelab.scene.lensview import (
@@ -173,7 +170,8 @@ class RasterRenderer(Renderer):
         env = None
         if lens_in_view:
             t = time.perf_counter()
-            env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report)
+            env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report,
+                                  eye)
             timings["setup_lens"] = time.perf_counter() - t
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
                                                  shown):
@@ -215,6 +213,7 @@ class RasterRenderer(Renderer):
             "small", content_key(warnings=scene.content_key, camera=cam),
             lambda: scene_warnings(scene, cam), report, "scene_warnings")
         bounds = scene.bounds()
+        lens = carrier(lens)          # a lenslet lens: the carrier's view, then the lenslets'
         lens_in_view = self._lens_in_view(lens, cam, report)
         covered = lens_in_view and q.skip_unneeded and self._lens_covers(lens, cam, report)
         t = time.perf_counter()
@@ -363,7 +362,8 @@ class RasterRenderer(Renderer):
                 "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
 
-    def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report) -> dict:
+    def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report, eye
+                   ) -> dict:
         if self._env_win is None:
             self._env_win = OffscreenWindow()
         win = self._env_win
@@ -374,6 +374,7 @@ class RasterRenderer(Renderer):
         fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,
                                                      report)
         items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
+        lenslets, lens = (lens, carrier(lens)) if lens.has_lenslets else (None, lens)
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
         if not disperses:
@@ -387,11 +388,18 @@ class RasterRenderer(Renderer):
             scene, lens, vcam, cam, view, q, wls), report, "lens_texcoords")
         report["details"]["lens"] = dict(lens_details(geo, len(wls), vcam),
                                          environment_px=[w_env, h_env])
+        offsets = None
+        if lenslets is not None:
+            okey = content_key(texcoords=tkey, lens=lenslets, eye=eye, view=view,
+                               samples=q.lenslet_samples)
+            offsets, _ = self._cached("texcoords", okey, lambda: lenslet_geometry(
+                scene, lenslets, geo, vcam, cam, eye, view, q, wls), report,
+                "lenslet_offsets")
         return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "spread": spread,
                 "items": items,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
-                "geo_key": tkey,
+                "geo_key": tkey, "lenslets": offsets, "eye_cam": cam,
                 "acc": PassAccumulator(h_env, w_env)}
 
     # ------------------------------------------------------------------ passes
@@ -438,36 +446,9 @@ class RasterRenderer(Renderer):
                 st["win"].set_seed((0.0, 0.0))
 
     def _mean(self, st, q, report) -> np.ndarray:
-        """The stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
-        reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`)."""
-        acc = st["acc"]
-        if st["recon"] is None or "zbuf" not in st:
-            return acc.mean_rgba()
-        t = time.perf_counter()
-        # the sigma the fields were compensated for; before the last pass (a progressive
-        # preview) the sigma of the passes so far, wider: previews err on the blurry side
-        rc = st["recon"]
-
-        def sigma():
-            vol = (rc["sigma"] if acc.count == st["passes"]
-                   else sigma_volume(rc["svds"], acc.count))
-            if "voxels" not in st:            # the depth buffer's look-up, once per frame
-                st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
-            return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
-
-        sig, _ = self._cached("small", ("sigma",) + st["key"] + (acc.shape, acc.count),
-                              sigma, report, "reconstruction_sigma")
-        rgba = acc.mean_rgba()
-        if sig["region"] is not None:      # filtered: only the box the filters change
-            (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
-            lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1]
-            out = reconstruct(lin, sig)            # sig's maps cover just that box
-            h = acc.shape[0]               # encoded once, back to GL order
-            rgba[h - y1:h - y0, x0:x1, :3] = encode_linear(
-                out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])
-        tm = report["timings_s"]
-        tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
-        return rgba
+        """The stage's average as GL-ordered RGBA (:func:`~eyelab.render.stages.stage_mean`)."""
+        return stage_mean(st, lambda key, fn: self._cached("small", key, fn, report,
+                                                           "reconstruction_sigma")[0], report)
 
     def _image(self, naked, env, view, q, report):
         if naked["passes"]:
@@ -484,9 +465,15 @@ class RasterRenderer(Renderer):
         if self._compositor is None:
             self._compositor = LensCompositor(self._eye_win, self.caches["small"])
         geo = env["geo"]
-        lens_img = self._compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
-                                              geo["tc_grid"].uv, geo["transmittance"],
-                                              env["geo_key"])
+        if env["lenslets"] is not None:
+            lo = env["lenslets"]                 # its spread in environment pixels
+            spread = lo.cell_sigma_rad * env_rgba.shape[1] / (2 * env["cam"].tan_half[0])
+            lens_img = lenslet_lens_view(self._compositor, env_rgba, geo, lo, env["geo_key"],
+                                         env["eye_cam"], spread, report)
+        else:
+            lens_img = self._compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
+                                                  geo["tc_grid"].uv, geo["transmittance"],
+                                                  env["geo_key"])
         masks = self._compositor.masks(geo["lens_v"], geo["lens_f"],
                                        geo["tc"].lens_ok.all(0),
                                        ("masks", env["geo_key"], self._eye_win.size))

@@ -5,9 +5,13 @@ progressive checkpoints."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
+from eyelab.blur.reconstruct import pixel_voxels, reconstruct, sigma_map, sigma_volume
 from eyelab.core.sampling import antialias_jitter, pass_samples
+from eyelab.render.accumulate import encode_linear
 from eyelab.render.actors import field_actor_factory
 from eyelab.scene.lensview import (
     lens_back_mesh,
@@ -86,6 +90,23 @@ def lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:
             "transmittance": grid_transmittance(tcg.transmittance)}
 
 
+def lenslet_geometry(scene, lens, geo, vcam, cam, eye, view, q, wls):
+    """The lens grid's per-pupil-sample offsets through ``lens``'s lenslets
+    (:func:`~eyelab.scene.lensletrays.lenslet_offsets`; ``geo``: :func:`lens_geometry`'s
+    of the carrier), the eye focusing the carrier's image at each vertex
+    (:func:`~eyelab.scene.focus.pixel_accommodation`)."""
+    from eyelab.scene.focus import pixel_accommodation
+    from eyelab.scene.lensletrays import lenslet_offsets
+
+    inter = EmbreeIntersector(scene)
+    pupil = np.asarray(cam.position, float)
+    d = geo["grid_v"] - pupil
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    acc, _ = pixel_accommodation(d, scene, inter, eye, lens, view, cam)
+    return lenslet_offsets(lens, geo["grid_v"], cam, vcam, inter, eye, acc,
+                           samples=q.lenslet_samples, wavelengths=wls)
+
+
 def grid_transmittance(t_grid) -> np.ndarray | None:
     """The lens grid's Fresnel transmittance (channels, n) (of its vertices' rays), None when
     the lens transmits everything (an index-1 lens). The lens view interpolates it across
@@ -139,3 +160,36 @@ def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefi
     return [[((m.content_key, None if route == "texture" else field.key, route, mip),
               field_actor_factory(m, field, route, mipmap=mip)) for m in shown]
             for field in fields]
+
+
+def stage_mean(st: dict, cached, report) -> np.ndarray:
+    """A stage's average (linear light, re-encoded) as GL-ordered RGBA (h, w, 4) uint8,
+    reconstructed in linear light when asked (:mod:`eyelab.blur.reconstruct`).
+    ``cached(key, factory)``: the renderer's small cache (the sigma maps)."""
+    acc = st["acc"]
+    if st["recon"] is None or "zbuf" not in st:
+        return acc.mean_rgba()
+    t = time.perf_counter()
+    # the sigma the fields were compensated for; before the last pass (a progressive
+    # preview) the sigma of the passes so far, wider: previews err on the blurry side
+    rc = st["recon"]
+
+    def sigma():
+        vol = (rc["sigma"] if acc.count == st["passes"]
+               else sigma_volume(rc["svds"], acc.count))
+        if "voxels" not in st:            # the depth buffer's look-up, once per frame
+            st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
+        return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
+
+    sig = cached(("sigma",) + st["key"] + (acc.shape, acc.count), sigma)
+    rgba = acc.mean_rgba()
+    if sig["region"] is not None:      # filtered: only the box the filters change
+        (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
+        lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1]
+        out = reconstruct(lin, sig)            # sig's maps cover just that box
+        h = acc.shape[0]               # encoded once, back to GL order
+        rgba[h - y1:h - y0, x0:x1, :3] = encode_linear(
+            out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])
+    tm = report["timings_s"]
+    tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
+    return rgba

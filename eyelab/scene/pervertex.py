@@ -39,10 +39,17 @@ def lens_texcoords(lens, points, camera, intersector, *, wavelengths=(587.56,),
     pupil = np.asarray(pupil, float)
     d = np.asarray(points, float) - pupil
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    o = np.broadcast_to(pupil, d.shape)
+    return ray_texcoords(lens, np.broadcast_to(pupil, d.shape), d, camera, intersector,
+                         wavelengths=wavelengths, miss_distance=miss_distance)
+
+
+def ray_texcoords(lens, origins, directions, camera, intersector, *,
+                  wavelengths=(587.56,), miss_distance=None) -> LensTexcoords:
+    """:func:`lens_texcoords` of rays from the eye side: ``origins`` and unit
+    ``directions`` (n, 3), each traced back through the lens into the scene."""
     far = miss_distance or camera.far * 0.999
     uvs, hits, shit, lok, trans = [], [], [], [], []
-    for res in lens.trace_wavelengths(o, d, wavelengths, reverse=True):
+    for res in lens.trace_wavelengths(origins, directions, wavelengths, reverse=True):
         ok = (res["status"] & np.uint8(FATAL)) == 0
         q, dd = res["out_points"], res["out_dirs"]
         h = intersector.intersect(q + 1e-6 * dd, dd)

@@ -90,8 +90,7 @@ SPEC_LIMITS = {
     "points[0].distance_m": (0.01, 1e7), "points[0].field_deg": (-80.0, 80.0),
     "points[0].field_polar_deg": (0.0, 80.0),
     "points[0].field_polar_deg[1]": (-360.0, 360.0), "points[0].position_m": (-1e6, 1e6),
-    "render.background": RGB_RANGE, "render.rim_color": RGB_RANGE,
-    "render.invalid_color": RGB_RANGE,
+    **dict.fromkeys(("render.background", "render.rim_color", "render.invalid_color"), RGB_RANGE),
     "render.camera_focus_m": (0.2, 1e6),
     "render.camera_f_number": (DOUBLET_FULL_F_NUMBER, 64.0),
     "lens.front.coefficients": (-1e12, 1e12),
@@ -420,14 +419,14 @@ KEYS = [
         "need", renderer="raster"),
     Key("render", "field_route", "choice", "", None, "field sampled in the "
         "vertex shader or per vertex on the CPU", choices=FIELD_ROUTES, renderer="raster"),
-    Key("render", "lens_rings", "integer", "", None, "lens outline mesh: rings",
-        renderer="raster"),
-    Key("render", "lens_segments", "integer", "", None, "lens outline mesh: segments",
-        renderer="raster"),
+    *(Key("render", f"lens_{k}", "integer", "", None, f"lens outline mesh: {k}",
+          renderer="raster") for k in ("rings", "segments")),
     Key("render", "lens_grid_px", "integer", "px", None, "spacing of the lens mesh that "
         "carries texture coordinates", renderer="raster"),
     Key("render", "env_oversample", "number", "", None, "environment-image pixels per "
         "eye pixel where the lens magnifies most", renderer="raster"),
+    Key("render", "lenslet_samples", "integer", "", None, "pupil samples of the view "
+        "through a lenslet lens (one lens-view draw each)", renderer="raster"),
     Key("render", "rim_color", "triple", "sRGB 0–255", None, "the lens rim",
         renderer="raster", integers=True),
     Key("render", "invalid_color", "triple", "sRGB 0–255", None, "pixels "
