@@ -35,6 +35,8 @@ BENCHES = {
             ("repeats",)),
     "schematic": ("a schematic eye's retinal image: raster frame cost against the thin "
                   "eye's, raster against the reference's rays from the retina", ("repeats",)),
+    "lenslets": ("myopia-control lenses in the raster: frame cost against the "
+                 "single-vision lens, raster against the reference", ("repeats",)),
 }
 
 
@@ -230,6 +232,12 @@ def _bench_schematic(args):
     return run_schematic_bench(repeats=args.repeats)
 
 
+def _bench_lenslets(args):
+    from eyelab.bench.lenslets import run_lenslets_bench
+
+    return run_lenslets_bench(repeats=args.repeats)
+
+
 def _bench_design(args):
     from eyelab.bench.design import run_design_bench
 
@@ -248,7 +256,8 @@ _BENCH_RUNS = {"optics": _bench_optics, "blurfield": _bench_blurfield,
                "stability": _bench_stability, "memory": _bench_memory,
                "inspect": _bench_inspect, "batch": _bench_batch,
                "imagebased": _bench_imagebased, "design": _bench_design,
-               "psf": _bench_psf, "schematic": _bench_schematic}
+               "psf": _bench_psf, "schematic": _bench_schematic,
+               "lenslets": _bench_lenslets}
 
 
 def _read_json(flag, path):

@@ -23,6 +23,16 @@ def polydata(vertices, faces):
     return pd
 
 
+def set_faces(pd, faces) -> None:
+    """Replace the triangles (m, 3) of polydata in place, its points and their data kept."""
+    conn = np.ascontiguousarray(np.asarray(faces).ravel(), dtype=np.int64)
+    offs = np.arange(0, len(conn) + 1, 3, dtype=np.int64)
+    cells = _vtk.vtkCellArray()
+    cells.SetData(_vtk.numpy_to_vtk(offs, deep=True), _vtk.numpy_to_vtk(conn, deep=True))
+    pd.SetPolys(cells)
+    pd.Modified()
+
+
 def set_geometry(pd, vertices, faces) -> None:
     """Replace the points and triangles of polydata in place (its point data is cleared)."""
     new = polydata(vertices, faces)

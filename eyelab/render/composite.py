@@ -22,6 +22,7 @@ from eyelab.render.actors import (
     add_point_array,
     image_data,
     polydata,
+    set_faces,
     set_geometry,
     set_image_rgba_gl,
     set_tcoords,
@@ -122,12 +123,14 @@ class LensCompositor:
         add_point_array(self._pd, "uvB", uv[2])
 
     def moved_views(self, env_rgba, uv_sets, transmittance, moves, rect):
-        """After :meth:`lens_view` (its grid uploaded), the grid textured with ``env_rgba``
-        (its shape) at ``uv_sets + m`` times ``transmittance`` (as :meth:`lens_view`'s)
-        times ``w`` for each (m (channels, n, 2), w (n,)) of ``moves``: yields each view's
-        pixels in ``rect`` = (x0, y0, x1, y1) (GL order, x1, y1 exclusive) as (y1 - y0,
-        x1 - x0, 3) uint8, row 0 at the top; only the rectangle is rendered and read
-        (:meth:`~eyelab.render.window.OffscreenWindow.grab_rect_rgba`)."""
+        """After :meth:`lens_view` (its grid uploaded), the grid's triangles ``f`` textured
+        with ``env_rgba`` (its shape) at ``uv_sets + m`` times ``transmittance`` (as
+        :meth:`lens_view`'s) times ``w`` for each (m (channels, n, 2), w (n,), f (k, 3)) of
+        ``moves``: yields each view's pixels in ``rect`` = (x0, y0, x1, y1) (GL order, x1,
+        y1 exclusive) as (y1 - y0, x1 - x0, 4) uint8 RGBA, GL order (a view of a reused
+        buffer: consume it before the next); only the rectangle is rendered and read
+        (:meth:`~eyelab.render.window.OffscreenWindow.grab_rect_rgba`), and only the
+        triangles given are rasterised (the others' pixels are black)."""
         self._grid_key = None                 # the attributes below are not the grid's own
         set_image_rgba_gl(self._image, env_rgba)
         n = len(uv_sets[0])
@@ -136,10 +139,11 @@ class LensCompositor:
         with self._lens_stage() as ren:
             ren.AddActor(self._actor)
             try:
-                for m, w in moves:
+                for m, w, f in moves:
+                    set_faces(self._pd, f)
                     self._set_uv(uv_sets + m)
                     add_point_array(self._pd, "lensT", (t * w).T)
-                    yield self.window.grab_rect_rgba(rect)[::-1, :, :3].copy()
+                    yield self.window.grab_rect_rgba(rect)
             finally:
                 ren.RemoveActor(self._actor)
 

@@ -9,8 +9,10 @@ share of its pupil samples that miss the lenslets, and per pupil sample k the li
 rays that meet them: the grid's coordinates moved by that sample's offsets, weighted by
 whether the vertex's ray meets a lenslet, from the environment image spread by the
 sample's share of the pupil (:func:`~eyelab.scene.lensletrays.cell_sigma`). Work follows
-the lenslets: a sample whose rays meet none is not drawn, and a moved view is drawn and
-read only in the rectangle of pixels its moved vertices' triangles reach.
+the lenslets: a sample whose rays meet none is not drawn, a moved view rasterises only the
+triangles with a vertex whose ray meets a lenslet, and is read only in the rectangle they
+can reach; the moved views are summed in 16-bit linear light
+(:class:`~eyelab.render.accumulate.PassAccumulator`).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from eyelab.core.color import decode_srgb
-from eyelab.render.accumulate import encode_linear
+from eyelab.render.accumulate import PassAccumulator, encode_linear
 
 #: Below this spread (environment pixels) the lenslet views sample the environment image
 #: as it is.
@@ -48,13 +50,15 @@ def lenslet_lens_view(compositor, env_rgba, geo, offsets, grid_key, cam, spread_
     if rect is not None and len(active):
         x0, y0, x1, y1 = rect
         h = base.shape[0]
-        part = total[h - y1:h - y0, x0:x1]                 # the rectangle, top first
-        lit = np.zeros_like(part)
         spread = spread_env(env_rgba, spread_px)
-        moves = ((offsets.offsets[k], offsets.through[k].astype(float)) for k in active)
-        for img in compositor.moved_views(spread, uv, t, moves, rect):
-            lit += decode_srgb(img)
-        part += lit / np.float32(k_all)
+        faces = geo["grid_f"]
+        moves = ((offsets.offsets[k], offsets.through[k].astype(float),
+                  faces[offsets.through[k][faces].any(1)]) for k in active)
+        acc = PassAccumulator(y1 - y0, x1 - x0)
+        for rgba in compositor.moved_views(spread, uv, t, moves, rect):
+            acc.add(rgba)
+        # the moved views' mean, as a share of all K samples
+        total[h - y1:h - y0, x0:x1] += acc.mean_linear() * np.float32(len(active) / k_all)
     report["details"]["lenslets"] = {
         "pupil_samples": k_all, "moved_views": int(len(active)),
         "moved_rect_px": None if rect is None else [int(v) for v in rect],

@@ -25,6 +25,13 @@ ALLOWED = set(COMMON_KEYS).union(*LAYOUT_KEYS.values())
 #: annulus 9.4-33 mm; the pitch 1.43 mm is the one that puts 396 lattice lenslets there).
 DIMS_LIKE = {"layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03, "pitch_mm": 1.43,
              "clear_zone_mm": 9.4, "zone_mm": 33.0}
+#: A HALT-like ring layout (docs/SCIENCE.md §12b: 1,021 contiguous lenslets of 1.12 mm on 11
+#: rings around a 9 mm clear zone; the rings' diameters are not published: the first
+#: touches the clear zone, and the pitch 2.309 mm is the one that puts 1,021 contiguous
+#: lenslets on 11 rings; the lenslets' powers and asphericity are not published either:
+#: DIMS's +3.50 D, spherical).
+HALT_LIKE = {"layout": "rings", "add_d": 3.5, "diameter_mm": 1.12,
+             "ring_diameters_mm": [round(10.12 + 2 * 2.309 * k, 3) for k in range(11)]}
 #: A spec with lenslets (the schema's examples, the tests and the corpus read it).
 BASE = {"lens": {"rx": "-3.00 DS", "lenslets": DIMS_LIKE}}
 RINGS_BASE = {"lens": {"rx": "-3.00 DS", "lenslets": {
