@@ -214,7 +214,7 @@ def gallery_commands() -> list:
     texts = [README] + [p.read_text() for p in PAGES]
     found = []
     for text in texts:
-        for cmd in re.findall(r"`(eyelab (?:demo|render)\s[^`]*-o\s+docs/gallery/\w+\.png)`",
+        for cmd in re.findall(r"`(eyelab (?:demo|render)\s[^`]*-o\s+docs/gallery/[\w-]+\.png)`",
                               text):
             cmd = " ".join(cmd.split())
             if cmd not in [c for c, _ in found]:

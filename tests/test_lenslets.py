@@ -326,3 +326,33 @@ def test_as_worn_maps_of_a_lenslet_lens_are_its_carriers_and_say_so(dims):
     b = as_worn_maps(eye, carrier(dims), half_angle_deg=20.0, n=9)
     assert np.array_equal(a.mean_error_d, b.mean_error_d, equal_nan=True)
     assert "396 lenslets" in a.model["lenslets"] and "lenslets" not in b.model
+
+
+def test_the_peripheral_map_of_a_lenslet_lens_gives_their_share_and_defocus():
+    """``maps --kind peripheral`` through a DIMS-like lens: the refraction is the carrier's
+    (the same map as the carrier alone); the lenslets' share is 0 through the clear centre
+    and, over the field points well inside the treatment zone, averages the lattice's fill
+    factor (the footprints fall all over the lattice cell); their image's myopic defocus
+    is the add less the carrier's refraction there."""
+    from eyelab.jobs.api import as_spec
+    from eyelab.jobs.retinal import peripheral_map
+    from eyelab.spec.lensletkeys import DIMS_LIKE
+
+    eye = {"model": "navarro", "rx": "-3.00", "pupil_diameter_mm": 4}
+    lens = as_spec({"eye": eye, "lens": {"rx": "-3.00", "lenslets": DIMS_LIKE}})
+    bare = as_spec({"eye": eye, "lens": {"rx": "-3.00"}})
+    a = peripheral_map(lens, half_angle_deg=30.0, n=13)
+    b = peripheral_map(bare, half_angle_deg=30.0, n=13)
+    assert np.array_equal(np.array(a["lens"]["m_d"]), np.array(b["lens"]["m_d"]))
+    lm = a["lens"]["lenslets"]
+    share = np.array(lm["share"])
+    m = np.array(a["lens"]["m_d"])
+    g = np.array(a["grid"]["field_x_deg"])
+    ecc = np.hypot(*np.meshgrid(g, g))
+    assert share[6, 6] == 0.0 and np.isnan(lm["myopic_defocus_d"][6][6])
+    zone = (ecc > 25.0) & (ecc < 32.0)           # lens points ~7.5-10 mm from its centre
+    fill = math.pi * D ** 2 / (2 * math.sqrt(3) * P ** 2)
+    assert zone.sum() >= 8 and share[zone].mean() == pytest.approx(fill, abs=0.03)
+    lit = share > 0
+    assert np.allclose(np.array(lm["myopic_defocus_d"])[lit], 3.5 - m[lit])
+    assert not np.isfinite(np.array(lm["myopic_defocus_d"])[~lit]).any()

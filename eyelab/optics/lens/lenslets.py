@@ -273,7 +273,7 @@ BEAM_MARGIN = 1.5
 
 
 def beam_lenslets(lens, objects, i: int, pupil, axis, pupil_radius: float,
-                  wavelength_nm: float = 587.56, grid: int = BEAM_GRID) -> dict:
+                  wavelength_nm: float = 587.56, grid: int = BEAM_GRID, entry=None) -> dict:
     """Which part of the light from object ``i`` of ``objects``
     (:class:`~eyelab.optics.rays.paths.ObjectPoints`) entering a pupil of ``pupil_radius``
     (m) centred at ``pupil`` (3,) across ``axis`` (3,, into the eye) passes lenslets. The
@@ -284,6 +284,9 @@ def beam_lenslets(lens, objects, i: int, pupil, axis, pupil_radius: float,
     pupil are the beam's footprint, each carrying the light of its grid cell (so a plus
     lenslet's converging pencil counts all its light, though it fills less of the pupil).
 
+    ``entry`` (3,): where the chief ray meets the front surface (world), when the caller
+    has traced it (e.g. through the carrier: the grid's centre only); else found here.
+
     Returns {"fraction": of the beam's light through lenslets; "lenslets": the indices
     met; "rays": the footprint's samples}."""
     from eyelab.core.vecmath import unit
@@ -293,9 +296,10 @@ def beam_lenslets(lens, objects, i: int, pupil, axis, pupil_radius: float,
     axis = unit(np.asarray(axis, float)[None])[0]
     pupil = np.asarray(pupil, float)
     one = ObjectPoints(objects.direction[i:i + 1], objects.distance[i:i + 1])
-    chief = find_chief_rays(lens, pupil, one, wavelength_nm)
+    if entry is None:
+        entry = find_chief_rays(lens, pupil, one, wavelength_nm).entry[0]
     front, _ = lens.placed_surfaces()
-    centre = (chief.entry[0] - front.translation) @ front.rotation
+    centre = (np.asarray(entry, float) - front.translation) @ front.rotation
     half = BEAM_MARGIN * pupil_radius * max(1.0, 1.0 / max(abs(axis[2]), 0.3))
     c = (np.arange(grid) + 0.5) / grid * 2 - 1
     gx, gy = np.meshgrid(centre[0] + half * c, centre[1] + half * c)
