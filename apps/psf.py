@@ -63,6 +63,9 @@ def run(args) -> int:
         print(f"{ch['wavelength_nm']:g} nm: Strehl {ch['strehl']:.3f}, RMS {ch['rms_um']:.3f} um "
               f"(higher orders {ch['rms_higher_orders_um']:.3f} um), MTF at 30 c/deg "
               + ("beyond the sampling" if m30 is None else f"{m30:.3f}"))
+    if rep.get("lenslets"):
+        print(f"through {rep['lenslets']['add_d']:+.2f} D lenslets: the PSF holds the "
+              f"carrier's image and theirs (RMS is the carrier's wave)")
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else "") +
           f": {args.size} x {args.size} px at {args.pitch_arcmin:g}'/px, pupil "
           f"{rep['pupil_mm']:g} mm")

@@ -41,19 +41,24 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     if not (3 <= size <= 1025 and size % 2 == 1):
         raise SpecError("--size", f"must be odd, in [3, 1025], got {size}")
     eye, lens = spec.eye, None if no_lens else spec.lens
+    lenslets = lens is not None and lens.has_lenslets
+    if lenslets:                   # the carrier's wave, then its lenslets' zones over it
+        from eyelab.optics.lens.lenslets import carrier, pupil_wave
     pts = spec.points
     one = ObjectPoints(pts.direction[point:point + 1], pts.distance[point:point + 1])
     pupil = eye.pupil_diameter * 1e3
     sc = eye.aberrations is not None and eye.aberrations.stiles_crawford
     images, channels = [], []
     for wl in channel_wavelengths():
-        res = analyze_points(eye, lens, one, wavelength_nm=wl, fixation=spec.fixation,
-                             accommodation=spec.accommodation, vertex_sphere=spec.vertex_sphere)
+        res = analyze_points(eye, carrier(lens) if lenslets else lens, one, wavelength_nm=wl,
+                             fixation=spec.fixation, accommodation=spec.accommodation,
+                             vertex_sphere=spec.vertex_sphere)
         if res.status[0] & np.uint8(FATAL):
             raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
-                  field="--pitch-arcmin", integrate=True)
+                  field="--pitch-arcmin", integrate=True,
+                  extra=pupil_wave(lens, res, 0, wl) if lenslets else None)
         images.append(out["psf"])
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],
@@ -72,6 +77,11 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
            "coefficients": "OSA/ANSI order from j = 0, um, over the render pupil, eyelab's "
                            "wearer frame (x to the wearer's right): the point's defocus and "
                            "astigmatism plus the eye's higher orders",
+           "lenslets": None if not lenslets else {
+               "add_d": lens.front.add_d, "wave": "the coefficients are the carrier's; over "
+               "the lenslets' zones of the pupil the field takes the difference of the "
+               "forward rays' optical paths through them and through the carrier, and their "
+               "light (eyelab.optics.lens.lenslets.pupil_wave): the PSF holds both images"},
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}
     return np.stack(images), with_units(rep)

@@ -68,7 +68,7 @@ def max_slope(coefficients_um, radius_m: float) -> float:
 
 def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float, size: int,
         *, stiles_crawford: bool = False, field: str = "eye.aberrations",
-        integrate: bool = False, strehl: bool = True) -> dict:
+        integrate: bool = False, strehl: bool = True, extra=None) -> dict:
     """The PSF (``size`` x ``size``, odd; sums to the energy inside it, of 1 in all) at
     ``pitch_rad`` per pixel for the wave aberration ``coefficients_um`` (OSA order from
     j = 0, wearer frame, over the pupil of ``pupil_mm``), at ``wavelength_nm``. With
@@ -79,12 +79,14 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
     {"psf", "pitch_rad", "strehl" (the PSF's true peak, :func:`peak_intensity`, over the
     diffraction-limited peak; None with ``strehl`` false: a render's kernel), "rms_um"
     (piston removed), "pupil_samples", "fft", "block", "outside_window" (the light beyond
-    the window)}."""
+    the window)}. ``extra``: (a function of pupil coordinates (x, y; m) returning the wave
+    (m) added to the Zernike one there and an amplitude factor, its largest slope): a
+    lenslet lens's zones (:func:`eyelab.optics.lens.lenslets.pupil_wave`)."""
     if size % 2 == 0 or size < 3:
         raise SpecError("psf.size", f"must be odd and >= 3, got {size}")
     lam = wavelength_nm * 1e-9
     d = pupil_mm * 1e-3
-    slope = max_slope(coefficients_um, d / 2)
+    slope = max_slope(coefficients_um, d / 2) + (0.0 if extra is None else extra[1])
     # the field spans the geometric spread 2 max |grad W| plus FIELD_MARGIN diffraction
     # widths on each side, so that the light diffracted past the geometric edge is inside
     dx_max = min(lam / (2 * (slope + FIELD_MARGIN * lam / d)), d / MIN_PUPIL_SAMPLES)
@@ -105,6 +107,11 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
     if stiles_crawford:
         amp = amp * 10.0 ** (-STILES_CRAWFORD_RHO * (x * x + y * y) * 1e6 / 2)
     w = np.where(inside, zk.wavefront(coefficients_um, x / (d / 2), y / (d / 2)), 0.0) * 1e-6
+    if extra is not None:
+        dw, da = extra[0](x[inside], y[inside])
+        w[inside] += dw
+        amp = amp.copy()
+        amp[inside] *= da
     field = amp * np.exp(2j * np.pi * w / lam)
     fine = _intensity(field)
     # the true peak's search costs more than the PSF itself: only where it is asked for

@@ -108,6 +108,24 @@ class LensletSurface(Surface):
         out.ravel()[inside] = idx[inside]
         return out
 
+    def added_sag(self, x, y) -> np.ndarray:
+        """(n,) the lenslets' added sag s(rho) - s(a) at lens points (x, y) (m; 0 outside
+        them)."""
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        out = np.zeros(x.shape)
+        k = self.which(x, y)
+        on = k >= 0
+        i = k[on]
+        out[on] = _bump(x[on] - self.centres[i, 0], y[on] - self.centres[i, 1],
+                        self.delta_curvature[i], self.conic, self.radius[i])[0]
+        return out
+
+    def max_added_slope(self) -> float:
+        """The steepest slope of the added sag (at the lenslets' rims), dimensionless."""
+        dc, a = np.abs(self.delta_curvature), self.radius
+        q = np.sqrt(np.maximum(1.0 - (1.0 + self.conic) * dc * dc * a * a, 1e-12))
+        return float(np.max(dc * a / q, initial=0.0))
+
     def derivatives(self, x, y) -> SagDerivatives:
         x = np.asarray(x, float)
         y = np.asarray(y, float)
@@ -355,3 +373,90 @@ __all__ = ["LAYOUTS", "LIMITS", "LensletSurface", "beam_lenslets", "carrier", "c
            "circle_overlap",
            "design_lenslets", "honeycomb", "lenslet_adds", "lenslet_fraction",
            "rings", "with_lenslets"]
+
+
+# ---------------------------------------------------------------------------- the wave
+#: Fixed-point steps landing a forward ray on a pupil point, and the miss (m) beyond which
+#: no ray reaches it (the dark rim a converging lenslet leaves about its zone).
+LAND_STEPS, LAND_TOL = 6, 1e-8
+#: Pupil offset (m) of the finite differences of the landing map (the zones' Jacobian).
+LAND_STEP = 2e-6
+
+
+def pupil_wave(lens, res, i: int, wavelength_nm: float):
+    """The lenslets' part of the field over the eye's pupil for point ``i`` of a
+    :class:`~eyelab.optics.chain.analysis.PointAnalysis` traced through the carrier: a
+    function (x, y) -> (W (m), amplitude) of pupil coordinates (m from the pupil centre, x
+    along the eye's x, y up across the chief ray: the wearer frame of
+    :mod:`eyelab.optics.eye.psf`), and the largest slope the lenslets add.
+
+    Forward rays from the object (a plane wave from a distant one) are landed on each
+    pupil point by fixed-point steps on where they cross the front surface, through the
+    lens and through the carrier alike; W is the difference of their optical paths (the
+    eikonal on the pupil's plane: exact through both surfaces, the carrier's own wave
+    left to the caller's second-order terms), and the amplitude the square root of the
+    lens area per pupil area of the lenslet ray over the carrier's. A lenslet's converging
+    pencil fills a zone smaller than the lenslet by its convergence over the distance to
+    the pupil, and leaves a rim that no ray reaches: amplitude 0 there (``LAND_TOL``)."""
+    from eyelab.core.vecmath import cross, unit
+
+    base = carrier(lens)
+    nl = lens.material.n(wavelength_nm)
+    centre = np.asarray(res.pupil[i], float)
+    d_in = np.asarray(res.chief.dir_out[i], float)
+    x_e = np.asarray(res.eye_x[i], float)
+    y_e = cross(d_in[None], x_e[None])[0]
+    start = np.asarray(res.chief.start[i], float)
+    finite = bool(np.isfinite(res.chief.object_distance_to_entry[i]))
+    d_obj = np.asarray(res.chief.dir_in[i], float)
+
+    def forward(lz, aim):
+        """Rays from the object toward the points ``aim`` (m, 3): (pupil-plane points,
+        optical paths from the object (or a plane across a distant one's wave), ok)."""
+        if finite:
+            o, d = np.broadcast_to(start, aim.shape), unit(aim - start)
+        else:
+            d = np.broadcast_to(d_obj, aim.shape)
+            o = aim - ((aim - start) @ d_obj)[:, None] * d
+        r = lz.trace(o, np.ascontiguousarray(d), wavelength_nm)
+        h1, h2 = r["hit1"].points, r["out_points"]
+        u = r["out_dirs"]
+        t = ((centre - h2) @ d_in) / (u @ d_in)
+        p = h2 + t[:, None] * u
+        opl = (np.linalg.norm(h1 - o, axis=1) + nl * np.linalg.norm(h2 - h1, axis=1)
+               + np.linalg.norm(p - h2, axis=1))
+        return p, opl, (r["status"] & np.uint8(FATAL)) == 0
+
+    def land(lz, target, aim):
+        for _ in range(LAND_STEPS):
+            p, opl, ok = forward(lz, aim)
+            miss = target - p
+            aim = aim + miss - (miss @ d_in)[:, None] * d_in
+        p, opl, ok = forward(lz, aim)
+        return aim, opl, ok & (np.linalg.norm(p - target, axis=1) < LAND_TOL)
+
+    def area(lz, target, aim):
+        """|d aim / d pupil| (lens area per pupil area) by finite differences."""
+        ax, _, _ = land(lz, target + LAND_STEP * x_e, aim)
+        ay, _, _ = land(lz, target + LAND_STEP * y_e, aim)
+        return np.linalg.norm(cross(ax - aim, ay - aim), axis=1) / LAND_STEP ** 2
+
+    def field(x, y):
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        target = centre + x.reshape(-1, 1) * x_e + y.reshape(-1, 1) * y_e
+        guess = target - 0.03 * d_in
+        a_c, opl_c, ok_c = land(base, target, guess)
+        a_l, opl_l, ok_l = land(lens, target, a_c)
+        w = np.zeros(len(target))
+        amp = np.where(ok_c, 1.0, 0.0)
+        front = lens.placed_surfaces()[0]
+        loc = front.to_local(a_l)
+        near = ok_c & ((lens.front.which(loc[:, 0], loc[:, 1]) >= 0) | ~ok_l)
+        if near.any():          # the lenslets' pupil points: their path and light
+            k = np.flatnonzero(near)
+            w[k] = np.where(ok_l[k], opl_c[k] - opl_l[k], 0.0)
+            ratio = area(lens, target[k], a_l[k]) / area(base, target[k], a_c[k])
+            amp[k] = np.where(ok_l[k], np.sqrt(ratio), 0.0)
+        return w.reshape(x.shape), amp.reshape(x.shape)
+
+    return field, (nl - 1.0) * lens.front.max_added_slope()
