@@ -395,3 +395,22 @@ def test_the_psf_through_a_lenslet_is_the_wave_optics_of_its_surface():
                      size=129)
     assert np.abs(c - d).sum(axis=(1, 2)).max() < 0.01    # (the FFT grid takes the lenslets'
     # slope into account: not identical)
+
+
+def test_a_lenslet_design_is_read_back_from_the_disk_cache(tmp_path, monkeypatch):
+    """The design (secant iterations on the traced adds) is stored by content: a second
+    parse of the same lens reads the curvatures back bit for bit, without designing."""
+    from eyelab.core import diskcache
+    from eyelab.optics.lens import lenslets as ll
+
+    monkeypatch.setenv("EYELAB_CACHE_DIR", str(tmp_path))
+    lens = SpectacleLens.from_rx(Prescription.parse("-2.00"))
+    centres = np.array([[6e-3, 0.0], [0.0, 7e-3]])
+    first = with_lenslets(lens, centres, D, 3.0)
+    assert diskcache.info()["entries"] == 1
+    calls = []
+    monkeypatch.setattr(ll, "design_lenslets", lambda *a, **k: calls.append(1))
+    again = with_lenslets(lens, centres, D, 3.0)
+    assert not calls
+    assert np.array_equal(again.front.delta_curvature, first.front.delta_curvature)
+    assert np.abs(lenslet_adds(again, Eye()) - 3.0).max() < 1e-4

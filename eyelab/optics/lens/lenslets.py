@@ -237,7 +237,32 @@ def with_lenslets(lens, centres, diameter: float, add_d: float, conic: float = 0
     guess = np.full(len(centres), add_d / (n - 1.0))
     surf = LensletSurface(lens.front, centres, diameter / 2, guess, conic, add_d)
     trial = dataclasses.replace(lens, front=surf)
-    return design_lenslets(trial, eye, wavelength_nm=wavelength_nm)
+    return designed(trial, eye, wavelength_nm)
+
+
+#: The disk cache's namespace of lenslet designs (:mod:`eyelab.core.diskcache`).
+DESIGN_NAMESPACE = "lenslet-design"
+
+
+def designed(trial, eye, wavelength_nm: float):
+    """:func:`design_lenslets` of ``trial``, read from the disk cache when this lens, eye
+    and wavelength were designed before (the curvatures bit for bit; a HALT-like lens's
+    1,021 lenslets take seconds), else designed and stored."""
+    from pathlib import Path
+
+    from eyelab.core import diskcache
+    from eyelab.core.cache import complete_key
+
+    key = complete_key(lens=trial, eye=eye, wavelength=wavelength_nm)
+    if key is None:
+        return design_lenslets(trial, eye, wavelength_nm=wavelength_nm)
+    arrays, _, _ = diskcache.fetch(
+        DESIGN_NAMESPACE, {"lens_eye": key, "numpy": np.__version__},
+        lambda: ({"delta_curvature": design_lenslets(
+            trial, eye, wavelength_nm=wavelength_nm).front.delta_curvature}, {}),
+        code=(Path(__file__).parent, Path(diskcache.__file__).parent))
+    return dataclasses.replace(trial, front=trial.front.with_curvature(
+        arrays["delta_curvature"]))
 
 
 def lenslet_adds(lens, eye, wavelength_nm: float = 587.56) -> np.ndarray:
