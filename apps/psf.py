@@ -64,8 +64,12 @@ def run(args) -> int:
               f"(higher orders {ch['rms_higher_orders_um']:.3f} um), MTF at 30 c/deg "
               + ("beyond the sampling" if m30 is None else f"{m30:.3f}"))
     if rep.get("lenslets"):
-        print(f"through {rep['lenslets']['add_d']:+.2f} D lenslets: the PSF holds the "
-              f"carrier's image and theirs (RMS is the carrier's wave)")
+        lm = rep["lenslets"]
+        tf = lm["through_focus"]
+        peaks = ", ".join(f"{v:+.2f} D ({a:.3f})" for v, a in tf["peak_peaks"])
+        print(f"through {lm['add_d']:+.2f} D lenslets: the PSF holds the carrier's image and "
+              f"theirs (RMS is the carrier's wave); through focus at {tf['wavelength_nm']:g} "
+              f"nm the PSF's peak over the aberration-free one has maxima at {peaks}")
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else "") +
           f": {args.size} x {args.size} px at {args.pitch_arcmin:g}'/px, pupil "
           f"{rep['pupil_mm']:g} mm")

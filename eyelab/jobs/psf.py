@@ -42,6 +42,7 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         raise SpecError("--size", f"must be odd, in [3, 1025], got {size}")
     eye, lens = spec.eye, None if no_lens else spec.lens
     lenslets = lens is not None and lens.has_lenslets
+    focus = None
     if lenslets:                   # the carrier's wave, then its lenslets' zones over it
         from eyelab.optics.lens.lenslets import carrier, pupil_wave
     pts = spec.points
@@ -56,10 +57,12 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         if res.status[0] & np.uint8(FATAL):
             raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
+        extra = pupil_wave(lens, res, 0, wl) if lenslets else None
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
-                  field="--pitch-arcmin", integrate=True,
-                  extra=pupil_wave(lens, res, 0, wl) if lenslets else None)
+                  field="--pitch-arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
+        if lenslets and len(channels) == 1:             # the green channel's (the e line)
+            focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],
             "rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
@@ -81,7 +84,27 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
                "add_d": lens.front.add_d, "wave": "the coefficients are the carrier's; over "
                "the lenslets' zones of the pupil the field takes the difference of the "
                "forward rays' optical paths through them and through the carrier, and their "
-               "light (eyelab.optics.lens.lenslets.pupil_wave): the PSF holds both images"},
+               "light (eyelab.optics.lens.lenslets.pupil_wave): the PSF holds both images",
+               "through_focus": focus},
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}
     return np.stack(images), with_units(rep)
+
+
+def lenslet_focus(lens, coefficients_um, pupil_mm, wavelength_nm, extra, sc) -> dict:
+    """The image through focus behind a lenslet lens (:func:`eyelab.optics.eye.psf.
+    through_focus`) from -1.5 D to the add + 1.5 D in 0.05 D steps (as ``analyze`` of a
+    schematic eye), with the peaks of both curves (the carrier's image, the lenslets')."""
+    from eyelab.jobs.retinal import FOCUS_MARGIN_D, FOCUS_STEP_D
+    from eyelab.optics.chain.forward_wave import focus_peaks
+    from eyelab.optics.eye.psf import through_focus
+
+    add = lens.front.add_d
+    lo, hi = min(0.0, add) - FOCUS_MARGIN_D, max(0.0, add) + FOCUS_MARGIN_D
+    vs = np.round(np.arange(lo, hi + FOCUS_STEP_D / 2, FOCUS_STEP_D), 10)
+    tf = through_focus(coefficients_um, pupil_mm, wavelength_nm, vs, extra=extra,
+                       stiles_crawford=sc)
+    return {"wavelength_nm": wavelength_nm, "vergence_d": tf["vergence_d"],
+            "axial": tf["axial"], "peak": tf["peak"],
+            "axial_peaks": focus_peaks(tf),
+            "peak_peaks": focus_peaks({"vergence_d": tf["vergence_d"], "axial": tf["peak"]})}
