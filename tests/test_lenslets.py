@@ -226,6 +226,25 @@ def test_the_reversed_wave_understates_a_lenslets_vergence():
     assert 2.92 < fit < 3.01 and fit < 0.96 * forward
 
 
+def zoned_axial(k, w_eye, v, zones) -> float:
+    """The intensity at the image point, over the aberration-free peak, of a round pupil in
+    concentric zones (lo, hi, amplitude, extra wave (m) of the radius h (m)) with the eye's
+    wave ``w_eye(h)`` and the retina moved to where a wave ``v`` D more converging focuses:
+    |sum A exp(i k (W - v h^2 / 2))|^2 by quadrature in each zone."""
+    from scipy.integrate import quad
+
+    total = 0j
+    for lo, hi, amp, extra in zones:
+        def field(hh, amp=amp, extra=extra):
+            return amp * np.exp(1j * k * (w_eye(hh) - 0.5 * v * hh * hh + extra(hh))) \
+                * 2 * np.pi * hh
+
+        total += quad(lambda hh: field(hh).real, lo, hi, limit=200)[0] \
+            + 1j * quad(lambda hh: field(hh).imag, lo, hi, limit=200)[0]
+    norm = sum(amp * np.pi * (hi * hi - lo * lo) for lo, hi, amp, _ in zones)
+    return abs(total) ** 2 / norm ** 2
+
+
 def test_through_focus_of_a_lone_lenslet_meets_the_two_zone_closed_form():
     """A lenslet of +3 D add, 1.2 mm across, centred before a naked schematic emmetrope's
     2 mm pupil, a distant object on the axis. Its pencil converges over the d = 15.04 mm to
@@ -238,7 +257,6 @@ def test_through_focus_of_a_lone_lenslet_meets_the_two_zone_closed_form():
     rim leaves out the rim rays' path difference, about d (V 0.6 mm)^2 / 2 = 0.02 um),
     the carrier alone within 0.002 (measured 0.0006), and the forward wave's vergence over
     the zone within 0.01 D of V / (1 - d V) (the reversed wave misses it by 5 %)."""
-    from scipy.integrate import quad
 
     from eyelab.optics.chain.forward_wave import forward_wave, through_focus
     from eyelab.optics.chain.retina import trace_field
@@ -266,23 +284,11 @@ def test_through_focus_of_a_lone_lenslet_meets_the_two_zone_closed_form():
     fit = np.polyfit(h ** 2, c["opd"][c["ok"]], 3)            # the eye's own wave
     w_eye = lambda hh: np.polyval(fit, hh * hh) - fit[-1]      # noqa: E731
 
-    def closed(v, zones):
-        total = 0j
-        for lo, hi, amp, extra in zones:
-            def field(hh, amp=amp, extra=extra):
-                return amp * np.exp(1j * k * (w_eye(hh) - 0.5 * v * hh * hh + extra(hh))) \
-                    * 2 * np.pi * hh
-
-            total += quad(lambda hh: field(hh).real, lo, hi, limit=200)[0] \
-                + 1j * quad(lambda hh: field(hh).imag, lo, hi, limit=200)[0]
-        norm = sum(amp * np.pi * (hi * hi - lo * lo) for lo, hi, amp, _ in zones)
-        return abs(total) ** 2 / norm ** 2
-
     two = [(0.0, a, a_lens / a, lambda hh: 0.5 * v_ep * (hh * hh - a * a)),
            (a_lens, big_r, 1.0, lambda hh: 0.0)]
     one = [(0.0, big_r, 1.0, lambda hh: 0.0)]
-    assert np.abs(curves["lenslet"] - [closed(v, two) for v in vs]).max() <= 0.03
-    assert np.abs(curves["carrier"] - [closed(v, one) for v in vs]).max() <= 0.002
+    assert np.abs(curves["lenslet"] - [zoned_axial(k, w_eye, v, two) for v in vs]).max() <= 0.03
+    assert np.abs(curves["carrier"] - [zoned_axial(k, w_eye, v, one) for v in vs]).max() <= 0.002
     wl_ = waves["lenslet"]
     zone = wl_["ok"] & (wl_["zone"] >= 0)
     hz = np.hypot(*wl_["xi"][zone].T) * wl_["m"]
@@ -429,7 +435,6 @@ def test_the_thin_eyes_image_through_focus_meets_the_two_zone_closed_form():
     defocus at 546 nm from its Zernike term), within 0.03 of the aberration-free peak
     (measured 0.015); its
     peaks are the carrier's image and the lenslet's about V / (1 - d V)."""
-    from scipy.integrate import quad
 
     from eyelab.jobs.api import as_spec
     from eyelab.jobs.psf import point_psf
@@ -451,24 +456,12 @@ def test_the_thin_eyes_image_through_focus_meets_the_two_zone_closed_form():
     d = lens.pose.vertex_distance + lens.center_thickness / lens.material.n(wl)
     a, v_l = a_lens * (1 - d * add), add / (1 - d * add)
 
-    def closed(v, zones):
-        total = 0j
-        for lo, hi, amp, extra in zones:
-            def field(hh, amp=amp, extra=extra):
-                return amp * np.exp(1j * k * (w_eye(hh) - 0.5 * v * hh * hh + extra(hh))) \
-                    * 2 * np.pi * hh
-
-            total += quad(lambda hh: field(hh).real, lo, hi, limit=200)[0] \
-                + 1j * quad(lambda hh: field(hh).imag, lo, hi, limit=200)[0]
-        norm = sum(amp * np.pi * (hi * hi - lo * lo) for lo, hi, amp, _ in zones)
-        return abs(total) ** 2 / norm ** 2
-
     two = [(0.0, a, a_lens / a, lambda hh: 0.5 * v_l * (hh * hh - a * a)),
            (a_lens, big_r, 1.0, lambda hh: 0.0)]
     vs = np.array(tf["vergence_d"])
     pick = np.flatnonzero(np.isclose(np.mod(vs + 1e-9, 0.25), 0.0, atol=1e-6))
     got = np.array(tf["axial"])[pick]
-    want = np.array([closed(v, two) for v in vs[pick]])
+    want = np.array([zoned_axial(k, w_eye, v, two) for v in vs[pick]])
     assert np.abs(got - want).max() <= 0.03, np.c_[vs[pick], got, want]
     peaks = [v for v, _ in tf["axial_peaks"]]                 # the carrier's image, then
     assert abs(peaks[0]) < 0.2 and len(peaks) >= 2, tf["axial_peaks"]   # the lenslet's, its

@@ -50,7 +50,8 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     pupil = eye.pupil_diameter * 1e3
     sc = eye.aberrations is not None and eye.aberrations.stiles_crawford
     images, channels = [], []
-    for wl in channel_wavelengths():
+    wavelengths = channel_wavelengths()
+    for wl in wavelengths:
         res = analyze_points(eye, carrier(lens) if lenslets else lens, one, wavelength_nm=wl,
                              fixation=spec.fixation, accommodation=spec.accommodation,
                              vertex_sphere=spec.vertex_sphere)
@@ -61,7 +62,7 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
                   field="--pitch-arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
-        if lenslets and len(channels) == 1:             # the green channel's (the e line)
+        if lenslets and wl == wavelengths[1]:            # the green channel's (the e line)
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],

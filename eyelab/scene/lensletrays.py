@@ -132,28 +132,28 @@ def lenslet_offsets(lens, grid_v, cam, vcam, intersector, eye, acc, *, samples: 
     front = base.placed_surfaces()[0]
     surf = lens.front
     k_all = len(seeds)
-    offsets = np.zeros((k_all, len(wavelengths), n, 2), np.float32)
-    through = np.zeros((k_all, n), bool)
+    # every sample's rays at once: (K, n) flattened
+    rho = rp * seeds                                                   # (K, 2) m
+    o = pupil + rho[:, None, :1] * x_e + rho[:, None, 1:] * y_e        # (K, n, 3)
+    slope = np.einsum("nij,kj->kni", g, rho)                           # (K, n, 2)
+    dirs = unit(d - slope[..., :1] * x_e - slope[..., 1:] * y_e).reshape(-1, 3)
+    o = o.reshape(-1, 3)
+    res = base.trace(o, dirs, EYE_REFERENCE_NM, reverse=True)
+    ok = (res["status"] & np.uint8(FATAL)) == 0
+    local = front.to_local(res["hit2"].points)
+    idx = np.flatnonzero(ok & (surf.which(local[:, 0], local[:, 1]) >= 0))
+    offsets = np.zeros((len(wavelengths), k_all * n, 2), np.float32)
+    through = np.zeros(k_all * n, bool)
     failed = 0
-    for k, s in enumerate(seeds):
-        rho = rp * s                                                   # (2,) m
-        o = pupil + rho[0] * x_e + rho[1] * y_e
-        slope = g @ rho                                                # (n, 2)
-        dirs = unit(d - slope[:, :1] * x_e - slope[:, 1:] * y_e)
-        res = base.trace(o, dirs, EYE_REFERENCE_NM, reverse=True)
-        ok = (res["status"] & np.uint8(FATAL)) == 0
-        local = front.to_local(res["hit2"].points)
-        hit = ok & (surf.which(local[:, 0], local[:, 1]) >= 0)
-        idx = np.flatnonzero(hit)
-        if not len(idx):
-            continue
+    if len(idx):            # the rays that meet a lenslet: through it and the carrier
         on = ray_texcoords(lens, o[idx], dirs[idx], vcam, intersector,
                            wavelengths=wavelengths)
         off = ray_texcoords(base, o[idx], dirs[idx], vcam, intersector,
                             wavelengths=wavelengths)
         good = on.lens_ok.all(0) & off.lens_ok.all(0)
-        failed += int((~good).sum())
-        offsets[k][:, idx[good]] = (on.uv - off.uv)[:, good]
-        through[k, idx[good]] = True
-    return LensletOffsets(offsets, through, failed, seeds,
-                          cell_sigma(surf.add_d, rp, k_all))
+        failed = int((~good).sum())
+        offsets[:, idx[good]] = (on.uv - off.uv)[:, good]
+        through[idx[good]] = True
+    offsets = offsets.reshape(len(wavelengths), k_all, n, 2).transpose(1, 0, 2, 3)
+    return LensletOffsets(np.ascontiguousarray(offsets), through.reshape(k_all, n), failed,
+                          seeds, cell_sigma(surf.add_d, rp, k_all))

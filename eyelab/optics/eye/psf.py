@@ -100,18 +100,7 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
                         f"pupil or smaller aberrations")
     n_fft += n_fft % 2
     dx = lam * k / (n_fft * pitch_rad)
-    c = (np.arange(n_fft) - n_fft // 2) * dx
-    x, y = np.meshgrid(c, c)
-    amp = _coverage(x, y, d / 2, dx)
-    inside = amp > 0
-    if stiles_crawford:
-        amp = amp * 10.0 ** (-STILES_CRAWFORD_RHO * (x * x + y * y) * 1e6 / 2)
-    w = np.where(inside, zk.wavefront(coefficients_um, x / (d / 2), y / (d / 2)), 0.0) * 1e-6
-    if extra is not None:
-        dw, da = extra[0](x[inside], y[inside])
-        w[inside] += dw
-        amp = amp.copy()
-        amp[inside] *= da
+    x, y, amp, w, _ = _pupil(coefficients_um, d, dx, n_fft, stiles_crawford, extra)
     field = amp * np.exp(2j * np.pi * w / lam)
     fine = _intensity(field)
     # the true peak's search costs more than the PSF itself: only where it is asked for
@@ -137,6 +126,26 @@ def _pixel_integrated(fine: np.ndarray, k: int) -> np.ndarray:
     fy, fx = np.fft.fftfreq(n), np.fft.rfftfreq(n)
     spec *= np.sinc(k * fy)[:, None] * np.sinc(k * fx)[None, :]
     return np.fft.fftshift(np.fft.irfft2(spec, s=fine.shape)) * (k * k)
+
+
+def _pupil(coefficients_um, d: float, dx: float, n_fft: int, stiles_crawford: bool, extra
+           ) -> tuple:
+    """The pupil function's parts on the n_fft x n_fft grid of spacing ``dx`` (m) over a
+    pupil of diameter ``d`` (m): (x, y, amplitude, wave (m), inside) — the anti-aliased
+    edge, the Stiles-Crawford apodisation if asked, the Zernike wave and ``extra``'s zones
+    (:func:`psf`)."""
+    c = (np.arange(n_fft) - n_fft // 2) * dx
+    x, y = np.meshgrid(c, c)
+    amp = _coverage(x, y, d / 2, dx)
+    inside = amp > 0
+    if stiles_crawford:
+        amp = amp * 10.0 ** (-STILES_CRAWFORD_RHO * (x * x + y * y) * 1e6 / 2)
+    w = np.where(inside, zk.wavefront(coefficients_um, x / (d / 2), y / (d / 2)), 0.0) * 1e-6
+    if extra is not None:
+        dw, da = extra[0](x[inside], y[inside])
+        w[inside] += dw
+        amp[inside] *= da
+    return x, y, amp, w, inside
 
 
 def _coverage(x, y, radius: float, dx: float, sub: int = 8) -> np.ndarray:
@@ -262,17 +271,7 @@ def through_focus(coefficients_um, pupil_mm: float, wavelength_nm: float, vergen
         raise SpecError("--pitch-arcmin", f"the through-focus range's slope "
                         f"({slope * 1e3:.2f} mrad) needs a {n_fft}-point FFT (at most "
                         f"{MAX_GRID})")
-    c = (np.arange(n_fft) - n_fft // 2) * dx
-    x, y = np.meshgrid(c, c)
-    amp = _coverage(x, y, d / 2, dx)
-    inside = amp > 0
-    if stiles_crawford:
-        amp = amp * 10.0 ** (-STILES_CRAWFORD_RHO * (x * x + y * y) * 1e6 / 2)
-    w = np.where(inside, zk.wavefront(coefficients_um, x / (d / 2), y / (d / 2)), 0.0) * 1e-6
-    if extra is not None:
-        dw, da = extra[0](x[inside], y[inside])
-        w[inside] += dw
-        amp[inside] *= da
+    x, y, amp, w, inside = _pupil(coefficients_um, d, dx, n_fft, stiles_crawford, extra)
     norm = float(amp.sum()) ** 2
     h2 = (x * x + y * y)[inside]
     a_in, w_in = amp[inside], w[inside]
