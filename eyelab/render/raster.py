@@ -83,8 +83,9 @@ from eyelab.scene.refine import refine_for_fields
 #: in turn recomputed their fields every frame); memory stays bounded whatever is rendered.
 #: Entries per cache: a scene's meshes must fit "refined" (per set of fields: the room's 21
 #: meshes for each of those three views) and "prefiltered" (the room has 21, the ETDRS
-#: chart 15), or every frame rebuilds them.
-CACHE_SIZES = {"fields": 12, "refined": 96, "prefiltered": 48, "texcoords": 4, "small": 48}
+#: chart 15), or every frame rebuilds them. "texcoords" holds a lens's grid coordinates
+#: and, for a lenslet lens, its per-pupil-sample offsets beside them (~4 MB at 640 x 480).
+CACHE_SIZES = {"fields": 12, "refined": 96, "prefiltered": 48, "texcoords": 8, "small": 48}
 
 
 class RasterRenderer(Renderer):
