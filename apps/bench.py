@@ -34,7 +34,9 @@ BENCHES = {
     "psf": ("the eye's wave-optics PSF: its cost; the frame with higher-order aberrations",
             ("repeats",)),
     "schematic": ("a schematic eye's retinal image: raster frame cost against the thin "
-                  "eye's, raster against the reference's rays from the retina", ("repeats",)),
+                  "eye's, raster against the reference's rays from the retina, and both "
+                  "against forward rays on small dots across the field",
+                  ("repeats", "quick")),
     "lenslets": ("myopia-control lenses in the raster: frame cost against the "
                  "single-vision lens, raster against the reference", ("repeats",)),
 }
@@ -229,7 +231,7 @@ def _bench_psf(args):
 def _bench_schematic(args):
     from eyelab.bench.schematic import run_schematic_bench
 
-    return run_schematic_bench(repeats=args.repeats)
+    return run_schematic_bench(repeats=args.repeats, quick=args.quick)
 
 
 def _bench_lenslets(args):

@@ -79,6 +79,12 @@ def test_channel_spread_is_the_blur_covariance_difference():
     class F:
         matrix: np.ndarray
 
+        def blur_matrix(self):             # a second-order field: its matrix
+            return self.matrix
+
+        def mean_offset(self):
+            return np.zeros(self.matrix.shape[:-1])
+
     size = (200, 100)
     px = np.array([100.0, 50.0])
     a0, a1, a2 = 1.0, -2.0, 0.5                    # semi-axes in px, signs differing

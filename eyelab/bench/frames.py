@@ -29,9 +29,10 @@ DEFAULT_FRAME_SIZE = (1024, 768)
 #: blurred far field), through its lens (the wearer corrected: blur below a pixel over most
 #: of the view), and its emmetrope (everything but the nearest floor in focus); and
 #: ``eyelab.render`` of the spec called twice in a row (the public API: the second call is
-#: what a notebook pays for each new image).
+#: what a notebook pays for each new image); and the Navarro schematic eye of the spec's
+#: spherical equivalent through its lens (its retinal image: ray-aberration fields).
 FRAME_KINDS = ("uncorrected", "corrected_through_lens", "emmetrope", "api_first_call",
-               "api_second_call")
+               "api_second_call", "schematic_through_lens")
 
 #: Run in a fresh process of one code version: warm frames of the default spec (uncorrected,
 #: through the lens, the emmetrope), alternating; then the public API called twice; prints
@@ -49,14 +50,27 @@ rs = spec.render
 cases = (("uncorrected", spec, True), ("corrected_through_lens", spec, False),
          ("emmetrope", emm, True))
 times = {k: [] for k, _, _ in cases}
+from eyelab.jobs.render import build_scene
+from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.eye.schematic import SchematicEye
+from eyelab.optics.lens.spectacle import SpectacleLens
+se = Prescription(spec.lens.rx.sphere + spec.lens.rx.cylinder / 2)
+schematic = (SchematicEye.from_rx(se, pupil_diameter=spec.eye.pupil_diameter,
+                                  accommodation_max=min(10.0, spec.eye.accommodation_max)),
+             SpectacleLens.from_rx(se, pose=spec.lens.pose), build_scene(rs.scene))
+times["schematic_through_lens"] = []
 with make_renderer(rs.renderer, rs.quality) as r:
     for _, s, no_lens in cases:                       # cold frames: caches and shaders
         render_spec(s, no_lens=no_lens, renderer=r)
+    r.render(schematic[2], schematic[0], schematic[1], rs.view)
     for _ in range(repeats):
         for label, s, no_lens in cases:
             t = time.perf_counter()
             render_spec(s, no_lens=no_lens, renderer=r)
             times[label].append(time.perf_counter() - t)
+        t = time.perf_counter()
+        r.render(schematic[2], schematic[0], schematic[1], rs.view)
+        times["schematic_through_lens"].append(time.perf_counter() - t)
 for label in ("api_first_call", "api_second_call"):
     t = time.perf_counter()
     eyelab.render(None, width=w, height=h)

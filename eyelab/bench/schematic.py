@@ -9,7 +9,7 @@ raster renderer each, warm (the best of ``repeats`` after a first frame), measur
 alternation so that the machine's load falls on both alike. Error: raster (default
 quality) against the reference at ``reference_spp`` and against a converged reference at
 ``truth_spp``, SSIM / PSNR / blur-size error (:func:`eyelab.reference.metrics.
-compare_images`), 160 x 120.
+compare_images`), 160 x 120. Dots: :mod:`eyelab.bench.dots` at ``dots_spp``.
 """
 
 from __future__ import annotations
@@ -105,13 +105,30 @@ def _errors(reference_spp: int, truth_spp: int, bar) -> list:
     return rows
 
 
+#: The quick preset (``--quick``): one repeat, the reference's ladder and the dots at
+#: fewer rays per pixel (a check that everything runs and roughly agrees, in about two
+#: minutes; the acceptance numbers come from the default run).
+QUICK = {"repeats": 1, "reference_spp": 16, "truth_spp": 64, "dots_spp": 32}
+
+
 def run_schematic_bench(repeats: int = 3, reference_spp: int = 64,
-                        truth_spp: int = 256) -> dict:
-    """The benchmark's JSON (module doc): ``frames``, ``errors`` and ``summary``."""
-    bar = progress_bar(2 + repeats + 8, "schematic bench", "step")
+                        truth_spp: int = 256, dots_spp: int = 256, *,
+                        quick: bool = False) -> dict:
+    """The benchmark's JSON (module doc): ``frames``, ``errors``, ``dots``
+    (:mod:`eyelab.bench.dots`: raster and reference against each other and forward rays
+    on small dots across the field) and ``summary``; ``quick``: :data:`QUICK`'s
+    settings instead."""
+    from eyelab.bench.dots import ANGLES, configs, dots_summary, run_dots
+
+    if quick:
+        repeats, reference_spp, truth_spp, dots_spp = (
+            QUICK[k] for k in ("repeats", "reference_spp", "truth_spp", "dots_spp"))
+    bar = progress_bar(2 + repeats + 8 + len(configs()) * len(ANGLES), "schematic bench",
+                       "step")
     try:
         frames = _frames(repeats, bar)
         errors = _errors(reference_spp, truth_spp, bar)
+        dots = run_dots(dots_spp, bar)
     finally:
         bar.close()
     ssim = [r["raster_vs_reference"]["ssim"] for r in errors]
@@ -125,5 +142,7 @@ def run_schematic_bench(repeats: int = 3, reference_spp: int = 64,
         f"{min(ssim):.3f}-{max(ssim):.3f}; vs a {truth_spp} spp reference "
         f"{min(ssim_truth):.3f}-{max(ssim_truth):.3f}",
     ]
-    return {"benchmark": "schematic", "frames": frames, "errors": errors,
-            "reference_spp": reference_spp, "truth_spp": truth_spp, "summary": summary}
+    summary += dots_summary(dots)
+    return {"benchmark": "schematic", "frames": frames, "errors": errors, "dots": dots,
+            "reference_spp": reference_spp, "truth_spp": truth_spp, "dots_spp": dots_spp,
+            "quick": quick, "summary": summary}

@@ -55,6 +55,10 @@ class BlurField:
     accommodation : (nz, ny, nx) D used
     status : (nz, ny, nx) uint8 :class:`VoxelStatus`
     sources : (nz, ny, nx, 3) world positions of the wave sources, m
+    aberration : None (the map is ``matrix`` alone: a second-order blur), or (nz, ny, nx,
+        2, len(HIGHER)) the ray-aberration map's non-linear coefficients, NDC per unit seed
+        (:mod:`eyelab.blur.aberration`: the constant, quadratic and cubic terms; the
+        linear ones are ``matrix``)
     """
 
     camera: Camera
@@ -71,6 +75,67 @@ class BlurField:
     method: str = "wavefront"
     key: str = ""
     report: dict = field(default_factory=dict)
+    aberration: np.ndarray | None = None
+
+    # -------------------------------------------------------------- the map
+    @property
+    def has_aberration(self) -> bool:
+        """Whether the map has terms beyond the matrix (then a pass displaces by
+        :meth:`displacement`, not matrix x seed)."""
+        return self.aberration is not None
+
+    def displacement(self, seed) -> np.ndarray:
+        """(nz, ny, nx, 2) NDC: every voxel's displacement for the pupil point ``seed``
+        (2,), unit disc: matrix x seed plus the non-linear terms."""
+        from eyelab.blur.aberration import higher_basis
+
+        s = np.asarray(seed, float)
+        d = self.matrix @ s
+        if self.aberration is not None:
+            d = d + self.aberration @ higher_basis(s[None])[0]
+        return d
+
+    def displacement_rgba(self, seed) -> np.ndarray:
+        """(nz, ny, nx, 4) float32 texels of a pass's displacement at ``seed``, laid out
+        as :meth:`texture_rgba`'s matrix (dx, 0, dy, 0), so that the shader's matrix x
+        (1, 0) is the displacement."""
+        d = self.displacement(seed)
+        out = np.zeros(d.shape[:3] + (4,), np.float32)
+        out[..., 0] = d[..., 0]
+        out[..., 2] = d[..., 1]
+        return out
+
+    def pass_field(self, seed) -> PassField:
+        """The field a pass with this ``seed`` draws by: its displacement as a texture
+        (:meth:`displacement_rgba`) under a key of its own, to be used with the seed (1,
+        0)."""
+        s = tuple(float(v) for v in np.asarray(seed, float))
+        return PassField(self.camera, self.shape, self.depth_mode, (self.key, s),
+                         lambda: self.displacement_rgba(s))
+
+    def blur_matrix(self) -> np.ndarray:
+        """(nz, ny, nx, 2, 2) the matrix whose disc has the map's second moments about
+        its mean (:func:`~eyelab.blur.aberration.cov_equivalent_matrix`): ``matrix``
+        itself for a second-order field. What the reconstruction filter and the colour
+        channels' agreement are sized by."""
+        if self.aberration is None:
+            return self.matrix
+        got = self.__dict__.get("_blur_matrix")
+        if got is None:
+            from eyelab.blur.aberration import cov_equivalent_matrix, map_covariance
+
+            got = cov_equivalent_matrix(map_covariance(self.matrix, self.aberration))
+            self.__dict__["_blur_matrix"] = got
+        return got
+
+    def mean_offset(self) -> np.ndarray:
+        """(nz, ny, nx, 2) NDC: the map's mean over the disc (where the blur's light is
+        centred, relative to the line of sight): zero for a second-order field."""
+        if self.aberration is None:
+            return np.zeros(self.matrix.shape[:-1])
+        from eyelab.blur.aberration import HIGHER, disc_means
+
+        return self.aberration @ disc_means()[list(HIGHER)]
 
     # -------------------------------------------------------------- geometry
     @property
@@ -148,7 +213,8 @@ class BlurField:
 
     @property
     def all_zero(self) -> bool:
-        return not np.any(self.matrix)
+        return not np.any(self.matrix) and (self.aberration is None
+                                            or not np.any(self.aberration))
 
     # ------------------------------------------------------------------- io
     def _meta(self):
@@ -170,7 +236,10 @@ class BlurField:
 
     def arrays(self) -> dict:
         """The per-voxel arrays by name (what :meth:`save` writes)."""
-        return {k: getattr(self, k) for k in ARRAY_NAMES}
+        out = {k: getattr(self, k) for k in ARRAY_NAMES}
+        if self.aberration is not None:
+            out["aberration"] = self.aberration
+        return out
 
     def meta_json(self) -> str:
         """Camera, shape, depth mode, method, key and report as JSON text."""
@@ -184,14 +253,31 @@ class BlurField:
                      c["fov_y_deg"], c["aspect"], c["near"], c["far"])
         return cls(cam, tuple(meta["shape"]), meta["depth_mode"],
                    *(arrays[k] for k in ARRAY_NAMES), meta["method"], meta["key"],
-                   meta["report"])
+                   meta["report"], arrays.get("aberration"))
 
     @classmethod
     def load(cls, path) -> BlurField:
         """Load a field saved by :meth:`save` (``.npz``)."""
         with np.load(str(path)) as z:
             meta = json.loads(str(z["meta"]))
-            return cls.from_parts(meta, {k: z[k] for k in ARRAY_NAMES})
+            return cls.from_parts(meta, {k: z[k] for k in ARRAY_NAMES + ("aberration",)
+                                         if k in z.files})
+
+
+@dataclass(frozen=True)
+class PassField:
+    """One pass's displacement of a field with a ray-aberration map, as the window's
+    ``use_field`` takes a field: camera, shape, depth mode, a key, and the texels
+    ((nz, ny, nx, 4) float32 (dx, 0, dy, 0), made when first uploaded)."""
+
+    camera: Camera
+    shape: tuple
+    depth_mode: str
+    key: tuple
+    make: object
+
+    def texture_rgba(self) -> np.ndarray:
+        return self.make()
 
 
 #: The per-voxel arrays of a :class:`BlurField`, in constructor order.
@@ -213,3 +299,45 @@ def slice_centres(camera: Camera, nz: int, mode: str):
     if mode == "linear":
         return camera.near + (np.arange(nz) + 0.5) * (camera.far - camera.near) / nz
     raise SpecError("depth_mode", f"must be one of {DEPTH_MODES}, got {mode!r}")
+
+
+#: Rings of not-visible voxels next to visible ones whose matrices are extended from their
+#: visible neighbours. One ring is what a trilinear look-up in a visible voxel reads; the
+#: second covers look-ups between the lens's rim and the first ring's centres.
+RIM_RINGS = 2
+
+
+def extend_into_invisible(matrix, status, rings: int = RIM_RINGS) -> int:
+    """Give NOT_VISIBLE voxels next to visible (OK) ones, ring by ring in each depth slice,
+    the mean matrix of their already-filled 8-neighbours; returns how many were filled.
+
+    A not-visible voxel (no light path through the lens) has no matrix of its own, and
+    zero there would be mixed into every trilinear look-up at the lens's rim, shrinking
+    the blur by up to half in a one-voxel band (the scene-margin defect's twin); the
+    field is smooth there, so its visible neighbours' mean is the right continuation.
+    The status stays NOT_VISIBLE. ``matrix`` (nz, ny, nx, 2, 2) is changed in place."""
+    filled = status == VoxelStatus.OK
+    todo = status == VoxelStatus.NOT_VISIBLE
+    total = 0
+    nz, ny, nx = status.shape
+    for _ in range(rings):
+        acc = np.zeros(matrix.shape)
+        cnt = np.zeros(status.shape)
+        src = np.where(filled[..., None, None], matrix, 0.0)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dy == dx == 0:
+                    continue
+                ys = slice(max(dy, 0), ny + min(dy, 0))
+                yd = slice(max(-dy, 0), ny + min(-dy, 0))
+                xs = slice(max(dx, 0), nx + min(dx, 0))
+                xd = slice(max(-dx, 0), nx + min(-dx, 0))
+                acc[:, yd, xd] += src[:, ys, xs]
+                cnt[:, yd, xd] += filled[:, ys, xs]
+        new = todo & ~filled & (cnt > 0)
+        if not new.any():
+            break
+        matrix[new] = acc[new] / cnt[new][:, None, None]
+        filled = filled | new
+        total += int(new.sum())
+    return total

@@ -53,10 +53,34 @@ def pixel_svd(field, size) -> tuple:
     from eyelab.core.vecmath import svd2x2
 
     px = np.array([size[0] / 2, size[1] / 2])
-    return svd2x2(field.matrix * px[:, None])
+    m = field.blur_matrix() if hasattr(field, "blur_matrix") else field.matrix
+    return svd2x2(m * px[:, None])
 
 
-def sigma_volume(svds, passes: int) -> dict:
+def map_reach_px(fields, size) -> list | None:
+    """Per field, (nz, ny, nx) px: the farthest a pass moves light in a ``size`` = (w, h)
+    window — the largest displacement of the map on the unit circle and at its centre,
+    where a ray-aberration map's extremes lie (coma's tail, spherical aberration's rim,
+    the lateral colour's shift); None when no field has such a map (then the ellipse's
+    semi-axis is the reach)."""
+    if not any(getattr(f, "aberration", None) is not None for f in fields):
+        return None
+    px = np.array([size[0] / 2, size[1] / 2])
+    t = np.linspace(0.0, 2 * np.pi, 32, endpoint=False)
+    ring = np.vstack([[0.0, 0.0], np.stack([np.cos(t), np.sin(t)], -1)])
+    out = []
+    for f in fields:
+        if getattr(f, "aberration", None) is None:
+            out.append(np.zeros(f.matrix.shape[:3]))
+            continue
+        far = np.zeros(f.matrix.shape[:3])
+        for s in ring:
+            far = np.maximum(far, np.linalg.norm(f.displacement(s) * px, axis=-1))
+        out.append(far)
+    return out
+
+
+def sigma_volume(svds, passes: int, reaches=None) -> dict:
     """Per voxel, (nz, ny, nx) px arrays from the fields' :func:`pixel_svd` ``svds`` (one per
     field or colour channel, on one voxel grid): "major" / "minor" the reconstruction
     sigmas along the blur ellipse's axes, "u" (nz, ny, nx, 2) the major axis's unit
@@ -68,24 +92,27 @@ def sigma_volume(svds, passes: int) -> dict:
     fields (never over-filters a channel). What the filter would skip is not asked of it
     (a skip removes work, not variance): a minor sigma below MIN_SIGMA becomes 0, and a
     major one whose 1-D part sqrt(major^2 - minor^2) falls below MIN_LINE_SIGMA becomes
-    the minor one — so the compensation removes exactly what the filter adds."""
+    the minor one — so the compensation removes exactly what the filter adds.
+    ``reaches``: None, or per field (nz, ny, nx) px, the farthest a ray-aberration map
+    moves light (:func:`map_reach_px`), the reach where it exceeds the semi-axis."""
     root_f = np.sqrt(RECON_MAX_FRACTION)
     major = minor = reach = None
-    for _, sv, _ in svds:
+    for i, (_, sv, _) in enumerate(svds):
         a, b = sv[..., 0], sv[..., 1]
         spacing = np.maximum(np.sqrt(np.pi * a * b / passes), 2 * a / passes)
         ma = np.minimum(RECON_SIGMA * spacing, root_f * a / 2)
         mi = np.minimum(ma, b / 2)
         major = ma if major is None else np.minimum(major, ma)
         minor = mi if minor is None else np.minimum(minor, mi)
-        reach = a if reach is None else np.maximum(reach, a)
+        far = a if reaches is None else np.maximum(a, reaches[i])
+        reach = far if reach is None else np.maximum(reach, far)
     minor = np.where(minor < MIN_SIGMA, 0.0, minor)
     major = np.where(major**2 - minor**2 < MIN_LINE_SIGMA**2, minor, major)
     return {"major": major, "minor": minor, "u": svds[0][0][..., :, 0],
             "reach": reach + 2 * major}
 
 
-def compensated(field, svd, vol: dict, size):
+def compensated(field, svd, vol: dict, size, seeds=None):
     """A copy of ``field`` whose (nz, ny, nx, 2, 2) matrices B (NDC per unit seed) are
     shrunk so that, in pixels of a ``size`` = (w, h) window, B' (I/4) B'^T plus the
     filter's covariance (``vol`` of :func:`sigma_volume`: sigma "major" along the blur's
@@ -94,7 +121,15 @@ def compensated(field, svd, vol: dict, size):
     sqrt(max(s^2 - 4 sigma^2, 0)), axes kept (exact, as sigma <= s / 2 by construction;
     for per-channel fields each channel's own axes, the filter's from the first channel).
     The passes then displace by B' and the filter supplies the rest of the blur's
-    variance."""
+    variance.
+
+    A field with a ray-aberration map (``field.aberration``): B is the map's
+    covariance-equivalent matrix (:meth:`~eyelab.blur.field.BlurField.blur_matrix`), and
+    the map about its mean is transformed linearly (every coefficient but the mean's) so
+    that its covariance over the passes' ``seeds`` (S, 2) (None: over the disc) becomes
+    B' (I/4) B'^T — its shape (the comet, the ring) kept, its mean (where the blur's light
+    is centred) unchanged; over few seeds a cubic map's spread falls short of the disc's,
+    and the transform makes it up."""
     import dataclasses
 
     from eyelab.core.cache import content_key
@@ -103,10 +138,42 @@ def compensated(field, svd, vol: dict, size):
     u, s, vt = svd
     sig = np.stack([vol["major"], vol["minor"]], -1)
     s2 = np.sqrt(np.maximum(s**2 - 4 * sig**2, 0.0))
-    matrix = ((u * s2[..., None, :]) @ vt) / px[:, None]
     key = content_key(field=field.key, sigma=np.asarray(sig, np.float32),
-                      size=list(size), kind="variance-compensated")
-    return dataclasses.replace(field, matrix=matrix, key=key)
+                      size=list(size), kind="variance-compensated",
+                      seeds=None if seeds is None else np.asarray(seeds, float))
+    if getattr(field, "aberration", None) is None:
+        matrix = ((u * s2[..., None, :]) @ vt) / px[:, None]
+        return dataclasses.replace(field, matrix=matrix, key=key)
+    from eyelab.blur.aberration import HIGHER, basis, full_coefficients, sym_power
+
+    # The passes draw the map at S seeds: T takes the map's covariance over them, A (for
+    # a cubic map over 8 seeds short of the disc's), to the target C_t = B' (I/4) B'^T:
+    # T = C_t^(1/2) A^(-1/2) (for a linear map and a pass set, U diag(s'/s) U^T)
+    if seeds is None:
+        from eyelab.blur.aberration import disc_moments
+
+        gram, mu_phi = disc_moments(), None
+        gram = gram - np.outer(gram[0], gram[0])
+    else:
+        phi = basis(seeds)
+        mu_phi = phi.mean(0)
+        phic = phi - mu_phi
+        gram = phic.T @ phic / len(phi)
+    pm = np.diag(px)
+    coef = pm @ full_coefficients(field.matrix, field.aberration)      # px per term
+    a = np.einsum("...ia,ab,...jb->...ij", coef, gram, coef)
+    c_t = (u * (s2**2 / 4)[..., None, :]) @ np.swapaxes(u, -1, -2)
+    t_px = sym_power(c_t, 0.5) @ sym_power(a, -0.5)
+    t = t_px * (px[None, :] / px[:, None])                        # P^-1 T_px P, in NDC
+    mean = field.mean_offset()
+    higher = t @ field.aberration
+    # the constant c' keeps the passes' mean on the map's: c' = mean - T (mu_s - c), mu_s
+    # the unshrunk map's mean over the seeds (the disc's mean for a pass set)
+    c0 = HIGHER.index(0)
+    mu_s = mean if mu_phi is None else full_coefficients(field.matrix,
+                                                         field.aberration) @ mu_phi
+    higher[..., c0] = mean - (t @ (mu_s - field.aberration[..., c0])[..., None])[..., 0]
+    return dataclasses.replace(field, matrix=t @ field.matrix, aberration=higher, key=key)
 
 
 def pixel_voxels(zbuf: np.ndarray, cam, field) -> dict:
@@ -120,7 +187,12 @@ def pixel_voxels(zbuf: np.ndarray, cam, field) -> dict:
     from scipy.ndimage import distance_transform_edt
 
     h, w = zbuf.shape
-    zb = zbuf[::-1][::2, ::2]
+    # each evaluated pixel stands for its 2 x 2 block: the block's nearest surface (a
+    # surface smaller than the block, a distant dot, is not skipped)
+    top = zbuf[::-1]
+    pad = np.ones((h + h % 2, w + w % 2), top.dtype)
+    pad[:h, :w] = top
+    zb = pad.reshape(pad.shape[0] // 2, 2, pad.shape[1] // 2, 2).min(axis=(1, 3))
     ys, xs = np.mgrid[0:h:2, 0:w:2]
     fg = zb < 1.0
     voxel = np.zeros(zb.shape, np.int64)

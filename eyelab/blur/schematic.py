@@ -19,6 +19,7 @@ is the case K_need = n2/z_r - P, which gives its Eq. 8-9 exactly (r_p (I - z_r K
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -95,3 +96,71 @@ def schematic_blur(sc: dict, cols, kxx, kxy, kyy) -> dict:
     omega = np.mod(np.arctan2(u[..., 1, 0], u[..., 0, 0]), math.pi)
     return {"g": g, "a": sv[..., 1] * sc["retina_scale"], "b": major * sc["retina_scale"],
             "omega": omega, "major": major * RAD_TO_ARCMIN}
+
+
+def schematic_aberrations(eye, lens, camera, pupil, d_in, accommodation: float,
+                          wavelength_nm: float, reference_nm: float, depths, ks, iy, ix,
+                          sources, status, matrix, workers=None) -> dict:
+    """The ray-aberration map of every computed voxel (:mod:`eyelab.blur.aberration`):
+    per column (eye-side chief directions ``d_in`` (c, 3); voxel indices ``iy``, ``ix``
+    (c,), computed slices ``ks`` at depths ``depths`` (nz,)), rays from its retinal point
+    through the stop, fitted at each slice. ``matrix`` (nz, ny, nx, 2, 2) takes the fitted
+    linear part where the status is OK and the fit had its rays; returns the non-linear
+    part (nz, ny, nx, 2, len(HIGHER)) and the fit's report (residual shares, columns
+    kept on the second-order matrix)."""
+    from eyelab.blur.aberration import (
+        HIGHER,
+        LINEAR,
+        fit_columns,
+        schematic_ray_samples,
+    )
+    from eyelab.core.parallel import map_row_chunks
+
+    rot, vertex = eye_frame(eye, pupil)
+    nz, ny, nx = status.shape
+    higher = np.zeros((nz, ny, nx, 2, len(HIGHER)))
+    if len(d_in) == 0 or len(ks) == 0:
+        return {"higher": higher, "report": {"residual_share_median": 0.0,
+                                             "residual_share_max": 0.0,
+                                             "columns_second_order": 0}}
+    w = depths[ks]
+
+    def run(a, b):
+        o, d, ok = schematic_ray_samples(eye, lens, rot, vertex, d_in[a:b], accommodation,
+                                         wavelength_nm, reference_nm)
+        jj, ii = iy[a:b], ix[a:b]
+        src = sources[ks[None, :], jj[:, None], ii[:, None]]            # (c, m, 3)
+        ref = camera.world_to_ndc(src.reshape(-1, 3))[:, :2].reshape(src.shape[:2] + (2,))
+        coef, good, share = fit_columns(camera, o, d, ok, w, ref)
+        vox_ok = (status[ks[None, :], jj[:, None], ii[:, None]] == 0) & good[:, None]
+        kk = np.broadcast_to(ks[None, :], vox_ok.shape)[vox_ok]
+        yy = np.broadcast_to(jj[:, None], vox_ok.shape)[vox_ok]
+        xx = np.broadcast_to(ii[:, None], vox_ok.shape)[vox_ok]
+        matrix[kk, yy, xx] = coef[vox_ok][..., list(LINEAR)]
+        higher[kk, yy, xx] = coef[vox_ok][..., list(HIGHER)]
+        return share[vox_ok], int((~good).sum())
+
+    parts = map_row_chunks(run, len(d_in), workers=workers, block=64)
+    s = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0)
+    return {"higher": higher,
+            "report": {"residual_share_median": float(np.median(s)) if s.size else 0.0,
+                       "residual_share_max": float(s.max()) if s.size else 0.0,
+                       "columns_second_order": sum(p[1] for p in parts)}}
+
+
+def schematic_map(eye, lens, camera, pupil, d_in, accommodation, wavelength_nm, depths,
+                   ks, iy, ix, sources, status, matrix, workers, timings) -> tuple:
+    """(non-linear coefficients, fit report) of a schematic eye's ray-aberration map
+    (:func:`schematic_aberrations`; ``matrix`` takes the fitted linear part), continued
+    past a lens's rim as the matrix is; its time in ``timings["aberration_s"]``."""
+    from eyelab.blur.field import extend_into_invisible
+    from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+
+    t = time.perf_counter()
+    got = schematic_aberrations(eye, lens, camera, pupil, d_in, accommodation,
+                                wavelength_nm, EYE_REFERENCE_NM, depths, ks, iy, ix,
+                                sources, status, matrix, workers)
+    if lens is not None:       # continued past the lens's rim as the matrix is
+        extend_into_invisible(got["higher"], status)
+    timings["aberration_s"] = time.perf_counter() - t
+    return got["higher"], got["report"]

@@ -18,7 +18,13 @@ import time
 
 import numpy as np
 
-from eyelab.blur.field import DEPTH_MODES, BlurField, VoxelStatus, slice_centres
+from eyelab.blur.field import (
+    DEPTH_MODES,
+    BlurField,
+    VoxelStatus,
+    extend_into_invisible,
+    slice_centres,
+)
 from eyelab.core.cache import content_key
 from eyelab.core.constants import RAD_TO_ARCMIN
 from eyelab.core.errors import SpecError
@@ -124,7 +130,7 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
     timings["paths_s"] = time.perf_counter() - t
     schem = None
     if not hasattr(eye, "power_matrix"):       # a schematic eye: eyelab/blur/schematic.py
-        from eyelab.blur.schematic import schematic_columns
+        from eyelab.blur.schematic import schematic_columns, schematic_map
 
         schem = schematic_columns(eye, lens, -dirs_cam if lens is None else chief.dir_out,
                                   pupil, focus, wavelength_nm, reference_depth)
@@ -161,6 +167,11 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         map_row_chunks(run_shown, ncol, workers=workers,
                        block=max(1, 16384 // max(len(ks), 1)))
     timings["voxels_s"] = time.perf_counter() - t
+    # a schematic eye: the rays' own map (eyelab/blur/aberration.py)
+    aberration, fit_report = (None, None) if schem is None else schematic_map(
+        eye, lens, camera, pupil, -dirs_cam if lens is None else chief.dir_out,
+        schem["accommodation"], wavelength_nm, depths, ks, iy, ix, sources, status,
+        matrix, workers, timings)
     extended = extend_into_invisible(matrix, status) if lens is not None else 0
     timings["total_s"] = time.perf_counter() - t0
     counts = {s.name.lower(): int((status == s).sum()) for s in VoxelStatus}
@@ -184,12 +195,14 @@ def compute_blur_field(eye, lens=None, camera: Camera | None = None, *,
         else float(chief.iterations.mean()),
         "timings": timings,
     }
+    report.update({} if fit_report is None else {"aberration_fit": fit_report})
     key = content_key(method="wavefront", eye=eye, lens=lens, camera=camera, shape=shape,
                     depth_mode=depth_mode, focus=focus, scene_bounds=None if scene_bounds is None
                     else np.asarray(scene_bounds, float), wavelength=wavelength_nm,
                     reference_depth=reference_depth, pupil=pupil, accommodation=accommodation)
     return BlurField(camera, shape, depth_mode, matrix, out["a"], out["b"], out["omega"],
-                     out["major"], out["acc"], status, sources, "wavefront", key, report)
+                     out["major"], out["acc"], status, sources, "wavefront", key, report,
+                     aberration)
 
 
 def cached_blur_field(cache_dir, eye, lens=None, camera=None, *, method="wavefront",
@@ -250,48 +263,6 @@ def _scene_mask(camera, shape, depth_mode, bounds):
         cy = (ey[1:] >= y0) & (ey[:-1] <= y1)
         col_ok = _dilate1(cy)[:, None] & _dilate1(cx)[None, :]
     return col_ok, slice_ok, w_lo, w_hi
-
-
-#: Rings of not-visible voxels next to visible ones whose matrices are extended from their
-#: visible neighbours. One ring is what a trilinear look-up in a visible voxel reads; the
-#: second covers look-ups between the lens's rim and the first ring's centres.
-RIM_RINGS = 2
-
-
-def extend_into_invisible(matrix, status, rings: int = RIM_RINGS) -> int:
-    """Give NOT_VISIBLE voxels next to visible (OK) ones, ring by ring in each depth slice,
-    the mean matrix of their already-filled 8-neighbours; returns how many were filled.
-
-    A not-visible voxel (no light path through the lens) has no matrix of its own, and
-    zero there would be mixed into every trilinear look-up at the lens's rim, shrinking
-    the blur by up to half in a one-voxel band (the scene-margin defect's twin); the
-    field is smooth there, so its visible neighbours' mean is the right continuation.
-    The status stays NOT_VISIBLE. ``matrix`` (nz, ny, nx, 2, 2) is changed in place."""
-    filled = status == VoxelStatus.OK
-    todo = status == VoxelStatus.NOT_VISIBLE
-    total = 0
-    nz, ny, nx = status.shape
-    for _ in range(rings):
-        acc = np.zeros(matrix.shape)
-        cnt = np.zeros(status.shape)
-        src = np.where(filled[..., None, None], matrix, 0.0)
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                if dy == dx == 0:
-                    continue
-                ys = slice(max(dy, 0), ny + min(dy, 0))
-                yd = slice(max(-dy, 0), ny + min(-dy, 0))
-                xs = slice(max(dx, 0), nx + min(dx, 0))
-                xd = slice(max(-dx, 0), nx + min(-dx, 0))
-                acc[:, yd, xd] += src[:, ys, xs]
-                cnt[:, yd, xd] += filled[:, ys, xs]
-        new = todo & ~filled & (cnt > 0)
-        if not new.any():
-            break
-        matrix[new] = acc[new] / cnt[new][:, None, None]
-        filled = filled | new
-        total += int(new.sum())
-    return total
 
 
 def _dilate1(ok):

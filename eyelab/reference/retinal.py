@@ -46,15 +46,44 @@ def render_retinal(name, scene, eye, lens, view, q):
     t0 = time.perf_counter()
     report = new_report(name, view, q)
     cam = view.camera(eye.rotation_centre)       # its pixels are the lines of sight
-    rot, vertex = camera_frame(cam)
     inter = EmbreeIntersector(scene)
     report["warnings"] = scene_warnings(scene, cam, inter)
     acc = view_accommodation(scene, eye, lens, view, inter)
     wls = channel_wavelengths(eye, lens, q.chromatic, report)
     w, h = view.width, view.height
+    out, info = _window(scene, eye, lens, view, q, (0, 0, w, h), inter, acc, wls)
+    dt = time.perf_counter() - t0
+    k = q.samples
+    report["samples"].update(target=k, done={"pixel": k})
+    report["timings_s"]["trace"] = dt
+    report["details"].update(channels_traced=len(wls), rays=info["rays"],
+                             rays_per_s=info["rays"] / dt,
+                             lines_of_sight_off_retina=info["off_retina"])
+    report["details"]["schematic_eye"] = {"model": eye.model, "accommodation_d": acc,
+                                          "fixation": "fixed (the view's line of sight)"}
+    return finish(report, view, linear=out, t_start=t0)
+
+
+def retinal_window(scene, eye, lens, view, q, box) -> np.ndarray:
+    """The pixels ``box`` = (x0, y0, x1, y1) (from the top-left corner, x1 and y1
+    exclusive) of :func:`render_retinal`'s image, (y1 - y0, x1 - x0, 3) linear light, at
+    ``q.samples`` rays per pixel: what a measurement of a few small objects in a large view
+    needs (the same rays as the whole image's, without tracing the rest)."""
+    inter = EmbreeIntersector(scene)
+    acc = view_accommodation(scene, eye, lens, view, inter)
+    wls = channel_wavelengths(eye, lens, q.chromatic)
+    return _window(scene, eye, lens, view, q, box, inter, acc, wls)[0]
+
+
+def _window(scene, eye, lens, view, q, box, inter, acc, wls) -> tuple:
+    """(linear image of ``box`` (h, w, 3), {"rays", "off_retina"})."""
+    cam = view.camera(eye.rotation_centre)
+    rot, vertex = camera_frame(cam)
+    x0, y0, x1, y1 = (int(v) for v in box)
+    w, h = x1 - x0, y1 - y0
     # retinal points at the pixel corners (the reference wavelength's chief rays)
-    cx = -1.0 + 2.0 * np.arange(w + 1) / w
-    cy = 1.0 - 2.0 * np.arange(h + 1) / h
+    cx = -1.0 + 2.0 * np.arange(x0, x1 + 1) / view.width
+    cy = 1.0 - 2.0 * np.arange(y0, y1 + 1) / view.height
     gx, gy = np.meshgrid(cx, cy)
     corner_dirs = -cam.ray_directions(gx.ravel(), gy.ravel())
     r_corner, v_corner, st_corner = retina_points(eye, rot, vertex, corner_dirs, acc,
@@ -120,15 +149,9 @@ def render_retinal(name, scene, eye, lens, view, q):
             return r
 
         rays = sum(map_row_chunks(shown, n, workers=q.workers, block=block))
-    dt = time.perf_counter() - t0
-    report["samples"].update(target=k, done={"pixel": k})
-    report["timings_s"]["trace"] = dt
-    report["details"].update(channels_traced=len(wls), rays=rays, rays_per_s=rays / dt,
-                             lines_of_sight_off_retina=int((st_corner & np.uint8(FATAL)
-                                                            ).astype(bool).sum()))
-    report["details"]["schematic_eye"] = {"model": eye.model, "accommodation_d": acc,
-                                          "fixation": "fixed (the view's line of sight)"}
-    return finish(report, view, linear=out.reshape(h, w, 3), t_start=t0)
+    return out.reshape(h, w, 3), {
+        "rays": rays,
+        "off_retina": int((st_corner & np.uint8(FATAL)).astype(bool).sum())}
 
 
 def _bilinear(grid, fx, fy):

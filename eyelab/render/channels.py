@@ -45,6 +45,31 @@ RENDER_COST_PX = 60_000
 RECTS_MAX_SHARE = 0.6
 
 
+def compensated_stage(fields, passes: int, size, seeds) -> tuple:
+    """(fields the passes displace by, reconstruction state, their channel spread) of a
+    stage's ``fields`` (one per colour channel) at ``passes`` = S with ``seeds`` (S, 2), in
+    a window of ``size`` = (w, h) px: each channel its own filter (the eye's longitudinal
+    colour leaves one channel sharp and another blurred), sized by its map's covariance and
+    reach, and its field variance-compensated for it
+    (:func:`~eyelab.blur.reconstruct.compensated`). The state: the fields' pixel SVDs,
+    their reaches (None for second-order fields) and sigma volumes (per channel)."""
+    from eyelab.blur.reconstruct import (
+        compensated,
+        map_reach_px,
+        pixel_svd,
+        sigma_volume,
+    )
+
+    svds = [pixel_svd(f, size) for f in fields]
+    reaches = map_reach_px(fields, size) or [None] * len(fields)
+    vols = [sigma_volume([svd], passes, None if r is None else [r])
+            for svd, r in zip(svds, reaches, strict=True)]
+    shrunk = [compensated(f, svd, vol, size, seeds)
+              for f, svd, vol in zip(fields, svds, vols, strict=True)]
+    return shrunk, {"svds": svds, "sigma": vols, "reaches": reaches}, channel_spread(
+        shrunk, size)
+
+
 def channel_spread(fields, size) -> dict | None:
     """Per voxel of per-channel ``fields`` (those the passes displace by) in a window of
     ``size`` = (w, h) px: "diff" (nz, ny, nx) px, the largest difference of a channel's
@@ -59,12 +84,17 @@ def channel_spread(fields, size) -> dict | None:
     def cov(m):
         return m @ np.swapaxes(m, -1, -2)
 
-    m0 = fields[0].matrix * px
+    m0 = fields[0].blur_matrix() * px
     c0 = cov(m0)
+    mu0 = fields[0].mean_offset() * px[:, 0]
     diff = np.zeros(fields[0].matrix.shape[:3])
-    reach = svd2x2(m0)[1][..., 0]
+    reach = svd2x2(m0)[1][..., 0] + np.linalg.norm(mu0, axis=-1)
     for f in fields[1:]:
-        m = f.matrix * px
+        m = f.blur_matrix() * px
+        mu = f.mean_offset() * px[:, 0]
+        # a map's centre moves too (the eye's lateral colour): that counts in full
+        diff = np.maximum(diff, np.linalg.norm(mu - mu0, axis=-1))
+        reach = np.maximum(reach, np.linalg.norm(mu, axis=-1) + svd2x2(m)[1][..., 0])
         # the symmetric difference's spectral norm is its largest |eigenvalue|
         d = cov(m) - c0
         mean, half = (d[..., 0, 0] + d[..., 1, 1]) / 2, np.hypot(
@@ -156,15 +186,17 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
     from eyelab.render.stages import select_channel
 
     win = st["win"]
-    win.set_seed(st["seeds"][k], st["jitter"][k])
     fields = st["fields"]
+    baked = any(f.has_aberration for f in fields)
+    if baked:                           # the pass's own displacement texture
+        select_channel(st, 0, route, k)
+    win.set_seed((1.0, 0.0) if baked else st["seeds"][k], st["jitter"][k])
     if len(fields) == 1:
         return win.grab_rgba()
-    select_channel(st, 0, route)
+    select_channel(st, 0, route, k)
     whole = win.grab_rgba()
     out = st["rgba"]
-    if "rects" not in st:
-        st["zbuf"] = win.depth()
+    if "rects" not in st:               # from the undisplaced depth (raster._passes)
         st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
         st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
         st["whole_view"] = st["rects"] == [(0, 0, out.shape[1], out.shape[0])]
@@ -175,7 +207,7 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
     else:
         np.copyto(out, whole)
     for c in range(1, len(fields)):     # the seed uniforms stay set across channels
-        select_channel(st, c, route)
+        select_channel(st, c, route, k)
         if st["whole_view"]:
             out[..., c] = win.grab_rgba()[..., c]
             continue

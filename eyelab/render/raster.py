@@ -32,7 +32,6 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import compensated, pixel_svd, sigma_volume
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.progress import bar as progress_bar
@@ -51,7 +50,12 @@ from eyelab.optics.lens.lenslets import carrier
 from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
 from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import PassAccumulator
-from eyelab.render.channels import channel_spread, grab_pass, note_channels
+from eyelab.render.channels import (
+    channel_spread,
+    compensated_stage,
+    grab_pass,
+    note_channels,
+)
 from eyelab.render.composite import LensCompositor, compose
 from eyelab.render.lensletview import lenslet_lens_view
 from eyelab.render.stages import (
@@ -65,6 +69,7 @@ from eyelab.render.stages import (
     scene_items,
     select_channel,
     stage_mean,
+    stage_route,
 )
 from eyelab.render.window import OffscreenWindow
 from eyelab.scene.lensview import (
@@ -311,16 +316,16 @@ class RasterRenderer(Renderer):
             report["details"]["refinement"].append(info)
         return meshes
 
-    def _scene_items(self, meshes, fields, q, passes, cam, height, report) -> list:
+    def _scene_items(self, meshes, fields, route, passes, cam, height, report) -> list:
         """Per field (channel), the [(key, factory)] of the meshes' actors
         (:func:`~eyelab.render.stages.scene_items`), prefiltered textures cached."""
         def prefilter(m, f):
             return self._cached("prefiltered", ("prefiltered", m.content_key, f),
                                 lambda: prefiltered(m, f), report, f"prefiltered_{m.name}")[0]
 
-        return scene_items(meshes, fields, q.field_route, passes, cam, height, prefilter)
+        return scene_items(meshes, fields, route, passes, cam, height, prefilter)
 
-    def _reconstruction(self, fields, passes, size, q, report) -> tuple:
+    def _reconstruction(self, fields, passes, size, q, report, seeds=None) -> tuple:
         """(fields the passes displace by, reconstruction state or None, their
         :func:`~eyelab.render.channels.channel_spread`) of a stage of
         ``size`` = (w, h) px. With the reconstruction filter on and more than one pass,
@@ -333,17 +338,11 @@ class RasterRenderer(Renderer):
                 lambda: channel_spread(fields, size))
             return fields, None, spread
 
-        def build():
-            svds = [pixel_svd(f, size) for f in fields]
-            vol = sigma_volume(svds, passes)
-            shrunk = [compensated(f, svd, vol, size)
-                      for f, svd in zip(fields, svds, strict=True)]
-            return svds, vol, shrunk, channel_spread(shrunk, size)
-
         key = ("compensated", passes, tuple(size)) + tuple(f.key for f in fields)
-        (svds, vol, shrunk, spread), _ = self._cached("small", key, build, report,
-                                                      "compensated_fields")
-        return shrunk, {"svds": svds, "sigma": vol}, spread
+        (shrunk, recon, spread), _ = self._cached(
+            "small", key, lambda: compensated_stage(fields, passes, size, seeds), report,
+            "compensated_fields")
+        return shrunk, recon, spread
 
     def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
         if self._eye_win is None:
@@ -355,10 +354,14 @@ class RasterRenderer(Renderer):
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
         passes, seeds, jitter = passes_for(fields, q, report, "naked view")
+        route = stage_route(fields, q, report, "naked view")
         fields, recon, spread = self._reconstruction(fields, passes,
-                                                     (view.width, view.height), q, report)
+                                                     (view.width, view.height), q, report,
+                                                     seeds)
         return {"win": win, "cam": cam, "fields": fields, "recon": recon, "spread": spread,
-                "items": self._scene_items(meshes, fields, q, passes, cam, view.height, report),
+                "route": route,
+                "items": self._scene_items(meshes, fields, route, passes, cam, view.height,
+                                           report),
                 "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
@@ -372,9 +375,10 @@ class RasterRenderer(Renderer):
         vcam, (w_env, h_env) = vcam
         win.set_view(vcam, (w_env, h_env), scene.background)
         passes, seeds, jitter = passes_for(fields, q, report, "environment")
+        route = stage_route(fields, q, report, "environment")
         fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,
-                                                     report)
-        items = self._scene_items(meshes, fields, q, passes, vcam, h_env, report)
+                                                     report, seeds)
+        items = self._scene_items(meshes, fields, route, passes, vcam, h_env, report)
         lenslets, lens = (lens, carrier(lens)) if lens.has_lenslets else (None, lens)
         disperses = q.chromatic and lens.material.dispersive
         wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
@@ -397,7 +401,7 @@ class RasterRenderer(Renderer):
                 scene, lenslets, geo, vcam, cam, eye, view, q, wls), report,
                 "lenslet_offsets")
         return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "spread": spread,
-                "items": items,
+                "items": items, "route": route,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter, "geo": geo,
                 "geo_key": tkey, "lenslets": offsets, "eye_cam": cam,
@@ -408,15 +412,22 @@ class RasterRenderer(Renderer):
         """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
         (ascending, the last S); at checkpoints not in ``shown`` (None: all are) no image
         is built and (passes done, None, None) is yielded."""
+        timings = report["timings_s"]
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
         for st in stages:
-            select_channel(st, 0, q.field_route)
+            select_channel(st, 0, st["route"])
             if len(st["fields"]) > 1:
                 st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
+            if (st["recon"] is not None or len(st["fields"]) > 1) and "zbuf" not in st:
+                # the filter's and the channels' depth: from a view that no seed displaced
+                # (a displaced pass's edges sit where its seed put them: a lopsided blur)
+                t = time.perf_counter()
+                st["zbuf"] = st["win"].undisplaced_depth()
+                name = "naked_passes" if st is naked else "env_passes"
+                timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
         channels = [len(s["fields"]) for s in stages]
         if any(c > 1 for c in channels):
             report["details"]["channel_renders_per_pass"] = max(channels)
-        timings = report["timings_s"]
         done = 0
         bar = progress_bar(max((s["passes"] for s in stages), default=0),
                            f"raster {view.width}x{view.height}", "pass")
@@ -427,9 +438,7 @@ class RasterRenderer(Renderer):
                         if k >= st["passes"]:
                             continue
                         t = time.perf_counter()
-                        st["acc"].add(grab_pass(st, k, q.field_route))
-                        if k == 0 and st["recon"] is not None and "zbuf" not in st:
-                            st["zbuf"] = st["win"].depth()
+                        st["acc"].add(grab_pass(st, k, st["route"]))
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
                         note_channels(st, "naked view" if st is naked else "environment",

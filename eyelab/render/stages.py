@@ -32,14 +32,31 @@ from eyelab.scene.raycast import EmbreeIntersector
 MIPMAP_BELOW_SAMPLES = 8
 
 
-def select_channel(st, c, route) -> None:
-    """Make channel ``c``'s field and actors current in the stage's window."""
+def select_channel(st, c, route, k: int | None = None) -> None:
+    """Make channel ``c``'s field and actors current in the stage's window; for pass
+    ``k`` of a field with a ray-aberration map, that pass's displacement texture
+    (:meth:`~eyelab.blur.field.BlurField.pass_field`, shown with the seed (1, 0))."""
     win, items = st["win"], st["items"][c]
-    win.use_field(st["fields"][c], route)
+    field = st["fields"][c]
+    if k is not None and field.has_aberration:
+        field = field.pass_field(st["seeds"][k])
+    win.use_field(field, route)
     keys = [k for k, _ in items]
     if st.get("shown_keys") != keys:
         win.show(items)
         st["shown_keys"] = keys
+
+
+def stage_route(fields, q, report, label) -> str:
+    """The field route of a stage: the quality's, except that fields with a ray-aberration
+    map are always drawn through the texture route (each pass uploads that pass's
+    displacement, :meth:`~eyelab.blur.field.BlurField.pass_field`; the attribute route's
+    per-vertex matrices hold the linear part only)."""
+    if q.field_route == "attribute" and any(f.has_aberration for f in fields):
+        report["details"].setdefault("field_route", {})[label] = (
+            "texture: the ray-aberration map is drawn per pass from a 3D texture")
+        return "texture"
+    return q.field_route
 
 
 def passes_for(fields, q, report, label) -> tuple:
@@ -146,7 +163,8 @@ def field_details(f, hit: bool) -> dict:
     return info
 
 
-def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefilter) -> list:
+def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefilter
+                ) -> list:
     """Per field (channel), the [(key, factory)] of the meshes' actors. Few passes:
     textures mip-mapped; more: the passes supersample, and textures are prefiltered to
     about two texels per pixel instead (:mod:`eyelab.scene.prefilter`; ``prefilter(mesh,
@@ -174,21 +192,26 @@ def stage_mean(st: dict, cached, report) -> np.ndarray:
     # preview) the sigma of the passes so far, wider: previews err on the blurry side
     rc = st["recon"]
 
-    def sigma():
-        vol = (rc["sigma"] if acc.count == st["passes"]
-               else sigma_volume(rc["svds"], acc.count))
+    def sigma():                          # one map per channel's filter
+        vols = (rc["sigma"] if acc.count == st["passes"] else
+                [sigma_volume([svd], acc.count, None if r is None else [r])
+                 for svd, r in zip(rc["svds"], rc["reaches"], strict=True)])
         if "voxels" not in st:            # the depth buffer's look-up, once per frame
             st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
-        return sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
+        return [sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
+                for vol in vols]
 
-    sig = cached(("sigma",) + st["key"] + (acc.shape, acc.count), sigma)
+    sigs = cached(("sigma",) + st["key"] + (acc.shape, acc.count), sigma)
     rgba = acc.mean_rgba()
-    if sig["region"] is not None:      # filtered: only the box the filters change
+    h = acc.shape[0]
+    channels = [slice(0, 3)] if len(sigs) == 1 else [slice(c, c + 1) for c in range(3)]
+    for ch, sig in zip(channels, sigs, strict=True):
+        if sig["region"] is None:      # filtered: only the box the filters change
+            continue
         (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
-        lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1]
+        lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1, ch]
         out = reconstruct(lin, sig)            # sig's maps cover just that box
-        h = acc.shape[0]               # encoded once, back to GL order
-        rgba[h - y1:h - y0, x0:x1, :3] = encode_linear(
+        rgba[h - y1:h - y0, x0:x1, ch] = encode_linear(   # encoded once, GL order
             out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])
     tm = report["timings_s"]
     tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t

@@ -216,6 +216,19 @@ class OffscreenWindow:
         c.SetClippingRange(near, far)
         self.ren.SetBackground(*(np.asarray(background, float) / 255.0))
 
+    def undisplaced_depth(self) -> np.ndarray:
+        """Render the view with no displacement and no jitter (seed and jitter zero) and
+        return its z-buffer (h, w) in [0, 1], row 0 at the bottom: where each pixel's
+        surface is, seen along its own line of sight (what the reconstruction filter and
+        the colour channels' rectangles look the field up by; a displaced pass's depth
+        would move every edge by that pass's seed). The next pass sets its own seed."""
+        self.set_seed((0.0, 0.0), (0.0, 0.0))
+        t0 = time.perf_counter()
+        with deferred():
+            self.win.Render()
+        self.render_s += time.perf_counter() - t0
+        return self.depth()
+
     def depth(self) -> np.ndarray:
         """(h, w) z-buffer of the last render in [0, 1], row 0 at the bottom."""
         w, h = self.size

@@ -112,13 +112,40 @@ class NumpyIntersector:
         return Hits(best_t, best_m, best_f, best_uv)
 
 
+def _mesh_in_view(mesh, camera) -> bool:
+    """Whether any of ``mesh``'s triangles may show in ``camera``'s view: a vertex inside
+    the view volume, or a triangle whose box in NDC overlaps the view's (between the near
+    and far planes: triangles larger than the view, or small ones between the probe rays,
+    count). Triangles crossing the camera's plane count when they reach the depth
+    range."""
+    v = np.asarray(mesh.vertices, float)
+    f = np.asarray(mesh.faces)
+    if len(v) == 0 or len(f) == 0:
+        return False
+    b = camera.basis
+    rel = v - np.asarray(camera.position, float)
+    w = rel @ np.asarray(b[2], float)
+    tx, ty = camera.tan_half
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = (rel @ np.asarray(b[0], float)) / (w * tx)
+        y = (rel @ np.asarray(b[1], float)) / (w * ty)
+    wt = w[f]
+    in_depth = (wt.max(1) >= camera.near) & (wt.min(1) <= camera.far)
+    front = (wt > 0).all(1)
+    xt, yt = x[f], y[f]
+    overlap = front & (xt.max(1) >= -1) & (xt.min(1) <= 1) & (yt.max(1) >= -1) & \
+        (yt.min(1) <= 1)
+    return bool((in_depth & (overlap | ~front & (wt.max(1) > 0))).any())
+
+
 def scene_warnings(scene: Scene, camera, intersector=None) -> list:
     """What a user would want to know before trusting the image (strings, empty when all
     is well): the eye inside a mesh (most of 26 rays from the camera's centre of
     projection in every direction hit a triangle from behind: a room model around the
     eye, or a model centred on the origin), or nothing in view (none of a 32 x 24 grid of
-    rays through the view meets a mesh between the near and far planes: the image is the
-    background). ``camera``: :class:`eyelab.optics.rays.camera.Camera`."""
+    rays through the view meets a mesh between the near and far planes, and no triangle's
+    box falls in the view volume: the image is the background; small objects between
+    the probe rays are in view). ``camera``: :class:`eyelab.optics.rays.camera.Camera`."""
     inter = intersector or EmbreeIntersector(scene)
     o = np.asarray(camera.position, float)
     g = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)
@@ -143,7 +170,8 @@ def scene_warnings(scene: Scene, camera, intersector=None) -> list:
     d = camera.ray_directions(x.ravel(), y.ravel())
     h = inter.intersect(np.broadcast_to(o, d.shape), d)
     depth = h.t * (d @ np.asarray(camera.basis[2], float))
-    if not (h.hit & (depth >= camera.near) & (depth <= camera.far)).any():
+    if not (h.hit & (depth >= camera.near) & (depth <= camera.far)).any() \
+            and not any(_mesh_in_view(m, camera) for m in scene.meshes):
         out.append(f"nothing in view: no mesh between near_m {camera.near:g} and far_m "
                    f"{camera.far:g} m in the view (the image is the background)")
     return out
