@@ -185,3 +185,21 @@ def test_the_fit_order():
         assert _residuals(3, eye, lens).max() < 0.02
         assert _residuals(2, eye, lens).min() > 0.14
         assert _residuals(1, eye, lens).min() > 0.30
+
+
+def test_sym_power_closed_form_agrees_with_the_eigen_decomposition():
+    """The closed-form 2 x 2 square root and inverse square root (and the pseudo-inverse
+    square root of rank-1 and zero matrices) against numpy's eigh."""
+    from eyelab.blur.aberration import sym_power
+
+    rng = np.random.default_rng(7)
+    g = rng.normal(size=(200, 2, 2))
+    c = g @ np.swapaxes(g, -1, -2)
+    w, v = np.linalg.eigh(c)
+    for p in (0.5, -0.5):
+        want = np.einsum("nik,nk,njk->nij", v, w**p, v)
+        np.testing.assert_allclose(sym_power(c, p), want, rtol=1e-8, atol=1e-10)
+    r1 = np.array([[[4.0, 2.0], [2.0, 1.0]], [[0.0, 0.0], [0.0, 0.0]]])   # rank 1, zero
+    np.testing.assert_allclose(sym_power(r1, 0.5)[0], r1[0] / math.sqrt(5), atol=1e-12)
+    np.testing.assert_allclose(sym_power(r1, -0.5)[0], r1[0] / 5**1.5, atol=1e-12)
+    assert not sym_power(r1, -0.5)[1].any() and not sym_power(r1, 0.5)[1].any()

@@ -118,18 +118,35 @@ def map_covariance(matrix, aberration, seeds=None) -> np.ndarray:
         g = phi.T @ phi / len(phi)
     mu = g[0]
     cov_basis = g - np.outer(mu, mu)
-    return np.einsum("...ia,ab,...jb->...ij", coef, cov_basis, coef)
+    return (coef @ cov_basis) @ np.swapaxes(coef, -1, -2)
 
 
 def sym_power(cov, p: float) -> np.ndarray:
-    """(..., 2, 2) cov^p of symmetric positive semi-definite ``cov`` (eigenvalues below
-    1e-12 of the largest treated as 0, and 0^p as 0 for negative p: a pseudo-power)."""
-    w, v = np.linalg.eigh(cov)
-    top = np.maximum(w.max(axis=-1, keepdims=True), 0.0)
-    keep = w > 1e-12 * top
+    """(..., 2, 2) cov^p, p = 1/2 or -1/2, of symmetric positive semi-definite ``cov``,
+    in closed form: sqrt(C) = (C + sqrt(det) I) / sqrt(tr + 2 sqrt(det)) (the 2 x 2
+    identity, exact for det = 0: a rank-1 C = l v v^T gives sqrt(l) v v^T); C^(-1/2) its
+    inverse, or for a singular C the pseudo-power C / tr^(3/2) (zero for C = 0)."""
+    if p not in (0.5, -0.5):
+        raise ValueError(f"sym_power takes p = 1/2 or -1/2, got {p}")
+    c = np.asarray(cov, float)
+    a, b, d = c[..., 0, 0], 0.5 * (c[..., 0, 1] + c[..., 1, 0]), c[..., 1, 1]
+    tr = np.maximum(a + d, 0.0)
+    det = np.maximum(a * d - b * b, 0.0)
+    sd = np.sqrt(det)
+    den = np.sqrt(tr + 2 * sd)
     with np.errstate(divide="ignore", invalid="ignore"):
-        wp = np.where(keep, np.abs(w) ** p, 0.0)
-    return np.einsum("...ik,...k,...jk->...ij", v, wp, v)
+        inv = np.where(den > 0, 1.0 / den, 0.0)
+        ra, rb, rd = (a + sd) * inv, b * inv, (d + sd) * inv          # sqrt(C)
+        if p == 0.5:
+            out = np.stack([np.stack([ra, rb], -1), np.stack([rb, rd], -1)], -2)
+            return out
+        rdet = ra * rd - rb * rb                                          # = sqrt(det)
+        regular = sd > 1e-12 * np.maximum(tr, 1e-300)
+        k = np.where(regular, 1.0 / np.where(regular, rdet, 1.0), 0.0)
+        pa, pb, pd = rd * k, -rb * k, ra * k                              # inv(sqrt(C))
+        q = np.where((~regular) & (tr > 0), tr ** -1.5, 0.0)              # pseudo
+        pa, pb, pd = (np.where(regular, x, y * q) for x, y in ((pa, a), (pb, b), (pd, d)))
+    return np.stack([np.stack([pa, pb], -1), np.stack([pb, pd], -1)], -2)
 
 
 def full_coefficients(matrix, aberration) -> np.ndarray:
@@ -147,9 +164,7 @@ def cov_equivalent_matrix(cov) -> np.ndarray:
     """(..., 2, 2) the symmetric matrix B_eq whose disc B_eq (I/4) B_eq^T has the
     covariance ``cov`` (..., 2, 2): 2 cov^(1/2) (the ellipse of the same second
     moments)."""
-    w, v = np.linalg.eigh(cov)
-    root = np.sqrt(np.maximum(w, 0.0))
-    return 2 * np.einsum("...ik,...k,...jk->...ij", v, root, v)
+    return 2 * sym_power(cov, 0.5)
 
 
 def fit_solver(ok) -> tuple[np.ndarray, np.ndarray]:
@@ -214,28 +229,47 @@ def fit_columns(camera, o, d, ok, depths, ref_ndc) -> tuple[np.ndarray, np.ndarr
     column (``ok`` (c, n)), the voxels' camera depths ``depths`` (m,) (m), and the NDC
     each voxel's pixel shows, ``ref_ndc`` (c, m, 2). Returns (coefficients (c, m, 2,
     len(BASIS)), NDC per unit seed; good (c,): columns fitted) and the RMS residual
-    share (c, m) (residual RMS over the displacements' RMS spread)."""
+    share (c, 3) at the nearest, middle and farthest depths (residual RMS over the
+    displacements' RMS spread).
+
+    A ray's NDC at camera depth w is affine in 1/w: with a = (o - C).r, e = (o - C).f, b =
+    d.r, g = d.f (r, f the camera's right and forward axes, C its centre), x_ndc = ((a - e
+    b / g) / w + b / g) / tan_x, and y likewise; so is each least-squares coefficient. The
+    fit is made once per column for the two parts and put together per depth."""
     cop = np.asarray(camera.position, float)
-    fwd = camera.basis[2]
-    dz = d @ fwd                                                        # (c, n)
-    safe = ok & (dz > 1e-9)
-    s = (depths[None, None, :] - ((o - cop) @ fwd)[..., None]) / np.where(
-        safe, dz, 1.0)[..., None]                                      # (c, n, m)
-    pts = o[:, :, None, :] + s[..., None] * d[:, :, None, :]          # (c, n, m, 3)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ndc = camera.world_to_ndc(pts.reshape(-1, 3))[:, :2].reshape(pts.shape[:3] + (2,))
-    disp = ref_ndc[:, None] - ndc                                       # (c, n, m, 2)
-    good_ray = safe & np.all(np.isfinite(disp), axis=(2, 3)) & np.all(s > 0, axis=2)
-    disp = np.where(good_ray[..., None, None], disp, 0.0)
+    right, up, fwd = (np.asarray(v, float) for v in camera.basis)
+    tx, ty = camera.tan_half
+    rel = o - cop
+    g = d @ fwd                                                          # (c, n)
+    e = rel @ fwd
+    good_ray = ok & (g > 1e-9) & (e < float(np.min(depths)))
+    gs = np.where(good_ray, g, 1.0)
+    parts = []                                        # (c, n, 2) the 1/w and constant parts
+    for axis, tan in ((right, tx), (up, ty)):
+        b = (d @ axis) / gs
+        parts.append(((rel @ axis) - e * b, b, tan))
+    inv_w = (np.stack([p[0] / p[2] for p in parts], -1),                 # (c, n, 2)
+             np.stack([p[1] / p[2] for p in parts], -1))
     ops, good = fit_solver(good_ray)
-    coef = np.einsum("can,cnmd->cmda", ops, disp)
-    fitted = np.einsum("na,cmda->cnmd", basis(fit_seeds()), coef)
-    w = good_ray[..., None].astype(float)
+    # coefficients of the rays' NDC, its 1/w part and its constant part: (c, 2, k)
+    cv = np.einsum("can,cnd->cda", ops, np.where(good_ray[..., None], inv_w[0], 0.0))
+    cu = np.einsum("can,cnd->cda", ops, np.where(good_ray[..., None], inv_w[1], 0.0))
+    # the displacement is the pixel's NDC less the ray's: minus the fit, plus the
+    # reference in the constant term
+    coef = -(cu[:, None] + cv[:, None] / depths[None, :, None, None])   # (c, m, 2, k)
+    coef[..., 0] += ref_ndc
+    # residuals (of the NDC, the same as of the displacement), at the nearest, middle and
+    # farthest depths (a report: what the fit leaves)
+    pick = np.unique([0, len(depths) // 2, len(depths) - 1])
+    phi = basis(fit_seeds())                                            # (n, k)
+    dp = depths[pick]
+    ndc = inv_w[1][:, :, None] + inv_w[0][:, :, None] / dp[None, None, :, None]
+    fit = np.einsum("na,cmda->cnmd", phi, cu[:, None] + cv[:, None] / dp[None, :, None, None])
+    w = good_ray[..., None].astype(float)                               # (c, n, 1)
     cnt = np.maximum(w.sum(axis=1), 1.0)                                # (c, 1)
-    res = ((disp - fitted) ** 2).sum(-1)                                # (c, n, m)
-    mean = (disp * w[..., None]).sum(axis=1) / cnt[..., None]
-    spread = (((disp - mean[:, None]) ** 2).sum(-1) * w).sum(axis=1) / cnt
-    rms_res = (res * w).sum(axis=1) / cnt
+    res = (((ndc - fit) ** 2).sum(-1) * w).sum(axis=1) / cnt            # (c, 3)
+    mean = (ndc * w[..., None]).sum(axis=1) / cnt[..., None]
+    spread = ((((ndc - mean[:, None]) ** 2).sum(-1)) * w).sum(axis=1) / cnt
     with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(spread > 0, np.sqrt(rms_res / spread), 0.0)
+        share = np.where(spread > 0, np.sqrt(res / spread), 0.0)
     return coef, good, share

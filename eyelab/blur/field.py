@@ -84,16 +84,50 @@ class BlurField:
         :meth:`displacement`, not matrix x seed)."""
         return self.aberration is not None
 
+    def active(self) -> np.ndarray:
+        """(n,) flat indices of the voxels whose map is not zero (the others displace
+        nothing): what the map's per-pass and per-frame work runs over (a scene fills a
+        fraction of the view volume's voxels). Computed once."""
+        got = self.__dict__.get("_active")
+        if got is None:
+            nz, ny, nx = self.shape
+            on = np.any(self.matrix.reshape(nz * ny * nx, -1) != 0, axis=1)
+            if self.aberration is not None:
+                on |= np.any(self.aberration.reshape(nz * ny * nx, -1) != 0, axis=1)
+            got = np.flatnonzero(on)
+            self.__dict__["_active"] = got
+        return got
+
+    def on_active(self, fn, *arrays, tail=()) -> np.ndarray:
+        """``fn`` of the active voxels' rows of ``arrays`` (each (nz, ny, nx, ...)),
+        scattered back into zeros of shape (nz, ny, nx) + ``tail``."""
+        nz, ny, nx = self.shape
+        idx = self.active()
+        rows = [a.reshape((nz * ny * nx,) + a.shape[3:])[idx] for a in arrays]
+        out = np.zeros((nz * ny * nx,) + tuple(tail))
+        out[idx] = fn(*rows)
+        return out.reshape((nz, ny, nx) + tuple(tail))
+
     def displacement(self, seed) -> np.ndarray:
         """(nz, ny, nx, 2) NDC: every voxel's displacement for the pupil point ``seed``
         (2,), unit disc: matrix x seed plus the non-linear terms."""
         from eyelab.blur.aberration import higher_basis
 
         s = np.asarray(seed, float)
-        d = self.matrix @ s
-        if self.aberration is not None:
-            d = d + self.aberration @ higher_basis(s[None])[0]
-        return d
+        if self.aberration is None:
+            return self.matrix @ s
+        h = higher_basis(s[None])[0]
+        got = self.__dict__.get("_active_rows")
+        if got is None:               # the active voxels' coefficients as flat rows
+            n = int(np.prod(self.shape))
+            idx = self.active()
+            got = (idx, self.matrix.reshape(n, 2, 2)[idx].reshape(-1, 2),
+                   self.aberration.reshape(n, 2, -1)[idx].reshape(len(idx) * 2, -1))
+            self.__dict__["_active_rows"] = got
+        idx, m, a = got
+        out = np.zeros((int(np.prod(self.shape)), 2))
+        out[idx] = (m @ s + a @ h).reshape(-1, 2)          # matrix-vector products
+        return out.reshape(self.shape + (2,))
 
     def displacement_rgba(self, seed) -> np.ndarray:
         """(nz, ny, nx, 4) float32 texels of a pass's displacement at ``seed``, laid out
@@ -124,7 +158,9 @@ class BlurField:
         if got is None:
             from eyelab.blur.aberration import cov_equivalent_matrix, map_covariance
 
-            got = cov_equivalent_matrix(map_covariance(self.matrix, self.aberration))
+            got = self.on_active(
+                lambda m, a: cov_equivalent_matrix(map_covariance(m, a)), self.matrix,
+                self.aberration, tail=(2, 2))
             self.__dict__["_blur_matrix"] = got
         return got
 

@@ -58,25 +58,24 @@ def pixel_svd(field, size) -> tuple:
 
 
 def map_reach_px(fields, size) -> list | None:
-    """Per field, (nz, ny, nx) px: the farthest a pass moves light in a ``size`` = (w, h)
-    window — the largest displacement of the map on the unit circle and at its centre,
-    where a ray-aberration map's extremes lie (coma's tail, spherical aberration's rim,
-    the lateral colour's shift); None when no field has such a map (then the ellipse's
-    semi-axis is the reach)."""
+    """Per field, (nz, ny, nx) px: how far a pass can move light in a ``size`` = (w, h)
+    window — for a ray-aberration map the sum of its terms' lengths (each monomial of the
+    pupil point is at most 1 on the unit disc: a bound on coma's tail, spherical
+    aberration's rim and the lateral colour's shift together); None when no field has
+    such a map (then the ellipse's semi-axis is the reach)."""
     if not any(getattr(f, "aberration", None) is not None for f in fields):
         return None
+    from eyelab.blur.aberration import full_coefficients
+
     px = np.array([size[0] / 2, size[1] / 2])
-    t = np.linspace(0.0, 2 * np.pi, 32, endpoint=False)
-    ring = np.vstack([[0.0, 0.0], np.stack([np.cos(t), np.sin(t)], -1)])
     out = []
     for f in fields:
         if getattr(f, "aberration", None) is None:
             out.append(np.zeros(f.matrix.shape[:3]))
             continue
-        far = np.zeros(f.matrix.shape[:3])
-        for s in ring:
-            far = np.maximum(far, np.linalg.norm(f.displacement(s) * px, axis=-1))
-        out.append(far)
+        out.append(f.on_active(lambda m, a: np.linalg.norm(
+            full_coefficients(m, a) * px[:, None], axis=-2).sum(-1), f.matrix,
+            f.aberration))
     return out
 
 
@@ -148,32 +147,43 @@ def compensated(field, svd, vol: dict, size, seeds=None):
 
     # The passes draw the map at S seeds: T takes the map's covariance over them, A (for
     # a cubic map over 8 seeds short of the disc's), to the target C_t = B' (I/4) B'^T:
-    # T = C_t^(1/2) A^(-1/2) (for a linear map and a pass set, U diag(s'/s) U^T)
+    # T = C_t^(1/2) A^(-1/2) (for a linear map and a pass set, U diag(s'/s) U^T); only
+    # the voxels whose map is not zero (the field's active ones) are worked on
     if seeds is None:
         from eyelab.blur.aberration import disc_moments
 
-        gram, mu_phi = disc_moments(), None
-        gram = gram - np.outer(gram[0], gram[0])
+        gram = disc_moments()
+        mu_phi = gram[0]                                  # E[phi] over the disc
+        gram = gram - np.outer(mu_phi, mu_phi)
     else:
         phi = basis(seeds)
         mu_phi = phi.mean(0)
         phic = phi - mu_phi
         gram = phic.T @ phic / len(phi)
     pm = np.diag(px)
-    coef = pm @ full_coefficients(field.matrix, field.aberration)      # px per term
-    a = np.einsum("...ia,ab,...jb->...ij", coef, gram, coef)
-    c_t = (u * (s2**2 / 4)[..., None, :]) @ np.swapaxes(u, -1, -2)
-    t_px = sym_power(c_t, 0.5) @ sym_power(a, -0.5)
-    t = t_px * (px[None, :] / px[:, None])                        # P^-1 T_px P, in NDC
-    mean = field.mean_offset()
-    higher = t @ field.aberration
-    # the constant c' keeps the passes' mean on the map's: c' = mean - T (mu_s - c), mu_s
-    # the unshrunk map's mean over the seeds (the disc's mean for a pass set)
     c0 = HIGHER.index(0)
-    mu_s = mean if mu_phi is None else full_coefficients(field.matrix,
-                                                         field.aberration) @ mu_phi
-    higher[..., c0] = mean - (t @ (mu_s - field.aberration[..., c0])[..., None])[..., 0]
-    return dataclasses.replace(field, matrix=t @ field.matrix, aberration=higher, key=key)
+    mean_map = field.mean_offset()
+
+    def shrink(m, ab, uu, ss2, mean):
+        coef = full_coefficients(m, ab)                               # NDC per term
+        cp = pm @ coef                                                # px per term
+        a = (cp @ gram) @ np.swapaxes(cp, -1, -2)
+        c_t = (uu * (ss2**2 / 4)[:, None, :]) @ np.swapaxes(uu, -1, -2)
+        t_px = sym_power(c_t, 0.5) @ sym_power(a, -0.5)
+        t = t_px * (px[None, :] / px[:, None])                    # P^-1 T_px P, in NDC
+        higher = t @ ab
+        # the constant c' keeps the passes' mean on the map's: c' = mean - T (mu_s - c),
+        # mu_s the unshrunk map's mean over the seeds (the disc's mean for a pass set)
+        mu_s = coef @ mu_phi
+        higher[..., c0] = mean - (t @ (mu_s - ab[..., c0])[..., None])[..., 0]
+        return np.concatenate([(t @ m).reshape(len(m), -1), higher.reshape(len(m), -1)], 1)
+
+    k = len(HIGHER)
+    both = field.on_active(shrink, field.matrix, field.aberration, u, s2, mean_map,
+                           tail=(4 + 2 * k,))
+    return dataclasses.replace(field, matrix=both[..., :4].reshape(field.matrix.shape),
+                               aberration=both[..., 4:].reshape(field.aberration.shape),
+                               key=key)
 
 
 def pixel_voxels(zbuf: np.ndarray, cam, field) -> dict:

@@ -138,7 +138,7 @@ def schematic_aberrations(eye, lens, camera, pupil, d_in, accommodation: float,
         xx = np.broadcast_to(ii[:, None], vox_ok.shape)[vox_ok]
         matrix[kk, yy, xx] = coef[vox_ok][..., list(LINEAR)]
         higher[kk, yy, xx] = coef[vox_ok][..., list(HIGHER)]
-        return share[vox_ok], int((~good).sum())
+        return share[good].ravel(), int((~good).sum())
 
     parts = map_row_chunks(run, len(d_in), workers=workers, block=64)
     s = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0)

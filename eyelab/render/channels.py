@@ -51,23 +51,44 @@ def compensated_stage(fields, passes: int, size, seeds) -> tuple:
     a window of ``size`` = (w, h) px: each channel its own filter (the eye's longitudinal
     colour leaves one channel sharp and another blurred), sized by its map's covariance and
     reach, and its field variance-compensated for it
-    (:func:`~eyelab.blur.reconstruct.compensated`). The state: the fields' pixel SVDs,
-    their reaches (None for second-order fields) and sigma volumes (per channel)."""
-    from eyelab.blur.reconstruct import (
-        compensated,
-        map_reach_px,
-        pixel_svd,
-        sigma_volume,
-    )
+    (:func:`~eyelab.blur.reconstruct.compensated`) — one filter for all where they agree
+    (:func:`channel_volumes`). The state: the fields' pixel SVDs, their reaches (None for
+    second-order fields) and sigma volumes (one, or one per channel)."""
+    from eyelab.blur.reconstruct import compensated, map_reach_px, pixel_svd
 
     svds = [pixel_svd(f, size) for f in fields]
-    reaches = map_reach_px(fields, size) or [None] * len(fields)
-    vols = [sigma_volume([svd], passes, None if r is None else [r])
-            for svd, r in zip(svds, reaches, strict=True)]
-    shrunk = [compensated(f, svd, vol, size, seeds)
-              for f, svd, vol in zip(fields, svds, vols, strict=True)]
+    reaches = map_reach_px(fields, size)
+    vols = channel_volumes(svds, passes, reaches)
+    shrunk = [compensated(f, svd, vols[min(i, len(vols) - 1)], size, seeds)
+              for i, (f, svd) in enumerate(zip(fields, svds, strict=True))]
     return shrunk, {"svds": svds, "sigma": vols, "reaches": reaches}, channel_spread(
         shrunk, size)
+
+
+#: Colour channels share one reconstruction filter (the smallest of theirs: it never
+#: over-filters a channel) where their filters' sigmas differ by at most this (px)
+#: everywhere: the filters then differ by less than the smallest sigma the filter applies
+#: (:data:`~eyelab.blur.reconstruct.MIN_SIGMA`), and one filter of the three channels
+#: costs a third of three.
+SHARED_FILTER_PX = 0.25
+
+
+def channel_volumes(svds, passes: int, reaches=None) -> list:
+    """The reconstruction filter's sigma volumes (:func:`~eyelab.blur.reconstruct.
+    sigma_volume`) of a stage's channels (their pixel SVDs ``svds``, their maps' reaches
+    or None): one shared volume where the channels' own agree within
+    :data:`SHARED_FILTER_PX`, else one per channel."""
+    from eyelab.blur.reconstruct import sigma_volume
+
+    shared = sigma_volume(svds, passes, reaches)
+    if len(svds) == 1:
+        return [shared]
+    own = [sigma_volume([svd], passes, None if reaches is None else [r])
+           for svd, r in zip(svds, reaches or [None] * len(svds), strict=True)]
+    if all(np.abs(v[k] - shared[k]).max() <= SHARED_FILTER_PX
+           for v in own for k in ("major", "minor")):
+        return [shared]
+    return own
 
 
 def channel_spread(fields, size) -> dict | None:

@@ -192,10 +192,13 @@ def stage_mean(st: dict, cached, report) -> np.ndarray:
     # preview) the sigma of the passes so far, wider: previews err on the blurry side
     rc = st["recon"]
 
-    def sigma():                          # one map per channel's filter
+    def sigma():                          # one map per filter (shared, or per channel)
         vols = (rc["sigma"] if acc.count == st["passes"] else
+                [sigma_volume(rc["svds"], acc.count, rc["reaches"])]
+                if len(rc["sigma"]) == 1 else
                 [sigma_volume([svd], acc.count, None if r is None else [r])
-                 for svd, r in zip(rc["svds"], rc["reaches"], strict=True)])
+                 for svd, r in zip(rc["svds"], rc["reaches"] or [None] * len(rc["svds"]),
+                                   strict=True)])
         if "voxels" not in st:            # the depth buffer's look-up, once per frame
             st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
         return [sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])
@@ -205,11 +208,14 @@ def stage_mean(st: dict, cached, report) -> np.ndarray:
     rgba = acc.mean_rgba()
     h = acc.shape[0]
     channels = [slice(0, 3)] if len(sigs) == 1 else [slice(c, c + 1) for c in range(3)]
+    boxes = [s["region"][1] for s in sigs if s["region"] is not None]
+    rows = (min(b[0] for b in boxes), max(b[1] for b in boxes)) if boxes else None
+    whole = acc.mean_linear(rows=rows) if boxes else None     # once for every channel
     for ch, sig in zip(channels, sigs, strict=True):
         if sig["region"] is None:      # filtered: only the box the filters change
             continue
         (y0, y1, x0, x1), (py0, py1, px0, px1) = sig["region"]
-        lin = acc.mean_linear(rows=(py0, py1))[:, px0:px1, ch]
+        lin = whole[py0 - rows[0]:py1 - rows[0], px0:px1, ch]
         out = reconstruct(lin, sig)            # sig's maps cover just that box
         rgba[h - y1:h - y0, x0:x1, ch] = encode_linear(   # encoded once, GL order
             out[y0 - py0:y1 - py0, x0 - px0:x1 - px0][::-1])

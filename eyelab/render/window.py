@@ -30,6 +30,11 @@ SPARE_ACTORS = 48
 #: Field textures a window keeps uploaded (one per colour channel, plus one spare).
 FIELD_TEXTURES = 4
 
+#: Passes' displacement textures of ray-aberration maps a window keeps uploaded: the
+#: default frame's 8 passes x 3 colour channels, with room; each is the field's grid of
+#: RGBA32F (2 MB at the default 128 x 32 x 32), so at most 64 MB a window.
+PASS_TEXTURES = 32
+
 #: Fragment shader tags used: the late hook after VTK has set ``fragOutput0``, and the
 #: texture-coordinate declarations (where inputs of a vertex shader's outputs go).
 FRAGMENT_TAGS = ("//VTK::DepthPeeling::Impl", "//VTK::TCoord::Dec")
@@ -102,6 +107,7 @@ class OffscreenWindow:
         self.field_texture = None          # the current one, bound before each draw
         self.field_texture_key = None
         self._textures = OrderedDict()       # key -> (texture object, its data), LRU
+        self._pass_textures = OrderedDict()  # the same for passes' displacements
         self.render_s = 0.0
         self.readback_s = 0.0
         self._buf = _vtk.vtkUnsignedCharArray()
@@ -145,7 +151,11 @@ class OffscreenWindow:
             u.SetUniformf("farPlane", float(cam.far))
         if self.field_texture_key == field.key:
             return
-        kept = self._textures.pop(field.key, None)
+        # a pass's own displacement (a ray-aberration map) is kept apart, for the next
+        # frame's same pass: a frame of S passes and C channels uses S x C of them
+        store, limit = ((self._pass_textures, PASS_TEXTURES) if hasattr(field, "make")
+                        else (self._textures, FIELD_TEXTURES))
+        kept = store.pop(field.key, None)
         if kept is None:
             self.win.Initialize()
             tex = _vtk.vtkTextureObject()
@@ -158,9 +168,9 @@ class OffscreenWindow:
             tex.SetMinificationFilter(_vtk.vtkTextureObject.Linear)
             tex.SetMagnificationFilter(_vtk.vtkTextureObject.Linear)
             kept = (tex, data)
-        self._textures[field.key] = kept
-        while len(self._textures) > FIELD_TEXTURES:
-            _, (old, _) = self._textures.popitem(last=False)
+        store[field.key] = kept
+        while len(store) > limit:
+            _, (old, _) = store.popitem(last=False)
             old.ReleaseGraphicsResources(self.win)
         self.field_texture = kept[0]
         self.field_texture_key = field.key
@@ -297,9 +307,10 @@ class OffscreenWindow:
         return self.grab_rgba()[::-1, :, :3].copy()
 
     def _release_field_texture(self):
-        for tex, _ in self._textures.values():
-            tex.ReleaseGraphicsResources(self.win)
-        self._textures.clear()
+        for store in (self._textures, self._pass_textures):
+            for tex, _ in store.values():
+                tex.ReleaseGraphicsResources(self.win)
+            store.clear()
         self.field_texture = None
         self.field_texture_key = None
 
