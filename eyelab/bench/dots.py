@@ -218,3 +218,36 @@ def dots_summary(rows) -> list:
                    f"encircled energy <= {de:.3f}); reference vs forward rays {ok_ref}/"
                    f"{len(sel)}")
     return out
+
+
+def dots_table(rows) -> list:
+    """The guide's table rows (markdown), one per view: for the widths, centroids and
+    encircled energies, how many dots x channels are within the tolerance of the
+    reference, and the worst difference."""
+    out = []
+    for name in dict.fromkeys(r["view"] for r in rows):
+        sel = [r for r in rows if r["view"] == name]
+        n = len(sel)
+        w_ok = sum(r["raster_vs_reference"]["widths"] for r in sel)
+        c_ok = sum(r["raster_vs_reference"]["centroid"] for r in sel)
+        e_ok = sum(r["raster_vs_reference"]["energy"] for r in sel)
+        dw = max(abs(z / y - 1) for r in sel for z, y in zip(
+            r["raster"]["sigma"], r["reference"]["sigma"], strict=True))
+        dc = max(abs(z - y) for r in sel for z, y in zip(
+            r["raster"]["centroid"], r["reference"]["centroid"], strict=True))
+        de = max(abs(z - y) for r in sel for z, y in zip(
+            r["energy_raster"], r["energy_reference"], strict=True))
+        out.append(f"| {name.replace('_', ' ')} | {w_ok}/{n} within {WIDTH_REL:.0%} or "
+                   f"{WIDTH_PX} px (worst {dw:.1%}) | {c_ok}/{n} within {CENTROID_PX} px "
+                   f"(worst {dc:.2f} px) | {e_ok}/{n} within {ENERGY} (worst {de:.2f}) |")
+    return out
+
+
+def reference_agreement(rows) -> dict:
+    """The reference renderer against forward rays: the worst width difference (%) and
+    centroid difference (px) over every dot and channel."""
+    dw = max(abs(z / y - 1) for r in rows for z, y in zip(
+        r["reference"]["sigma"], r["truth"]["sigma"], strict=True))
+    dc = max(abs(z - y) for r in rows for z, y in zip(
+        r["reference"]["centroid"], r["truth"]["centroid"], strict=True))
+    return {"width_pct": 100 * dw, "centroid_px": dc}

@@ -65,6 +65,15 @@ def compensated_stage(fields, passes: int, size, seeds) -> tuple:
         shrunk, size)
 
 
+def filter_has_work(recon) -> bool:
+    """Whether a stage's reconstruction state (None: no filter) filters any voxel: a sigma
+    at least :data:`~eyelab.blur.reconstruct.MIN_SIGMA` somewhere."""
+    from eyelab.blur.reconstruct import MIN_SIGMA
+
+    return recon is not None and any(
+        float(v["major"].max(initial=0.0)) >= MIN_SIGMA for v in recon["sigma"])
+
+
 #: Colour channels share one reconstruction filter (the smallest of theirs: it never
 #: over-filters a channel) where their filters' sigmas differ by at most this (px)
 #: everywhere: the filters then differ by less than the smallest sigma the filter applies
@@ -76,12 +85,13 @@ SHARED_FILTER_PX = 0.25
 def channel_volumes(svds, passes: int, reaches=None) -> list:
     """The reconstruction filter's sigma volumes (:func:`~eyelab.blur.reconstruct.
     sigma_volume`) of a stage's channels (their pixel SVDs ``svds``, their maps' reaches
-    or None): one shared volume where the channels' own agree within
-    :data:`SHARED_FILTER_PX`, else one per channel."""
+    or None): one shared volume for second-order fields (the thin eye: its channels differ
+    by its small longitudinal colour) and where the channels' own agree within
+    :data:`SHARED_FILTER_PX`, else one per channel (a schematic eye's colours)."""
     from eyelab.blur.reconstruct import sigma_volume
 
     shared = sigma_volume(svds, passes, reaches)
-    if len(svds) == 1:
+    if len(svds) == 1 or reaches is None:
         return [shared]
     own = [sigma_volume([svd], passes, None if reaches is None else [r])
            for svd, r in zip(svds, reaches or [None] * len(svds), strict=True)]
@@ -217,7 +227,9 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
     select_channel(st, 0, route, k)
     whole = win.grab_rgba()
     out = st["rgba"]
-    if "rects" not in st:               # from the undisplaced depth (raster._passes)
+    if "rects" not in st:       # the undisplaced depth (raster._passes), else this pass's
+        if "zbuf" not in st:
+            st["zbuf"] = win.depth()
         st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
         st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
         st["whole_view"] = st["rects"] == [(0, 0, out.shape[1], out.shape[0])]
