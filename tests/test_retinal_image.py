@@ -189,17 +189,26 @@ def test_raster_agrees_with_rays_from_the_retina(lens):
 
 
 def test_the_guides_numbers_are_the_benchmarks():
-    """docs/guide/schematic-eye.md quotes docs/bench/schematic.json as it stands."""
+    """docs/guide/schematic-eye.md quotes docs/bench/schematic.json as it stands: the
+    frame's cost, the quick scenes' SSIM, and the dots' table and the reference's
+    agreement with forward rays (eyelab.bench.dots)."""
     import json
     from pathlib import Path
 
+    from eyelab.bench.dots import dots_table, reference_agreement
+
     root = Path(__file__).resolve().parents[1]
-    guide = (root / "docs" / "guide" / "schematic-eye.md").read_text()
+    guide = " ".join((root / "docs" / "guide" / "schematic-eye.md").read_text().split())
     bench = json.loads((root / "docs" / "bench" / "schematic.json").read_text())
+    assert not bench["quick"]
     f = bench["frames"]
     truth = [r["raster_vs_truth"]["ssim"] for r in bench["errors"]]
     own = [r["reference_vs_truth"]["ssim"] for r in bench["errors"]]
-    for text in (f"{f['ratio_warm']:.2f}× the thin eye's", f"({f['ratio_cold']:.2f}× cold)",
+    ref = reference_agreement(bench["dots"])
+    for text in (f"{f['ratio_warm']:.2f}× the thin eye's warm ({f['ratio_cold']:.2f}× cold)",
                  f"{bench['truth_spp']}-spp reference is {min(truth):.3f}–{max(truth):.3f}",
-                 f"{bench['reference_spp']} spp reach {min(own):.3f}–{max(own):.3f}"):
-        assert text in " ".join(guide.split()), text
+                 f"{bench['reference_spp']} spp reach {min(own):.3f}–{max(own):.3f}",
+                 f"renderer at {bench['dots_spp']} rays per pixel",
+                 f"widths within {ref['width_pct']:.1f} %, centroids within "
+                 f"{ref['centroid_px']:.2f} px", *dots_table(bench["dots"])):
+        assert " ".join(text.split()) in guide, text
