@@ -199,20 +199,27 @@ def run_dots(reference_spp: int = 256, bar=None, names=None) -> list:
     return rows
 
 
-def dots_summary(rows) -> list:
-    """One line per view: how many dots (x channels) agree, the worst width and centroid
-    differences."""
-    out = []
+def _views(rows):
+    """(view name, its rows, worst raster-vs-reference differences: width share,
+    centroid px, encircled energy) per view, in order."""
     for name in dict.fromkeys(r["view"] for r in rows):
         sel = [r for r in rows if r["view"] == name]
-        ok = sum(all(r["raster_vs_reference"].values()) for r in sel)
-        ok_ref = sum(all(r["reference_vs_truth"].values()) for r in sel)
         dw = max(abs(z / y - 1) for r in sel for z, y in zip(
             r["raster"]["sigma"], r["reference"]["sigma"], strict=True))
         dc = max(abs(z - y) for r in sel for z, y in zip(
             r["raster"]["centroid"], r["reference"]["centroid"], strict=True))
         de = max(abs(z - y) for r in sel for z, y in zip(
             r["energy_raster"], r["energy_reference"], strict=True))
+        yield name, sel, (dw, dc, de)
+
+
+def dots_summary(rows) -> list:
+    """One line per view: how many dots (x channels) agree, the worst width and centroid
+    differences."""
+    out = []
+    for name, sel, (dw, dc, de) in _views(rows):
+        ok = sum(all(r["raster_vs_reference"].values()) for r in sel)
+        ok_ref = sum(all(r["reference_vs_truth"].values()) for r in sel)
         out.append(f"dots, {name}: raster within tolerance of the reference in {ok}/"
                    f"{len(sel)} (widths <= {dw * 100:.1f} %, centroids <= {dc:.2f} px, "
                    f"encircled energy <= {de:.3f}); reference vs forward rays {ok_ref}/"
@@ -225,21 +232,14 @@ def dots_table(rows) -> list:
     encircled energies, how many dots x channels are within the tolerance of the
     reference, and the worst difference."""
     out = []
-    for name in dict.fromkeys(r["view"] for r in rows):
-        sel = [r for r in rows if r["view"] == name]
+    for name, sel, (dw, dc, de) in _views(rows):
         n = len(sel)
-        w_ok = sum(r["raster_vs_reference"]["widths"] for r in sel)
-        c_ok = sum(r["raster_vs_reference"]["centroid"] for r in sel)
-        e_ok = sum(r["raster_vs_reference"]["energy"] for r in sel)
-        dw = max(abs(z / y - 1) for r in sel for z, y in zip(
-            r["raster"]["sigma"], r["reference"]["sigma"], strict=True))
-        dc = max(abs(z - y) for r in sel for z, y in zip(
-            r["raster"]["centroid"], r["reference"]["centroid"], strict=True))
-        de = max(abs(z - y) for r in sel for z, y in zip(
-            r["energy_raster"], r["energy_reference"], strict=True))
-        out.append(f"| {name.replace('_', ' ')} | {w_ok}/{n} within {WIDTH_REL:.0%} or "
-                   f"{WIDTH_PX} px (worst {dw:.1%}) | {c_ok}/{n} within {CENTROID_PX} px "
-                   f"(worst {dc:.2f} px) | {e_ok}/{n} within {ENERGY} (worst {de:.2f}) |")
+        ok = {k: sum(r["raster_vs_reference"][k] for r in sel)
+              for k in ("widths", "centroid", "energy")}
+        out.append(f"| {name.replace('_', ' ')} | {ok['widths']}/{n} within "
+                   f"{WIDTH_REL:.0%} or {WIDTH_PX} px (worst {dw:.1%}) | {ok['centroid']}/"
+                   f"{n} within {CENTROID_PX} px (worst {dc:.2f} px) | {ok['energy']}/{n} "
+                   f"within {ENERGY} (worst {de:.2f}) |")
     return out
 
 

@@ -91,8 +91,7 @@ from eyelab.scene.refine import refine_for_fields
 #: meshes for each of those three views) and "prefiltered" (the room has 21, the ETDRS
 #: chart 15), or every frame rebuilds them. "texcoords" holds a lens's grid coordinates
 #: and, for a lenslet lens, its per-pupil-sample offsets beside them (~4 MB at 640 x 480).
-#: "fields" holds the demo's 10 and a schematic eye's three (each with its ray-aberration
-#: map: +17 MB at the default grid) beside them.
+#: "fields": the demo's 10 and a schematic eye's 3 (its maps +17 MB each at the default).
 CACHE_SIZES = {"fields": 16, "refined": 96, "prefiltered": 48, "texcoords": 8, "small": 48}
 
 
@@ -422,10 +421,8 @@ class RasterRenderer(Renderer):
             if len(st["fields"]) > 1:
                 st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
             if filter_has_work(st["recon"]) and "zbuf" not in st:
-                # the filter's and the channels' depth: from a view that no seed displaced
-                # (a displaced pass's edges sit where its seed put them: a lopsided blur);
-                # where the filter has nothing to do, the first pass's (the channels'
-                # rectangles are widened by the blur's reach anyway)
+                # the filter's depth from a view no seed displaced (a displaced pass's
+                # edges sit where its seed put them: a lopsided blur)
                 t = time.perf_counter()
                 st["zbuf"] = st["win"].undisplaced_depth()
                 name = "naked_passes" if st is naked else "env_passes"
