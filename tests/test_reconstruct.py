@@ -19,10 +19,14 @@ from eyelab.blur.reconstruct import (
 
 @dataclasses.dataclass
 class _Field:
-    """A stand-in with the two attributes the functions read."""
+    """A stand-in with what the functions read of a second-order field."""
 
     matrix: np.ndarray
     key: str = "f"
+    aberration: None = None
+
+    def blur_matrix(self):
+        return self.matrix
 
 
 @pytest.mark.parametrize("passes", [2, 8, 32])

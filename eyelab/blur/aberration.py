@@ -111,14 +111,19 @@ def map_covariance(matrix, aberration, seeds=None) -> np.ndarray:
     passes draw: a pass set has the disc's mean and covariance, not its higher moments,
     so a cubic map's spread over 8 seeds falls short of the disc's)."""
     coef = full_coefficients(matrix, aberration)
+    cov_basis = seed_moments(seeds)[1]
+    return (coef @ cov_basis) @ np.swapaxes(coef, -1, -2)
+
+
+def seed_moments(seeds=None) -> tuple:
+    """(E[phi] (len(BASIS),), the basis's covariance (len(BASIS), len(BASIS))) over the
+    uniform unit disc, or over the points ``seeds`` (S, 2)."""
     if seeds is None:
         g = disc_moments()
     else:
         phi = basis(seeds)
         g = phi.T @ phi / len(phi)
-    mu = g[0]
-    cov_basis = g - np.outer(mu, mu)
-    return (coef @ cov_basis) @ np.swapaxes(coef, -1, -2)
+    return g[0], g - np.outer(g[0], g[0])
 
 
 def sym_power(cov, p: float) -> np.ndarray:

@@ -53,8 +53,7 @@ def pixel_svd(field, size) -> tuple:
     from eyelab.core.vecmath import svd2x2
 
     px = np.array([size[0] / 2, size[1] / 2])
-    m = field.blur_matrix() if hasattr(field, "blur_matrix") else field.matrix
-    return svd2x2(m * px[:, None])
+    return svd2x2(field.blur_matrix() * px[:, None])
 
 
 def map_reach_px(fields, size) -> list | None:
@@ -63,20 +62,14 @@ def map_reach_px(fields, size) -> list | None:
     pupil point is at most 1 on the unit disc: a bound on coma's tail, spherical
     aberration's rim and the lateral colour's shift together); None when no field has
     such a map (then the ellipse's semi-axis is the reach)."""
-    if not any(getattr(f, "aberration", None) is not None for f in fields):
+    if not any(f.has_aberration for f in fields):
         return None
     from eyelab.blur.aberration import full_coefficients
 
     px = np.array([size[0] / 2, size[1] / 2])
-    out = []
-    for f in fields:
-        if getattr(f, "aberration", None) is None:
-            out.append(np.zeros(f.matrix.shape[:3]))
-            continue
-        out.append(f.on_active(lambda m, a: np.linalg.norm(
-            full_coefficients(m, a) * px[:, None], axis=-2).sum(-1), f.matrix,
-            f.aberration))
-    return out
+    return [f.on_active(lambda m, a: np.linalg.norm(
+        full_coefficients(m, a) * px[:, None], axis=-2).sum(-1), f.matrix, f.aberration)
+        if f.has_aberration else np.zeros(f.matrix.shape[:3]) for f in fields]
 
 
 def sigma_volume(svds, passes: int, reaches=None) -> dict:
@@ -140,26 +133,16 @@ def compensated(field, svd, vol: dict, size, seeds=None):
     key = content_key(field=field.key, sigma=np.asarray(sig, np.float32),
                       size=list(size), kind="variance-compensated",
                       seeds=None if seeds is None else np.asarray(seeds, float))
-    if getattr(field, "aberration", None) is None:
+    if field.aberration is None:
         matrix = ((u * s2[..., None, :]) @ vt) / px[:, None]
         return dataclasses.replace(field, matrix=matrix, key=key)
-    from eyelab.blur.aberration import HIGHER, basis, full_coefficients, sym_power
+    from eyelab.blur.aberration import HIGHER, full_coefficients, seed_moments, sym_power
 
     # The passes draw the map at S seeds: T takes the map's covariance over them, A (for
     # a cubic map over 8 seeds short of the disc's), to the target C_t = B' (I/4) B'^T:
     # T = C_t^(1/2) A^(-1/2) (for a linear map and a pass set, U diag(s'/s) U^T); only
     # the voxels whose map is not zero (the field's active ones) are worked on
-    if seeds is None:
-        from eyelab.blur.aberration import disc_moments
-
-        gram = disc_moments()
-        mu_phi = gram[0]                                  # E[phi] over the disc
-        gram = gram - np.outer(mu_phi, mu_phi)
-    else:
-        phi = basis(seeds)
-        mu_phi = phi.mean(0)
-        phic = phi - mu_phi
-        gram = phic.T @ phic / len(phi)
+    mu_phi, gram = seed_moments(seeds)
     pm = np.diag(px)
     c0 = HIGHER.index(0)
     mean_map = field.mean_offset()
@@ -402,3 +385,34 @@ def _blend_rows(src, sig, levels, a, b, out) -> None:
         wt = np.where(idx[need] == i, 1 - t[need, 0], t[need, 0])[:, None]
         acc[need] += wt * vals
     out[ys, xs] = acc
+
+
+def filter_has_work(recon) -> bool:
+    """Whether a stage's reconstruction state (None: no filter) filters any voxel: a sigma
+    at least :data:`MIN_SIGMA` somewhere."""
+    return recon is not None and any(
+        float(v["major"].max(initial=0.0)) >= MIN_SIGMA for v in recon["sigma"])
+
+
+#: Colour channels share one reconstruction filter (the smallest of theirs: it never
+#: over-filters a channel) where their filters' sigmas differ by at most this (px)
+#: everywhere: the filters then differ by less than the smallest sigma the filter applies
+#: (:data:`MIN_SIGMA`), and one filter of the three channels costs a third of three.
+SHARED_FILTER_PX = 0.25
+
+
+def channel_volumes(svds, passes: int, reaches=None) -> list:
+    """The filter's sigma volumes (:func:`sigma_volume`) of a stage's colour channels
+    (their pixel SVDs ``svds``; their maps' reaches, :func:`map_reach_px`, or None): one
+    shared volume for second-order fields (the thin eye: its channels differ by its small
+    longitudinal colour) and where the channels' own agree within
+    :data:`SHARED_FILTER_PX`, else one per channel (a schematic eye's colours). Used for
+    the compensation at S passes and for a progressive preview's passes so far alike."""
+    shared = sigma_volume(svds, passes, reaches)
+    if len(svds) == 1 or reaches is None:
+        return [shared]
+    own = [sigma_volume([svd], passes, [r]) for svd, r in zip(svds, reaches, strict=True)]
+    if all(np.abs(v[k] - shared[k]).max() <= SHARED_FILTER_PX
+           for v in own for k in ("major", "minor")):
+        return [shared]
+    return own

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from eyelab.core.vecmath import unit
 from eyelab.optics.chain.retinal_rays import camera_frame, retina_points
 from eyelab.optics.rays.trace import FATAL, intersect, refract
 
@@ -54,7 +55,7 @@ def point_spot(eye, lens, view, point, accommodation: float, wavelength_nm: floa
     r_ep = eye.pupil_diameter / 2
     axis = rot[:, 2]
     centre = vertex + axis * z_ep
-    half = 1.4 * r_ep / max(abs(float(np.dot(axis, _unit(centre - point)))), 0.2)
+    half = 1.4 * r_ep / max(abs(float(np.dot(axis, unit((centre - point)[None])[0]))), 0.2)
     u = np.linspace(-half, half, grid)
     gx, gy = np.meshgrid(u, u)
     targets = centre + gx.reshape(-1, 1) * rot[:, 0] + gy.reshape(-1, 1) * rot[:, 1]
@@ -104,7 +105,3 @@ def point_spot(eye, lens, view, point, accommodation: float, wavelength_nm: floa
     cov = (dev[:, :, None] * dev[:, None, :] * wgt[:, None, None]).sum(0) / wgt.sum()
     return {"px": spot, "weight": wgt, "centroid": c, "cov": cov, "chief": chief,
             "rays": int(ok.sum())}
-
-
-def _unit(v):
-    return v / np.linalg.norm(v)

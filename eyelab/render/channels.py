@@ -52,53 +52,24 @@ def compensated_stage(fields, passes: int, size, seeds) -> tuple:
     colour leaves one channel sharp and another blurred), sized by its map's covariance and
     reach, and its field variance-compensated for it
     (:func:`~eyelab.blur.reconstruct.compensated`) — one filter for all where they agree
-    (:func:`channel_volumes`). The state: the fields' pixel SVDs, their reaches (None for
-    second-order fields) and sigma volumes (one, or one per channel)."""
-    from eyelab.blur.reconstruct import compensated, map_reach_px, pixel_svd
+    (:func:`~eyelab.blur.reconstruct.channel_volumes`). The state: the fields' pixel
+    SVDs, their reaches (None for second-order fields) and sigma volumes (one, or one
+    per channel)."""
+    from eyelab.blur.reconstruct import (
+        channel_volumes,
+        compensated,
+        map_reach_px,
+        pixel_svd,
+    )
 
     svds = [pixel_svd(f, size) for f in fields]
     reaches = map_reach_px(fields, size)
     vols = channel_volumes(svds, passes, reaches)
-    shrunk = [compensated(f, svd, vols[min(i, len(vols) - 1)], size, seeds)
-              for i, (f, svd) in enumerate(zip(fields, svds, strict=True))]
+    per_field = vols * len(fields) if len(vols) == 1 else vols      # shared, or each own
+    shrunk = [compensated(f, svd, vol, size, seeds)
+              for f, svd, vol in zip(fields, svds, per_field, strict=True)]
     return shrunk, {"svds": svds, "sigma": vols, "reaches": reaches}, channel_spread(
         shrunk, size)
-
-
-def filter_has_work(recon) -> bool:
-    """Whether a stage's reconstruction state (None: no filter) filters any voxel: a sigma
-    at least :data:`~eyelab.blur.reconstruct.MIN_SIGMA` somewhere."""
-    from eyelab.blur.reconstruct import MIN_SIGMA
-
-    return recon is not None and any(
-        float(v["major"].max(initial=0.0)) >= MIN_SIGMA for v in recon["sigma"])
-
-
-#: Colour channels share one reconstruction filter (the smallest of theirs: it never
-#: over-filters a channel) where their filters' sigmas differ by at most this (px)
-#: everywhere: the filters then differ by less than the smallest sigma the filter applies
-#: (:data:`~eyelab.blur.reconstruct.MIN_SIGMA`), and one filter of the three channels
-#: costs a third of three.
-SHARED_FILTER_PX = 0.25
-
-
-def channel_volumes(svds, passes: int, reaches=None) -> list:
-    """The reconstruction filter's sigma volumes (:func:`~eyelab.blur.reconstruct.
-    sigma_volume`) of a stage's channels (their pixel SVDs ``svds``, their maps' reaches
-    or None): one shared volume for second-order fields (the thin eye: its channels differ
-    by its small longitudinal colour) and where the channels' own agree within
-    :data:`SHARED_FILTER_PX`, else one per channel (a schematic eye's colours)."""
-    from eyelab.blur.reconstruct import sigma_volume
-
-    shared = sigma_volume(svds, passes, reaches)
-    if len(svds) == 1 or reaches is None:
-        return [shared]
-    own = [sigma_volume([svd], passes, None if reaches is None else [r])
-           for svd, r in zip(svds, reaches or [None] * len(svds), strict=True)]
-    if all(np.abs(v[k] - shared[k]).max() <= SHARED_FILTER_PX
-           for v in own for k in ("major", "minor")):
-        return [shared]
-    return own
 
 
 def channel_spread(fields, size) -> dict | None:
@@ -219,13 +190,12 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
     win = st["win"]
     fields = st["fields"]
     baked = any(f.has_aberration for f in fields)
-    if baked:                           # the pass's own displacement texture
+    if baked or len(fields) > 1:        # the first channel (its pass's own texture)
         select_channel(st, 0, route, k)
     win.set_seed((1.0, 0.0) if baked else st["seeds"][k], st["jitter"][k])
-    if len(fields) == 1:
-        return win.grab_rgba()
-    select_channel(st, 0, route, k)
     whole = win.grab_rgba()
+    if len(fields) == 1:
+        return whole
     out = st["rgba"]
     if "rects" not in st:       # the undisplaced depth (raster._passes), else this pass's
         if "zbuf" not in st:

@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
+from eyelab.blur.reconstruct import filter_has_work
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.progress import bar as progress_bar
@@ -53,7 +54,6 @@ from eyelab.render.accumulate import PassAccumulator
 from eyelab.render.channels import (
     channel_spread,
     compensated_stage,
-    filter_has_work,
     grab_pass,
     note_channels,
 )

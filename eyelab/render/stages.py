@@ -9,7 +9,12 @@ import time
 
 import numpy as np
 
-from eyelab.blur.reconstruct import pixel_voxels, reconstruct, sigma_map, sigma_volume
+from eyelab.blur.reconstruct import (
+    channel_volumes,
+    pixel_voxels,
+    reconstruct,
+    sigma_map,
+)
 from eyelab.core.sampling import antialias_jitter, pass_samples
 from eyelab.render.accumulate import encode_linear
 from eyelab.render.actors import field_actor_factory
@@ -193,12 +198,8 @@ def stage_mean(st: dict, cached, report) -> np.ndarray:
     rc = st["recon"]
 
     def sigma():                          # one map per filter (shared, or per channel)
-        vols = (rc["sigma"] if acc.count == st["passes"] else
-                [sigma_volume(rc["svds"], acc.count, rc["reaches"])]
-                if len(rc["sigma"]) == 1 else
-                [sigma_volume([svd], acc.count, None if r is None else [r])
-                 for svd, r in zip(rc["svds"], rc["reaches"] or [None] * len(rc["svds"]),
-                                   strict=True)])
+        vols = (rc["sigma"] if acc.count == st["passes"]
+                else channel_volumes(rc["svds"], acc.count, rc["reaches"]))
         if "voxels" not in st:            # the depth buffer's look-up, once per frame
             st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], st["fields"][0])
         return [sigma_map(st["zbuf"], st["cam"], st["fields"][0], vol, st["voxels"])

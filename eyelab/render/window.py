@@ -12,6 +12,7 @@ from importlib import resources
 
 import numpy as np
 
+from eyelab.blur.field import PassField
 from eyelab.core.interrupt import deferred
 from eyelab.render import _vtk
 
@@ -153,8 +154,8 @@ class OffscreenWindow:
             return
         # a pass's own displacement (a ray-aberration map) is kept apart, for the next
         # frame's same pass: a frame of S passes and C channels uses S x C of them
-        store, limit = ((self._pass_textures, PASS_TEXTURES) if hasattr(field, "make")
-                        else (self._textures, FIELD_TEXTURES))
+        store, limit = ((self._pass_textures, PASS_TEXTURES)
+                        if isinstance(field, PassField) else (self._textures, FIELD_TEXTURES))
         kept = store.pop(field.key, None)
         if kept is None:
             self.win.Initialize()
