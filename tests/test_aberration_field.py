@@ -203,3 +203,9 @@ def test_sym_power_closed_form_agrees_with_the_eigen_decomposition():
     np.testing.assert_allclose(sym_power(r1, 0.5)[0], r1[0] / math.sqrt(5), atol=1e-12)
     np.testing.assert_allclose(sym_power(r1, -0.5)[0], r1[0] / 5**1.5, atol=1e-12)
     assert not sym_power(r1, -0.5)[1].any() and not sym_power(r1, 0.5)[1].any()
+    # a rank-1 covariance carrying round-off (a two-seed pass set's, of a tiny map: the
+    # minor axis 1e-6 of the major) is a line, not a 1e6-fold gain across it
+    v = np.array([-0.33, 0.94])
+    noisy = 4.3e-6 * np.outer(v, v) + 1e-17 * np.eye(2)
+    inv = sym_power(noisy[None], -0.5)[0]
+    np.testing.assert_allclose(inv, noisy / np.trace(noisy) ** 1.5, rtol=1e-6)

@@ -208,3 +208,25 @@ def test_the_image_based_renderer_refuses_a_lenslet_lens_by_name(dims_spec):
     with pytest.raises(SpecError, match="lens.lenslets"):
         ImageBasedRenderer(ImageBasedQuality(samples=2)).render(
             page_scene(), dims_spec.eye, dims_spec.lens, View(width=32, height=24))
+
+
+def test_a_schematic_eye_looks_through_lenslets_with_its_own_pencil():
+    """The raster's lenslet pencils for a Navarro eye: the slope matrix is the eye's power
+    error along the line of sight (a -3 D myope: within 0.05 D of the thin eye of the same
+    prescription, which is 2.90 D at its pupil), and the whole raster draws the lens."""
+    from eyelab.render.raster import RasterRenderer
+    from eyelab.scene.lensletrays import pencil_slopes
+
+    g = {}
+    for model in ("thin", "navarro"):
+        spec = as_spec({"eye": {"model": model, "rx": "-3.00", "pupil_diameter_mm": 4},
+                        "lens": {"rx": "-3.00", "lenslets": DIMS}})
+        cam = View(width=32, height=24).camera(spec.eye.rotation_centre)
+        g[model] = pencil_slopes(spec.eye, np.array([[0.0, 0.0, -1.0]]), np.zeros(1),
+                                 np.asarray(cam.position, float))[0]
+    assert np.allclose(g["navarro"], g["navarro"][0, 0] * np.eye(2))
+    assert g["navarro"][0, 0] == pytest.approx(g["thin"][0, 0], abs=0.05)
+    view = View(width=48, height=36, fov_y_deg=5.0, gaze_deg=(0.0, -20.0))
+    with RasterRenderer(RasterQuality(samples=2)) as r:
+        res = r.render(page_scene(), spec.eye, spec.lens, view)
+    assert res.report["details"]["lenslets"]["moved_views"] > 0

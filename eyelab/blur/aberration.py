@@ -126,11 +126,19 @@ def seed_moments(seeds=None) -> tuple:
     return g[0], g - np.outer(g[0], g[0])
 
 
+RANK1_RATIO = 1e-4
+"""A covariance whose minor standard deviation is below this share of its major one is a
+line (rank 1) to :func:`sym_power`: an exactly rank-1 product of large maps keeps round-off
+of up to ~1e-6 there."""
+
+
 def sym_power(cov, p: float) -> np.ndarray:
     """(..., 2, 2) cov^p, p = 1/2 or -1/2, of symmetric positive semi-definite ``cov``,
     in closed form: sqrt(C) = (C + sqrt(det) I) / sqrt(tr + 2 sqrt(det)) (the 2 x 2
     identity, exact for det = 0: a rank-1 C = l v v^T gives sqrt(l) v v^T); C^(-1/2) its
-    inverse, or for a singular C the pseudo-power C / tr^(3/2) (zero for C = 0)."""
+    inverse, or for a singular C the pseudo-power C / tr^(3/2) (zero for C = 0). C counts as
+    singular when its axes' standard deviations differ by more than :data:`RANK1_RATIO`
+    (a rank-1 C, such as a two-point seed set's, keeps round-off of up to ~1e-6 there)."""
     if p not in (0.5, -0.5):
         raise ValueError(f"sym_power takes p = 1/2 or -1/2, got {p}")
     c = np.asarray(cov, float)
@@ -146,7 +154,7 @@ def sym_power(cov, p: float) -> np.ndarray:
             out = np.stack([np.stack([ra, rb], -1), np.stack([rb, rd], -1)], -2)
             return out
         rdet = ra * rd - rb * rb                                          # = sqrt(det)
-        regular = sd > 1e-12 * np.maximum(tr, 1e-300)
+        regular = sd > RANK1_RATIO * np.maximum(tr, 1e-300)     # sd / tr ~ minor / major
         k = np.where(regular, 1.0 / np.where(regular, rdet, 1.0), 0.0)
         pa, pb, pd = rd * k, -rb * k, ra * k                              # inv(sqrt(C))
         q = np.where((~regular) & (tr > 0), tr ** -1.5, 0.0)              # pseudo

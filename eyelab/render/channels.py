@@ -131,7 +131,7 @@ def disagreeing_rects(spread: dict, voxels: dict) -> list:
     pad = np.zeros((ty * t, tx * t), bool)
     pad[:dyn.shape[0], :dyn.shape[1]] = dyn
     tiles = pad.reshape(ty, t, tx, t).any((1, 3))
-    k = int(np.ceil(reach / TILE_PX))
+    k = min(int(np.ceil(reach / TILE_PX)), max(ty, tx))   # past the window: all of it
     tiles = maximum_filter(tiles, size=2 * k + 1, mode="constant")
     labels, n = label(tiles)
     boxes = [[s[0].start, s[0].stop, s[1].start, s[1].stop] for s in find_objects(labels)]

@@ -98,9 +98,9 @@ def pencil_slopes(eye, d, acc, pupil) -> np.ndarray:
 
     rot, vertex = eye_frame(eye, pupil)
     axis = rot[:, 2][None]
-    need, _ = needed_wave(eye, rot, vertex, axis, rot[:, 0][None], float(np.mean(acc)),
-                          EYE_REFERENCE_NM)
-    g = -0.5 * float(need.kxx[0] + need.kyy[0])
+    (kxx, _, kyy), _ = needed_wave(eye, rot, vertex, axis, rot[:, 0][None],
+                                   float(np.mean(acc)), EYE_REFERENCE_NM)
+    g = -0.5 * float(kxx[0] + kyy[0])
     return np.broadcast_to(g * np.eye(2), (n, 2, 2)).copy()
 
 
