@@ -137,3 +137,24 @@ def test_constructors_take_the_obvious_forms():
         eyelab.make_renderer("nope")
     assert eyelab.builtin_scene("chart", distance_m=2.0).meshes
     assert "render" in dir(eyelab) and "Eye" in eyelab.__all__
+
+
+def test_a_two_eye_result_saves_like_one_eye(tmp_path):
+    """eyelab.render of a two-eye spec returns a BinocularResult; .save writes its spec's
+    output (side by side) or any other, sRGB or linear, with both eyes' report."""
+    import json
+
+    from PIL import Image
+
+    res = eyelab.render({"binocular": {}}, width=32, height=24, samples=1)
+    res.save(tmp_path / "b.png", report=tmp_path / "b.json")
+    with Image.open(tmp_path / "b.png") as im:
+        np.testing.assert_array_equal(np.asarray(im), res.srgb("side-by-side"))
+        assert im.size == (64, 24)
+    assert set(json.loads((tmp_path / "b.json").read_text())) >= {"right", "left", "binocular"}
+    res.save(tmp_path / "r.png", output="right", linear=True)
+    with Image.open(tmp_path / "r.png") as im:
+        assert im.info["gamma"] == 1.0 and im.size == (32, 24)
+    with pytest.raises(eyelab.SpecError, match="binocular.output"):
+        res.save(tmp_path / "x.png", output="wiggle")
+    assert not (tmp_path / "x.png").exists()

@@ -38,7 +38,7 @@ def test_atomic_group_writes_all_or_none_and_sweeps(tmp_path):
     from eyelab.core.fileio import TMP_PREFIX, atomic_group
 
     a, b = tmp_path / "a.txt", tmp_path / "b.txt"
-    stale = tmp_path / f"{TMP_PREFIX}a.txt.left-by-a-kill.txt"
+    stale = tmp_path / f"{TMP_PREFIX}a.txt.k1lled_8.txt"          # mkstemp's shape
     stale.write_text("x")
     def text(t):
         return lambda p: Path(p).write_text(t)
@@ -53,6 +53,21 @@ def test_atomic_group_writes_all_or_none_and_sweeps(tmp_path):
         atomic_group({a: text("new"), b: fail})
     assert a.read_text() == "1" and b.read_text() == "2"      # the old set, untouched
     assert not list(tmp_path.glob(TMP_PREFIX + "*"))
+
+
+def test_one_name_a_prefix_of_the_other_writes_both(tmp_path):
+    """A.json's temporaries are not A.json.npy's: the group writes both (the sweep of the
+    one left the other's temporary alone), and a killed write of either is still swept."""
+    from eyelab.core.fileio import TMP_PREFIX, atomic_group, is_temporary_of
+
+    a, b = tmp_path / "A.json.npy", tmp_path / "A.json"
+    atomic_group({a: lambda p: Path(p).write_text("array"), b: lambda p: Path(p).write_text("{}")})
+    assert a.read_text() == "array" and b.read_text() == "{}"
+    assert not list(tmp_path.glob(TMP_PREFIX + "*"))
+    assert is_temporary_of(f"{TMP_PREFIX}A.json.abcd_123.json", "A.json")
+    assert is_temporary_of(f"{TMP_PREFIX}A.json.abcd_123", "A.json")
+    assert not is_temporary_of(f"{TMP_PREFIX}A.json.npy.abcd_123.npy", "A.json")
+    assert not is_temporary_of(f"{TMP_PREFIX}A.json.abcdefgh.abcd_123.abcdefgh", "A.json")
 
 
 @pytest.mark.slow

@@ -21,8 +21,18 @@ from eyelab.core.errors import SpecError
 from eyelab.core.interrupt import check as check_interrupt
 
 #: Temporaries are named ``.eyelab-tmp.<final name>.<random><suffix>`` beside the final
-#: file: recognisable, and swept by the next write of the same file (:func:`sweep_for`).
+#: file (random: mkstemp's 8 characters of [a-z0-9_]; suffix: one extension or none):
+#: recognisable, and swept by the next write of the same file (:func:`sweep_for`).
 TMP_PREFIX = ".eyelab-tmp."
+
+
+def is_temporary_of(name: str, final: str) -> bool:
+    """Whether the file ``name`` is a temporary of the final file name ``final`` — and not
+    of a sibling whose name starts with it (``A.json``'s are not ``A.json.npy``'s)."""
+    import re
+
+    return re.fullmatch(re.escape(TMP_PREFIX + final) + r"\.[a-z0-9_]{8}(\.[^.]*)?",
+                        name) is not None
 
 
 def sweep_for(*paths) -> int:
@@ -34,6 +44,8 @@ def sweep_for(*paths) -> int:
         if not p.parent.is_dir():
             continue
         for t in p.parent.glob(f"{TMP_PREFIX}{p.name}.*"):
+            if not is_temporary_of(t.name, p.name):
+                continue
             try:
                 t.unlink()
                 n += 1

@@ -72,6 +72,21 @@ class BinocularResult:
             return (self.right if output == "right" else self.left).srgb
         return encode_srgb(self.linear(output))
 
+    def save(self, path, *, report=None, linear: bool = False, output: str | None = None
+             ) -> None:
+        """Write the ``output`` image (:data:`OUTPUTS`; None: :attr:`output`) to ``path``
+        (PNG: 8-bit sRGB, or with ``linear`` 16-bit linear light) and, with ``report`` (a
+        path), both eyes' report as JSON — as :meth:`RenderResult.save
+        <eyelab.imaging.contract.RenderResult.save>`: whole or not at all."""
+        from eyelab.core.fileio import atomic_group, linear_to_png16, png_writer, report_writer
+
+        output = self.output if output is None else output       # checked by compose()
+        image = linear_to_png16(self.linear(output)) if linear else self.srgb(output)
+        writers = {path: png_writer(image)}
+        if report is not None:
+            writers[report] = report_writer(self.report)
+        atomic_group(writers)
+
 
 def compose(right: np.ndarray, left: np.ndarray, output: str) -> np.ndarray:
     """Two (h, w, 3) linear images -> the ``output`` image, linear: "side-by-side" (left
