@@ -90,3 +90,21 @@ def test_pupil_vertex_sphere_and_surface_lens_report():
     text = format_report(rep)
     assert "explicit surfaces" in text and "None" not in text
     assert "power_error" not in rep["points"][0]            # no prescription to compare
+
+
+def test_a_surface_lens_before_a_schematic_eye_reports_as_before_a_thin_one():
+    """The lens block is one for every eye: a lens given by its surfaces says so (never
+    "lens: None") and carries its traced back vertex powers: for radii 100 / 80 mm, 2 mm
+    thick, the thick lens's paraxial F1 / (1 - t F1 / n) + F2 (-1.212 D in CR-39)."""
+    lens = {"front": {"radius_mm": 100}, "back": {"radius_mm": 80}, "center_thickness_mm": 2.0}
+    reps = {m: analyze_spec(parse_spec({"eye": {"model": m}, "lens": lens}))
+            for m in ("thin", "navarro")}
+    assert reps["navarro"]["lens"] == reps["thin"]["lens"]
+    ln = reps["navarro"]["lens"]
+    assert ln["rx"] is None
+    n = ln["n"]
+    f1, f2 = (n - 1) / 0.100, (1 - n) / 0.080
+    bvp = f1 / (1 - 0.002 * f1 / n) + f2
+    assert ln["back_vertex_powers_d"] == pytest.approx([bvp] * 2, abs=1e-4)
+    text = format_report(reps["navarro"])
+    assert "lens: explicit surfaces" in text and "None" not in text

@@ -11,7 +11,14 @@ import math
 import numpy as np
 
 from eyelab.core.fileio import with_units
-from eyelab.jobs.points import format_lenslets, lenslet_row, no_path_reason, object_row
+from eyelab.jobs.points import (
+    format_lens,
+    format_lenslets,
+    lens_info,
+    lenslet_row,
+    no_path_reason,
+    object_row,
+)
 from eyelab.optics.chain.analysis import (
     analyze_points,
     chief_prism,
@@ -143,7 +150,7 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
     k1, k2 = eye.refraction()
     return {
         "eye": dict(eye_table(eye), far_point_vergence_d=[k1, k2]),
-        "lens": None if lens is None else _lens_info(lens, spec.wavelength_nm),
+        "lens": None if lens is None else lens_info(lens, spec.wavelength_nm),
         "vertex_sphere": None if res.vertex_sphere is None else {
             "centre": res.vertex_sphere["centre"],
             "centre_mm": _v(np.asarray(res.vertex_sphere["centre_m"]) * 1e3),
@@ -202,21 +209,6 @@ def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
         "points": points, "eyes": eyes}
 
 
-def _lens_info(lens, wl):
-    f1, f2, a = lens.back_vertex_powers(wl)
-    e_min, e_max, _, _ = lens.edge_thickness()
-    return {"rx": None if lens.rx is None else lens.rx.format(),
-            "edge_thickness_mm": [e_min * 1e3, e_max * 1e3],
-            "material": lens.material.name, "n": lens.material.n(wl),
-            "abbe": lens.material.v_d if lens.material.dispersive else "inf",
-            "center_thickness_mm": lens.center_thickness * 1e3,
-            "diameter_mm": lens.diameter * 1e3,
-            "vertex_distance_mm": lens.pose.vertex_distance * 1e3,
-            "pantoscopic_tilt_deg": lens.pose.pantoscopic_tilt_deg,
-            "wrap_deg": lens.pose.wrap_deg,
-            "back_vertex_powers_d": [f1, f2], "back_vertex_direction_1_deg": math.degrees(a)}
-
-
 def format_report(rep: dict) -> str:
     """Human-readable text of a report from :func:`analyze_spec`."""
     if "binocular" in rep:
@@ -261,17 +253,8 @@ def _format_eye(rep: dict) -> list:
                  f"@ {e['astigmatism_axis_deg']:.1f} deg, amplitude {e['accommodation_max_d']:.2f} "
                  f"D, pupil {e['pupil_diameter_mm']:.2f} mm, far-point vergences "
                  f"{e['far_point_vergence_d'][0]:+.3f} / {e['far_point_vergence_d'][1]:+.3f} D")
-    if rep["lens"] is None:
-        lines.append("lens: none (naked eye)")
-    else:
-        ln = rep["lens"]
-        made = ln["rx"] if ln["rx"] is not None else "explicit surfaces"
-        lines.append(f"lens: {made} in {ln['material']} (n {ln['n']:.4f}), CT "
-                     f"{ln['center_thickness_mm']:.2f} mm, edge "
-                     "{:.2f}-{:.2f} mm".format(*ln["edge_thickness_mm"])
-                     + f", vertex {ln['vertex_distance_mm']:.1f} mm, tilt "
-                     f"{ln['pantoscopic_tilt_deg']:.1f} deg; traced back vertex powers "
-                     "{:+.4f} / {:+.4f} D".format(*ln["back_vertex_powers_d"]))
+    lines.append(format_lens(rep["lens"]))
+    if rep["lens"] is not None:
         vs = rep["vertex_sphere"]
         lines.append(f"vertex sphere: centred on the {vs['centre'].replace('_', ' ')}, radius "
                      f"{vs['radius_mm']:.2f} mm")

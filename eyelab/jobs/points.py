@@ -52,3 +52,34 @@ def format_lenslets(row: dict) -> str:
             f"{'myopically' if row['add_d'] > 0 else 'hyperopically'} defocused)"
             if row["count"] else "  lenslets: the pupil's light misses them (the carrier "
             "only)")
+
+
+def lens_info(lens, wavelength_nm: float) -> dict:
+    """The lens block of analyze's report (every eye model): its prescription (None for a
+    lens given by its surfaces alone), material, thicknesses (mm), pose and the traced
+    back vertex powers (D) at ``wavelength_nm``."""
+    f1, f2, a = lens.back_vertex_powers(wavelength_nm)
+    e_min, e_max, _, _ = lens.edge_thickness()
+    return {"rx": None if lens.rx is None else lens.rx.format(),
+            "edge_thickness_mm": [e_min * 1e3, e_max * 1e3],
+            "material": lens.material.name, "n": lens.material.n(wavelength_nm),
+            "abbe": lens.material.v_d if lens.material.dispersive else "inf",
+            "center_thickness_mm": lens.center_thickness * 1e3,
+            "diameter_mm": lens.diameter * 1e3,
+            "vertex_distance_mm": lens.pose.vertex_distance * 1e3,
+            "pantoscopic_tilt_deg": lens.pose.pantoscopic_tilt_deg,
+            "wrap_deg": lens.pose.wrap_deg,
+            "back_vertex_powers_d": [f1, f2], "back_vertex_direction_1_deg": math.degrees(a)}
+
+
+def format_lens(ln: dict | None) -> str:
+    """The text line of a :func:`lens_info` block (None: the naked eye)."""
+    if ln is None:
+        return "lens: none (naked eye)"
+    made = ln["rx"] if ln["rx"] is not None else "explicit surfaces"
+    return (f"lens: {made} in {ln['material']} (n {ln['n']:.4f}), CT "
+            f"{ln['center_thickness_mm']:.2f} mm, edge "
+            "{:.2f}-{:.2f} mm".format(*ln["edge_thickness_mm"])
+            + f", vertex {ln['vertex_distance_mm']:.1f} mm, tilt "
+            f"{ln['pantoscopic_tilt_deg']:.1f} deg; traced back vertex powers "
+            "{:+.4f} / {:+.4f} D".format(*ln["back_vertex_powers_d"]))

@@ -14,7 +14,14 @@ import math
 
 import numpy as np
 
-from eyelab.jobs.points import format_lenslets, lenslet_row, no_path_reason, object_row
+from eyelab.jobs.points import (
+    format_lens,
+    format_lenslets,
+    lens_info,
+    lenslet_row,
+    no_path_reason,
+    object_row,
+)
 from eyelab.optics.chain.retina import RetinalTrace, trace_field, trace_objects
 from eyelab.optics.chain.retinal_wave import retinal_waves
 from eyelab.optics.rays.trace import Status
@@ -98,8 +105,7 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
                 entry["through_focus"] = _through_focus(eye, lens, r, i, spec)
         points.append(entry)
     return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
-            "lens": None if lens is None else {"rx": None if lens.rx is None
-                                               else lens.rx.format()},
+            "lens": None if lens is None else lens_info(lens, spec.wavelength_nm),
             "wavelength_nm": spec.wavelength_nm, "fixation": spec.fixation,
             "accommodation": "the fixation's: the eye focuses the object on its axis at each "
             "point's distance (paraxially)" if spec.accommodation is None
@@ -151,7 +157,7 @@ def format_schematic(rep: dict) -> str:
              f"paraxial refraction {e['refraction_d']:+.3f} D, power {e['power_d']:.3f} D, "
              f"entrance pupil {e['pupil_diameter_mm']:.2f} mm at {e['entrance_pupil_mm']:.3f}"
              " mm",
-             "lens: none (naked eye)" if rep["lens"] is None else f"lens: {rep['lens']['rx']}",
+             format_lens(rep["lens"]),
              f"wavelength {rep['wavelength_nm']} nm, fixation {rep['fixation']}, "
              f"accommodation {rep['accommodation']}"]
     for p in rep["points"]:
