@@ -67,8 +67,9 @@ def run(args) -> int:
         lm = rep["lenslets"]
         tf = lm["through_focus"]
         peaks = ", ".join(f"{v:+.2f} D ({a:.3f})" for v, a in tf["peak_peaks"])
-        print(f"through {lm['add_d']:+.2f} D lenslets: the PSF holds the carrier's image and "
-              f"theirs (RMS is the carrier's wave); through focus at {tf['wavelength_nm']:g} "
+        print(f"through {lm['add_d']:+.2f} D lenslets ({100 * lm['share']:.1f} % of the "
+              f"pupil's light): the PSF holds the carrier's image and theirs (RMS is the "
+              f"carrier's wave); through focus at {tf['wavelength_nm']:g} "
               f"nm the PSF's peak over the aberration-free one has maxima at {peaks}")
     print(f"wrote {args.output}" + (f" and {args.json}" if args.json else "") +
           f": {args.size} x {args.size} px at {args.pitch_arcmin:g}'/px, pupil "

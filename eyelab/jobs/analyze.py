@@ -6,6 +6,7 @@ JSON-ready report; :func:`format_report` renders it for people.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from eyelab.jobs.points import (
     format_lenslets,
     lens_info,
     lenslet_row,
+    line_of_sight_lens,
     no_path_reason,
     object_row,
 )
@@ -28,6 +30,7 @@ from eyelab.optics.chain.analysis import (
     prism_row,
     status_text,
 )
+from eyelab.optics.eye.aberrations import point_power_matrix
 from eyelab.optics.eye.prescription import tabo_axis
 from eyelab.optics.eye.thin import Eye
 from eyelab.optics.rays.trace import Status
@@ -66,16 +69,9 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
 
         return with_units(schematic_report(spec, no_lens=no_lens))
     lens = None if no_lens else spec.lens
-    acc = spec.accommodation
-    if acc is None and lens is not None and lens.has_lenslets:
-        from eyelab.optics.lens.lenslets import carrier  # the eye focuses the carrier's
-
-        acc = analyze_points(spec.eye, carrier(lens), spec.points,
-                             wavelength_nm=spec.wavelength_nm,
-                             fixation=spec.fixation).accommodation
-    res = analyze_points(spec.eye, lens, spec.points, wavelength_nm=spec.wavelength_nm,
-                         fixation=spec.fixation, accommodation=acc,
-                         vertex_sphere=spec.vertex_sphere)
+    res = analyze_points(spec.eye, line_of_sight_lens(lens), spec.points,
+                         wavelength_nm=spec.wavelength_nm, fixation=spec.fixation,
+                         accommodation=spec.accommodation, vertex_sphere=spec.vertex_sphere)
     report = {"source": spec.source}
     report.update(_eye_report(spec.eye, lens, res, spec.points, spec))
     return with_units(report)
@@ -144,8 +140,11 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
         }
         entry["wave"] = _wave(eye, res, i, spec.wavelength_nm)
         if lens is not None and lens.has_lenslets:
+            m = point_power_matrix(eye, res, i, spec.wavelength_nm)
             entry["lenslets"] = lenslet_row(lens, points, i, res.pupil[i], ch.dir_out[i],
-                                            eye.pupil_diameter / 2, spec.wavelength_nm)
+                                            eye.pupil_diameter / 2, spec.wavelength_nm,
+                                            entry=ch.entry[i],
+                                            carrier_defocus_d=0.5 * (m[0] + m[2]))
         out_points.append(entry)
     k1, k2 = eye.refraction()
     return {
@@ -185,7 +184,9 @@ def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     from eyelab.optics.chain.binocular import SIDES, analyze_binocular, prism_rows
 
     b = spec.binocular
-    an = analyze_binocular(b, spec.points, wavelength_nm=spec.wavelength_nm,
+    traced = dataclasses.replace(b, right_lens=line_of_sight_lens(b.right_lens),
+                                 left_lens=line_of_sight_lens(b.left_lens))
+    an = analyze_binocular(traced, spec.points, wavelength_nm=spec.wavelength_nm,
                            fixation=spec.fixation, accommodation=spec.accommodation,
                            vertex_sphere=spec.vertex_sphere, no_lens=no_lens)
     eyes = {s: _eye_report(b.eye(s), None if no_lens else b.lens(s), an[s], an["points"][s],

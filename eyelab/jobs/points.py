@@ -33,25 +33,54 @@ def no_path_reason(st) -> str:
     return "the light path did not converge"
 
 
-def lenslet_row(lens, points, i, pupil, axis, pupil_radius, wavelength_nm) -> dict:
+def line_of_sight_lens(lens):
+    """The lens a report traces its lines of sight through: a lenslet lens's carrier (the
+    image the eye focuses: the power error, blur and wave are the carrier's; the lenslets'
+    light is reported on its own, :func:`lenslet_row`), else the lens (None: none)."""
+    from eyelab.optics.lens.lenslets import carrier
+
+    return carrier(lens)
+
+
+def lenslet_row(lens, points, i, pupil, axis, pupil_radius, wavelength_nm, *, entry=None,
+                carrier_defocus_d: float | None = None) -> dict:
     """Point ``i``'s beam through a lenslet lens (:func:`~eyelab.optics.lens.lenslets.
-    beam_lenslets`): the fraction of the pupil's light through lenslets, how many lenslets
-    it meets and their add as worn."""
+    beam_lenslets`, the pupil at ``pupil`` across ``axis``: the carrier's line of sight,
+    ``entry`` its front-surface crossing): the fraction of the pupil's light through
+    lenslets, how many it meets, their add, and the carrier's share. With
+    ``carrier_defocus_d`` (the mean of the carrier image's M, D: > 0 before the retina)
+    also the lenslets' image: its defocus (the carrier's plus the add, which each
+    lenslet has as worn by design) and its blur, the angle a whole lenslet's pencil
+    spreads over at that defocus (|defocus| x diameter, arcmin)."""
+    from eyelab.core.constants import RAD_TO_ARCMIN
     from eyelab.optics.lens.lenslets import beam_lenslets
 
-    b = beam_lenslets(lens, points, i, pupil, axis, pupil_radius, wavelength_nm)
-    return {"fraction": b["fraction"], "count": len(b["lenslets"]),
-            "indices": b["lenslets"], "add_d": lens.front.add_d, "rays": b["rays"]}
+    b = beam_lenslets(lens, points, i, pupil, axis, pupil_radius, wavelength_nm, entry=entry)
+    add = lens.front.add_d
+    row = {"fraction": b["fraction"], "carrier_fraction": 1.0 - b["fraction"],
+           "count": len(b["lenslets"]), "indices": b["lenslets"], "add_d": add,
+           "rays": b["rays"]}
+    if carrier_defocus_d is not None and row["count"]:
+        v = carrier_defocus_d + add
+        row.update({"carrier_defocus_d": carrier_defocus_d, "image_defocus_d": v,
+                    "image_blur_arcmin": abs(v) * 2 * float(np.mean(
+                        lens.front.radius[b["lenslets"]])) * RAD_TO_ARCMIN})
+    return row
 
 
 def format_lenslets(row: dict) -> str:
     """The text line of :func:`lenslet_row`."""
-    return (f"  lenslets: {100 * row['fraction']:.1f} % of the pupil's light through "
+    if not row["count"]:
+        return "  lenslets: the pupil's light misses them (the carrier only)"
+    text = (f"  lenslets: {100 * row['fraction']:.1f} % of the pupil's light through "
             f"{row['count']} lenslet{'s' if row['count'] != 1 else ''} of "
             f"{row['add_d']:+.2f} D add (a second image, "
-            f"{'myopically' if row['add_d'] > 0 else 'hyperopically'} defocused)"
-            if row["count"] else "  lenslets: the pupil's light misses them (the carrier "
-            "only)")
+            f"{'myopically' if row['add_d'] > 0 else 'hyperopically'} defocused")
+    if "image_defocus_d" in row:
+        text += (f" {row['image_defocus_d']:+.2f} D, a lenslet's pencil blurred over "
+                 f"{row['image_blur_arcmin']:.1f}'")
+    return text + (f"); the rest of this point's report is the carrier's image, "
+                   f"{100 * row['carrier_fraction']:.1f} % of the light")
 
 
 def lens_info(lens, wavelength_nm: float) -> dict:

@@ -1,8 +1,9 @@
 """``eyelab psf``: the eye's point-spread function at a point of the spec, per colour
 channel, in wave optics (:mod:`eyelab.optics.eye.psf`): the point's defocus and astigmatism
 through the lens (real chief ray and generalised-Coddington wavefront, as ``analyze``
-traces it, at each channel's wavelength) plus the eye's higher-order aberrations and the
-pupil's diffraction."""
+traces it, at each channel's wavelength), the lens's real wave beyond them and its
+lenslets' zones (:mod:`eyelab.optics.lens.pupilwave`), the eye's higher-order aberrations
+and the pupil's diffraction."""
 
 from __future__ import annotations
 
@@ -42,9 +43,11 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         raise SpecError("--size", f"must be odd, in [3, 1025], got {size}")
     eye, lens = spec.eye, None if no_lens else spec.lens
     lenslets = lens is not None and lens.has_lenslets
-    focus = None
-    if lenslets:                   # the carrier's wave, then its lenslets' zones over it
-        from eyelab.optics.lens.lenslets import carrier, pupil_wave
+    focus = share = None
+    if lens is not None:
+        # the lens's real wave over the pupil beyond the chief ray's second order
+        from eyelab.optics.lens.lenslets import carrier
+        from eyelab.optics.lens.pupilwave import lenslet_share, pupil_wave
     pts = spec.points
     one = ObjectPoints(pts.direction[point:point + 1], pts.distance[point:point + 1])
     pupil = eye.pupil_diameter * 1e3
@@ -58,12 +61,13 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         if res.status[0] & np.uint8(FATAL):
             raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
-        extra = pupil_wave(lens, res, 0, wl) if lenslets else None
+        extra = None if lens is None else pupil_wave(lens, res, 0, wl)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
                   field="--pitch-arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
         if lenslets and wl == wavelengths[1]:            # the green channel's (the e line)
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
+            share = lenslet_share(extra[0], eye.pupil_diameter / 2)
         channels.append({
             "wavelength_nm": wl, "strehl": out["strehl"],
             "rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
@@ -81,11 +85,17 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
            "coefficients": "OSA/ANSI order from j = 0, um, over the render pupil, eyelab's "
                            "wearer frame (x to the wearer's right): the point's defocus and "
                            "astigmatism plus the eye's higher orders",
+           "lens_wave": None if lens is None else "the PSF adds the lens's real wave beyond "
+           "the chief ray's second order: forward rays landed on the pupil, their optical "
+           "paths less the coefficients' (eyelab.optics.lens.pupilwave.pupil_wave)",
            "lenslets": None if not lenslets else {
-               "add_d": lens.front.add_d, "wave": "the coefficients are the carrier's; over "
+               "add_d": lens.front.add_d, "share": share,
+               "share_meaning": "of the pupil's light, through lenslets (as analyze counts "
+               "it: their rays' footprint on the lens), at the green channel's wavelength",
+               "wave": "the coefficients are the carrier's; over "
                "the lenslets' zones of the pupil the field takes the difference of the "
                "forward rays' optical paths through them and through the carrier, and their "
-               "light (eyelab.optics.lens.lenslets.pupil_wave): the PSF holds both images",
+               "light (eyelab.optics.lens.pupilwave.pupil_wave): the PSF holds both images",
                "through_focus": focus},
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}

@@ -19,6 +19,7 @@ from eyelab.jobs.points import (
     format_lenslets,
     lens_info,
     lenslet_row,
+    line_of_sight_lens,
     no_path_reason,
     object_row,
 )
@@ -88,9 +89,10 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
     the fixation's accommodation at each point's distance)."""
     eye = spec.eye
     lens = None if no_lens else spec.lens
-    r = trace_objects(eye, lens, spec.points, fixation=spec.fixation,
+    traced = line_of_sight_lens(lens)
+    r = trace_objects(eye, traced, spec.points, fixation=spec.fixation,
                       accommodation=spec.accommodation, wavelength_nm=spec.wavelength_nm)
-    waves = retinal_waves(eye, lens, r, fixation=spec.fixation,
+    waves = retinal_waves(eye, traced, r, fixation=spec.fixation,
                           wavelength_nm=spec.wavelength_nm)
     points = []
     for i in range(len(spec.points)):

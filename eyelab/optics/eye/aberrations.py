@@ -154,6 +154,18 @@ def second_order(mxx: float, mxy: float, myy: float, pupil_mm: float) -> tuple:
             r2 * mxy / (2 * math.sqrt(6)))
 
 
+def point_power_matrix(eye, res, i: int, wavelength_nm: float) -> tuple:
+    """(Mxx, Mxy, Myy) (D, the eye's (x, y) frame) of point ``i`` of a
+    :class:`~eyelab.optics.chain.analysis.PointAnalysis`: M = P_eye(acc, lambda) + K -
+    n2/z_r, the eye's power with the point's accommodation plus the arriving wave's
+    curvature less the emmetropic power — the image's defocus and astigmatism (0 in focus;
+    its mean > 0: the image lies before the retina, myopic)."""
+    k11, k12, k22 = res.wave_eye.in_basis(res.eye_x)
+    pxx, pxy, pyy = eye.power_matrix(float(res.accommodation[i]), wavelength_nm)
+    e = eye.emmetropic_power
+    return float(pxx + k11[i] - e), float(pxy + k12[i]), float(pyy + k22[i] - e)
+
+
 def point_wave(eye, res, i: int, wavelength_nm: float) -> np.ndarray:
     """The eye's wave aberration (um, OSA order from j = 0, wearer frame, over its pupil)
     for point ``i`` of a :class:`~eyelab.optics.chain.analysis.PointAnalysis` traced at
@@ -161,12 +173,8 @@ def point_wave(eye, res, i: int, wavelength_nm: float) -> np.ndarray:
     eye's power with the point's accommodation plus the arriving wave's curvature, in the
     eye's (x, y) frame: :func:`second_order`) and the higher orders of ``eye.aberrations``
     (none without them)."""
-    k11, k12, k22 = res.wave_eye.in_basis(res.eye_x)
-    pxx, pxy, pyy = eye.power_matrix(float(res.accommodation[i]), wavelength_nm)
-    e = eye.emmetropic_power
     pupil = eye.pupil_diameter * 1e3
-    c20, c22, c2m2 = second_order(float(pxx + k11[i] - e), float(pxy + k12[i]),
-                                  float(pyy + k22[i] - e), pupil)
+    c20, c22, c2m2 = second_order(*point_power_matrix(eye, res, i, wavelength_nm), pupil)
     hoa = np.zeros(6) if eye.aberrations is None else eye.aberrations.wearer(pupil)
     out = np.zeros(max(len(hoa), 6))
     out[:len(hoa)] = hoa

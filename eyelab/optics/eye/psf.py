@@ -81,7 +81,8 @@ def psf(coefficients_um, pupil_mm: float, wavelength_nm: float, pitch_rad: float
     (piston removed), "pupil_samples", "fft", "block", "outside_window" (the light beyond
     the window)}. ``extra``: (a function of pupil coordinates (x, y; m) returning the wave
     (m) added to the Zernike one there and an amplitude factor, its largest slope): a
-    lenslet lens's zones (:func:`eyelab.optics.lens.lenslets.pupil_wave`)."""
+    spectacle lens's real wave beyond second order and its lenslets' zones
+    (:func:`eyelab.optics.lens.pupilwave.pupil_wave`)."""
     if size % 2 == 0 or size < 3:
         raise SpecError("psf.size", f"must be odd and >= 3, got {size}")
     lam = wavelength_nm * 1e-9
