@@ -233,9 +233,6 @@ def _analyze(args) -> int:
 
         check_output("--output", args.output)
     spec = load_spec(args.spec)
-    if spec.render.camera is not None:
-        raise SpecError("render.camera", "analyze analyses an eye (and its lens); this spec "
-                        "has a camera lens: render it with eyelab render")
     if args.fixation:
         spec = replace(spec, fixation=args.fixation)
     warn(spec.warnings)

@@ -16,6 +16,8 @@ def add_parser(sub) -> None:
     p.add_argument("--point", type=int, default=0, help="index of the spec's [[points]] "
                    "(default 0)")
     p.add_argument("--no-lens", action="store_true", help="the naked eye")
+    p.add_argument("--eye", choices=("right", "left"), help="a two-eye spec's eye (at the "
+                   "accommodation both share at the point)")
     p.add_argument("-o", "--output", required=True, help="the PSF as .npy: (3, size, size)")
     p.add_argument("--json", help="also write the report (sampling, Strehl, RMS, MTF, "
                    "coefficients) here")
@@ -42,11 +44,9 @@ def run(args) -> int:
         check_output("--json", args.json)
         check_distinct(**{"--output": args.output, "--json": args.json})
     spec = load_spec(args.spec)
-    if spec.render.camera is not None:
-        raise SpecError("render.camera", "psf is the eye's; this spec has a camera lens")
     warn(spec.warnings)
     img, rep = point_psf(spec, point=args.point, no_lens=args.no_lens,
-                         pitch_arcmin=args.pitch_arcmin, size=args.size)
+                         pitch_arcmin=args.pitch_arcmin, size=args.size, side=args.eye)
 
     def npy(path):
         buf = io.BytesIO()

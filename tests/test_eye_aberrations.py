@@ -156,14 +156,19 @@ def test_the_psf_command_writes_the_psf_and_its_report(tmp_path, capsys):
     from eyelab.optics.eye.psf import ARCMIN
 
     out, js = tmp_path / "p.npy", tmp_path / "p.json"
-    assert main(["psf", "-o", str(out), "--json", str(js), "--size", "65"]) == 0
-    img, rep = np.load(out), json.loads(js.read_text())
-    assert img.shape == (3, 65, 65) and rep["pitch_arcmin"] == 0.25
-    ch = rep["channels"][1]
-    again = psf(np.array(ch["coefficients_um"]), rep["pupil_mm"], ch["wavelength_nm"],
-                0.25 * ARCMIN, 65, integrate=True)    # the command's pixels: integrated
-    np.testing.assert_allclose(again["psf"], img[1], atol=1e-12)
-    assert again["strehl"] == pytest.approx(ch["strehl"])
+    for flags in (["--no-lens"], []):
+        assert main(["psf", "-o", str(out), "--json", str(js), "--size", "65", *flags]) == 0
+        img, rep = np.load(out), json.loads(js.read_text())
+        assert img.shape == (3, 65, 65) and rep["pitch_arcmin"] == 0.25
+        ch = rep["channels"][1]
+        again = psf(np.array(ch["coefficients_um"]), rep["pupil_mm"], ch["wavelength_nm"],
+                    0.25 * ARCMIN, 65, integrate=True)    # the command's pixels: integrated
+        if flags:              # the naked eye: the coefficients are the whole wave
+            np.testing.assert_allclose(again["psf"], img[1], atol=1e-12)
+            assert again["strehl"] == pytest.approx(ch["strehl"])
+        else:                  # through the lens its real wave beyond them is added (the
+            assert rep["lens_wave"] is not None     # 8 deg tilt's coma: tests/test_lenslet_psf)
+            assert np.abs(again["psf"] - img[1]).sum() > 0.01
     for argv, field in ((["psf", "-o", str(tmp_path / "q.npy"), "--point", "9"], "--point"),
                         (["psf", "-o", str(tmp_path / "q.txt")], "--output"),
                         (["psf", "-o", str(tmp_path / "q.npy"), "--size", "64"], "--size")):

@@ -105,7 +105,7 @@ def test_bad_schematic_eyes_are_refused_by_name(eye, field, words):
 
 
 @pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"], ["demo"],
-                                     ["psf", "-o", "x.npy"], ["maps", "--kind", "asworn"]])
+                                     ["maps", "--kind", "asworn"]])
 def test_what_takes_the_thin_eye_refuses_a_schematic_one(tmp_path, capsys, command):
     spec = tmp_path / "s.toml"
     spec.write_text(MYOPE.format(extra=""))

@@ -111,7 +111,8 @@ def test_psf_of_two_eyes_names_the_binocular_table(tmp_path, capsys):
     spec.write_text('[eye.right]\nrx = "-2.00 DS"\n[eye.left]\nrx = "-2.50 DS"\n')
     assert main(["psf", str(spec), "-o", str(tmp_path / "p.npy")]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "binocular" in err and "--eye" not in err
+    assert len(err.splitlines()) == 1 and "binocular" in err and "--eye right|left" in err
+    assert main(["psf", str(spec), "--eye", "left", "-o", str(tmp_path / "p.npy")]) == 0
 
 
 def test_empty_output_paths_are_refused(tmp_path, capsys, monkeypatch):

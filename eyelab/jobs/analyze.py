@@ -34,7 +34,7 @@ from eyelab.optics.eye.aberrations import point_power_matrix
 from eyelab.optics.eye.prescription import tabo_axis
 from eyelab.optics.eye.thin import Eye
 from eyelab.optics.rays.trace import Status
-from eyelab.spec import Spec
+from eyelab.spec import Spec, no_camera
 from eyelab.spec.schema import FIXATION_MEANINGS
 
 
@@ -62,6 +62,7 @@ def analyze_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     (the wearer's right for a straight-ahead gaze), y up, angles counter-clockwise seen
     from behind the wearer. A binocular spec gives :func:`analyze_binocular_spec`'s report.
     """
+    no_camera(spec, "analyze")
     if spec.binocular is not None:
         return with_units(analyze_binocular_spec(spec, no_lens=no_lens))
     if not isinstance(spec.eye, Eye):                   # a schematic eye: exact traces

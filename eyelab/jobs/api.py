@@ -56,15 +56,17 @@ def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31,
 
 
 def psf(spec=None, *, point: int = 0, no_lens: bool = False,
-        pitch_arcmin: float = PITCH_ARCMIN, size: int = SIZE,
+        pitch_arcmin: float = PITCH_ARCMIN, size: int = SIZE, eye: str | None = None,
         session: Session | None = None) -> tuple:
     """The eye's point-spread function at the spec's ``[[points]]`` entry ``point``, per
     colour channel, in wave optics (``eyelab psf``): (psf (3, size, size) float64, rows
     top to bottom as the wearer sees, each channel summing to the energy inside the
     square; report dict, its units first). ``pitch_arcmin``: arcmin per pixel (0.01-10),
-    ``size``: pixels a side (odd, 3-1025)."""
+    ``size``: pixels a side (odd, 3-1025); ``eye``: a two-eye spec's "right" or "left"
+    (at the accommodation both share at the point). Any eye model: a schematic eye's PSF
+    is of its wave at the retina by exact optical paths."""
     return session_or_default(session).psf(spec, point=point, no_lens=no_lens,
-                                           pitch_arcmin=pitch_arcmin, size=size)
+                                           pitch_arcmin=pitch_arcmin, size=size, eye=eye)
 
 
 def builtin_scene(name: str = "room", **params):

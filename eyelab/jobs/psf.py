@@ -19,21 +19,19 @@ MTF_FREQUENCIES_CPD = (5, 10, 15, 20, 30, 45, 60)
 
 
 def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: float = PITCH_ARCMIN,
-              size: int = SIZE) -> tuple:
+              size: int = SIZE, side: str | None = None) -> tuple:
     """(psf (3, size, size) float64, image-oriented rows, each summing to the energy inside
     the square; report dict, its units first: :func:`eyelab.core.fileio.with_units`) for
-    ``spec``'s point ``point``."""
+    ``spec``'s point ``point``; a two-eye spec's ``side`` ("right" or "left") eye, at the
+    accommodation both eyes share there."""
     from eyelab.core.fileio import with_units
     from eyelab.imaging.eyepsf import channel_wavelengths
-    from eyelab.optics.chain.analysis import analyze_points
-    from eyelab.optics.eye import zernike as zk
-    from eyelab.optics.eye.aberrations import point_wave
     from eyelab.optics.eye.psf import ARCMIN, mtf, psf
+    from eyelab.optics.eye.thin import Eye
     from eyelab.optics.rays.paths import ObjectPoints
-    from eyelab.optics.rays.trace import FATAL
-    from eyelab.spec.load import one_eye, thin_eye
+    from eyelab.spec.load import no_camera, pick_eye
 
-    spec = thin_eye(one_eye(spec, "eyelab psf"), "eyelab psf")
+    spec = pick_eye(no_camera(spec, "psf"), side, "eyelab psf", point=point, no_lens=no_lens)
     n = len(spec.points)
     if not 0 <= point < n:
         raise SpecError("--point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")
@@ -44,62 +42,136 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     eye, lens = spec.eye, None if no_lens else spec.lens
     lenslets = lens is not None and lens.has_lenslets
     focus = share = None
-    if lens is not None:
-        # the lens's real wave over the pupil beyond the chief ray's second order
-        from eyelab.optics.lens.lenslets import carrier
-        from eyelab.optics.lens.pupilwave import lenslet_share, pupil_wave
     pts = spec.points
     one = ObjectPoints(pts.direction[point:point + 1], pts.distance[point:point + 1])
     pupil = eye.pupil_diameter * 1e3
-    sc = eye.aberrations is not None and eye.aberrations.stiles_crawford
+    aberrations = getattr(eye, "aberrations", None)
+    sc = aberrations is not None and aberrations.stiles_crawford
+    waves = (thin_waves if isinstance(eye, Eye) else schematic_waves)(spec, lens, one, point)
     images, channels = [], []
     wavelengths = channel_wavelengths()
     for wl in wavelengths:
-        res = analyze_points(eye, carrier(lens) if lenslets else lens, one, wavelength_nm=wl,
-                             fixation=spec.fixation, accommodation=spec.accommodation,
-                             vertex_sphere=spec.vertex_sphere)
-        if res.status[0] & np.uint8(FATAL):
-            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
-        c = point_wave(eye, res, 0, wl)
-        extra = None if lens is None else pupil_wave(lens, res, 0, wl)
+        c, extra, info = waves(wl)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
                   field="--pitch-arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
         if lenslets and wl == wavelengths[1]:            # the green channel's (the e line)
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
-            share = lenslet_share(extra[0], eye.pupil_diameter / 2)
+            share = info.pop("share")
         channels.append({
-            "wavelength_nm": wl, "strehl": out["strehl"],
-            "rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
+            "wavelength_nm": wl, "strehl": out["strehl"], **info,
             "energy_inside": float(out["psf"].sum()),
             "outside_window": out["outside_window"],
             "mtf": {str(f): (float(v) if np.isfinite(v) else None) for f, v in zip(
                 MTF_FREQUENCIES_CPD, mtf(out["psf"], out["pitch_rad"], MTF_FREQUENCIES_CPD,
                                          integrated=True),
                 strict=True)},    # None: beyond the sampling's Nyquist frequency
-            "coefficients_um": [float(v) for v in c],
             "fft": out["fft"], "pupil_samples": out["pupil_samples"]})
-    rep = {"point": point, "through_lens": lens is not None, "pupil_mm": pupil,
+    rep = {"point": point, "eye_model": getattr(eye, "model", "thin"), "side": side,
+           "through_lens": lens is not None, "pupil_mm": pupil,
            "pitch_arcmin": pitch_arcmin, "size_px": size,
            "axes": "rows top to bottom (y down), columns left to right, as the wearer sees",
-           "coefficients": "OSA/ANSI order from j = 0, um, over the render pupil, eyelab's "
-                           "wearer frame (x to the wearer's right): the point's defocus and "
-                           "astigmatism plus the eye's higher orders",
-           "lens_wave": None if lens is None else "the PSF adds the lens's real wave beyond "
-           "the chief ray's second order: forward rays landed on the pupil, their optical "
-           "paths less the coefficients' (eyelab.optics.lens.pupilwave.pupil_wave)",
+           "wave": WAVE_MEANING[waves.__name__],
+           "lens_wave": None if lens is None else "the PSF takes the lens's real wave over "
+           "the pupil: forward rays landed on it (thin eye: beyond the coefficients' second "
+           "order, eyelab.optics.lens.pupilwave) or the exact paths from the retina "
+           "(schematic eye, eyelab.optics.chain.retinal_psf)",
            "lenslets": None if not lenslets else {
                "add_d": lens.front.add_d, "share": share,
                "share_meaning": "of the pupil's light, through lenslets (as analyze counts "
                "it: their rays' footprint on the lens), at the green channel's wavelength",
-               "wave": "the coefficients are the carrier's; over "
-               "the lenslets' zones of the pupil the field takes the difference of the "
-               "forward rays' optical paths through them and through the carrier, and their "
-               "light (eyelab.optics.lens.pupilwave.pupil_wave): the PSF holds both images",
+               "wave": "over the lenslets' zones of the pupil the field takes their rays' "
+               "optical paths and their light: the PSF holds both images",
                "through_focus": focus},
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}
     return np.stack(images), with_units(rep)
+
+
+#: What a channel's wave is, by eye model (the report's "wave").
+WAVE_MEANING = {
+    "thin": "coefficients_um: OSA/ANSI order from j = 0, um, over the render pupil, "
+            "eyelab's wearer frame (x to the wearer's right): the point's defocus and "
+            "astigmatism through the lens plus the eye's higher orders; the lens's real wave "
+            "beyond them is added over the pupil",
+    "schematic": "the forward wave by exact rays through lens and eye to the exit pupil's "
+                 "reference sphere about the chief ray's retinal point, laid on the pupil as "
+                 "the retina's visual angles see it (eyelab.optics.chain.retinal_psf); "
+                 "rms_um over the exit pupil's area; the channels share the eye's "
+                 "accommodation",
+}
+
+
+def thin_waves(spec, lens, one, point):
+    """The thin eye's per-wavelength wave: a function wl -> (Zernike coefficients (um),
+    the lens's pupil field or None, the channel's report entries)."""
+    from eyelab.optics.chain.analysis import analyze_points
+    from eyelab.optics.eye import zernike as zk
+    from eyelab.optics.eye.aberrations import point_wave
+    from eyelab.optics.lens.lenslets import carrier
+    from eyelab.optics.lens.pupilwave import lenslet_share, pupil_wave
+    from eyelab.optics.rays.trace import FATAL
+
+    eye = spec.eye
+
+    def thin(wl):
+        res = analyze_points(eye, carrier(lens), one, wavelength_nm=wl,
+                             fixation=spec.fixation, accommodation=spec.accommodation,
+                             vertex_sphere=spec.vertex_sphere)
+        if res.status[0] & np.uint8(FATAL):
+            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
+        c = point_wave(eye, res, 0, wl)
+        extra = None if lens is None else pupil_wave(lens, res, 0, wl)
+        info = {"rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
+                "coefficients_um": [float(v) for v in c]}
+        if lens is not None and lens.has_lenslets:
+            info["share"] = lenslet_share(extra[0], eye.pupil_diameter / 2)
+        return c, extra, info
+
+    return thin
+
+
+def schematic_waves(spec, lens, one, point):
+    """A schematic eye's per-wavelength wave (as :func:`thin_waves`): the line of sight
+    through the carrier, the eye accommodated once (at its reference wavelength, as the
+    spec says), the wave at the retina through the whole lens."""
+    from eyelab.jobs.points import lenslet_row, line_of_sight_lens
+    from eyelab.optics.chain.retina import eye_in_world, trace_objects
+    from eyelab.optics.chain.retinal_psf import retinal_pupil_field, wave_rms
+    from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+
+    eye = spec.eye
+    traced = line_of_sight_lens(lens)
+
+    def trace(wl, acc):
+        r = trace_objects(eye, traced, one, fixation=spec.fixation, accommodation=acc,
+                          wavelength_nm=wl)
+        if not r.ok[0]:
+            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
+        return r
+
+    acc = float(trace(EYE_REFERENCE_NM, spec.accommodation).accommodation[0])
+
+    def schematic(wl):
+        r = trace(wl, acc)
+        try:
+            field, slope, wave = retinal_pupil_field(eye, lens, r, 0, fixation=spec.fixation,
+                                                     wavelength_nm=wl)
+        except ValueError as e:         # the chief ray does not reach the retina
+            if "does not reach" not in str(e):
+                raise
+            raise SpecError("--point", f"point {point}: {e} at {wl:g} nm") from None
+        info = {**wave_rms(wave), "accommodation_d": acc,
+                "m_d": float(r.m[0]), "j0_d": float(r.j0[0]), "j45_d": float(r.j45[0])}
+        if lens is not None and lens.has_lenslets:
+            rot, vertex = eye_in_world(eye, spec.fixation, r.eye_dir[0])
+            z_ep, _ = eye.entrance_pupil(acc, wl)
+            info["share"] = lenslet_row(lens, r.object_points, 0,
+                                        vertex + rot @ np.array([0.0, 0.0, z_ep]),
+                                        r.eye_dir[0], eye.pupil_diameter / 2, wl)["fraction"]
+        return np.zeros(6), (field, slope), info
+
+    return schematic
 
 
 def lenslet_focus(lens, coefficients_um, pupil_mm, wavelength_nm, extra, sc) -> dict:

@@ -197,24 +197,27 @@ class Session:
         rotations within ±half_angle_deg (degrees)."""
         from eyelab.core.errors import SpecError
         from eyelab.optics.lens.asworn import as_worn_maps
-        from eyelab.spec import one_eye, thin_eye
+        from eyelab.spec import no_camera, one_eye, thin_eye
 
         self._check_open()
-        s = thin_eye(one_eye(as_spec(spec), "maps"), "eyelab.maps (as-worn maps)")
+        s = thin_eye(one_eye(no_camera(as_spec(spec), "maps"), "maps"),
+                     "eyelab.maps (as-worn maps)")
         if s.lens is None:
             raise SpecError("lens", "the spec has no lens to map")
         return as_worn_maps(s.eye, s.lens, half_angle_deg=half_angle_deg, n=n,
                             wavelength_nm=s.wavelength_nm)
 
     def psf(self, spec=None, *, point: int = 0, no_lens: bool = False,
-            pitch_arcmin: float = PITCH_ARCMIN, size: int = SIZE) -> tuple:
+            pitch_arcmin: float = PITCH_ARCMIN, size: int = SIZE, eye: str | None = None
+            ) -> tuple:
         """:func:`eyelab.psf`: the eye's point-spread function at the spec's point
-        ``point`` (:func:`eyelab.jobs.psf.point_psf`: (psf (3, size, size), report))."""
+        ``point`` (:func:`eyelab.jobs.psf.point_psf`: (psf (3, size, size), report)); of a
+        two-eye spec, the ``eye`` "right" or "left"."""
         from eyelab.jobs.psf import point_psf
 
         self._check_open()
         return point_psf(as_spec(spec), point=point, no_lens=no_lens,
-                         pitch_arcmin=pitch_arcmin, size=size)
+                         pitch_arcmin=pitch_arcmin, size=size, side=eye)
 
     # ------------------------------------------------------------- what it keeps
     def scene(self, source) -> tuple:

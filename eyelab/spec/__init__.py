@@ -11,8 +11,10 @@ from eyelab.spec.load import (
     Spec,
     dump_spec,
     load_spec,
+    no_camera,
     one_eye,
     parse_spec,
+    pick_eye,
     read_spec_data,
     thin_eye,
 )
@@ -28,5 +30,5 @@ from eyelab.spec.render import SCENE_KEYS, RenderSpec, parse_render, renderer_ke
 
 __all__ = ["ANALYSIS_KEYS", "BINOCULAR_KEYS", "EYE_KEYS", "LENS_KEYS", "POINT_KEYS",
            "SCENE_KEYS", "SURFACE_KEYS", "RenderSpec", "Spec", "dump_spec", "load_spec",
-           "one_eye", "parse_render", "parse_spec", "read_spec_data", "renderer_keys",
-           "thin_eye"]
+           "no_camera", "one_eye", "parse_render", "parse_spec", "pick_eye", "read_spec_data",
+           "renderer_keys", "thin_eye"]

@@ -92,6 +92,48 @@ def one_eye(spec: Spec, what: str) -> Spec:
     return spec
 
 
+def no_camera(spec: Spec, what: str) -> Spec:
+    """``spec``, or a one-line error naming ``render.camera`` when it renders through a
+    camera lens: ``what`` (analyze, psf, maps) is an eye's and its spectacle lens's."""
+    if spec.render.camera is not None:
+        raise SpecError("render.camera", f"{what} is an eye's (and its spectacle lens's); this "
+                        "spec has a camera lens, which has no eye: render it with eyelab "
+                        "render")
+    return spec
+
+
+def pick_eye(spec: Spec, side: str | None, what: str, *, point: int | None = None,
+             no_lens: bool = False) -> Spec:
+    """A one-eye spec for ``what``: ``spec`` itself when it has one eye (``side`` None);
+    of a two-eye spec the ``side`` eye ("right" or "left") with its lens and the points as
+    its frame holds them, at the accommodation both eyes share at ``point`` (the
+    less-blurred eye's, :func:`~eyelab.optics.chain.binocular.analyze_binocular`) unless
+    the spec fixes one (through the lenses' carriers, or naked with ``no_lens``). A
+    one-line error for a side of a one-eye spec or none of two."""
+    if spec.binocular is None:
+        if side is not None:
+            raise SpecError("--eye", "picks one eye of a two-eye spec ([binocular] or "
+                                     "per-eye tables); this spec has one")
+        return spec
+    if side is None:
+        raise SpecError("binocular", f"{what} shows one eye; this spec has two ([binocular] "
+                                     "or per-eye tables): pick one with --eye right|left")
+    check_choice("--eye", side, SIDES)
+    b = spec.binocular
+    acc = spec.accommodation
+    if acc is None and point is not None and 0 <= point < len(spec.points):
+        from eyelab.optics.chain.binocular import analyze_binocular
+        from eyelab.optics.lens.lenslets import carrier
+
+        carriers = dataclasses.replace(b, right_lens=carrier(b.right_lens),
+                                       left_lens=carrier(b.left_lens))
+        an = analyze_binocular(carriers, spec.points, wavelength_nm=spec.wavelength_nm,
+                               fixation=spec.fixation, no_lens=no_lens)
+        acc = float(an["accommodation_d"][point])
+    return dataclasses.replace(spec, eye=b.eye(side), lens=b.lens(side), binocular=None,
+                               points=b.points_for(side, spec.points), accommodation=acc)
+
+
 def thin_eye(spec: Spec, what: str) -> Spec:
     """``spec``, or a one-line error naming ``eye.model`` when its eye is a schematic eye
     and ``what`` takes the thin eye only."""

@@ -61,9 +61,10 @@ def forward_wave(eye: SchematicEye, lens, rot, vertex, objects: ObjectPoints, i:
     ray) on the lens's front surface, or without a lens on the plane across the eye's axis
     at the corneal vertex; each carries its cell's light; those that cross the stop inside
     it reach the retina. Returns {"grid_xy" (m, 2) the sampled points (their plane's x, y,
-    m), "xi" (m, 2) their exit-pupil points (m, across the chief ray), "opd" (m,) m,
-    "amplitude" (m,) sqrt(J), "ok" (m,) through the stop to the retina, "zone" (m,) the
-    lenslet each ray passes (-1: the carrier), "m" (r_EP / r_XP), "wavelength_nm"}."""
+    m), "xi" (m, 2) their exit-pupil points (m, across the chief ray, along "basis" (2,
+    3)), "opd" (m,) m, "amplitude" (m,) sqrt(J), "ok" (m,) through the stop to the retina,
+    "zone" (m,) the lenslet each ray passes (-1: the carrier), "m" (r_EP / r_XP),
+    "wavelength_nm", "radius" (m) the reference sphere's, "n_vitreous"}."""
     one = ObjectPoints(objects.direction[i:i + 1], objects.distance[i:i + 1])
     z_ep, _ = eye.entrance_pupil(accommodation, wavelength_nm)
     pupil = vertex + rot @ np.array([0.0, 0.0, z_ep])
@@ -114,7 +115,8 @@ def forward_wave(eye: SchematicEye, lens, rot, vertex, objects: ObjectPoints, i:
     m_xp = float(np.median(np.hypot(*xi[edge].T) / f["stop_r"][edge])) if edge.any() else 1.0
     return {"grid_xy": gxy, "xi": xi, "opd": np.where(ok, ref - opd, np.nan),
             "amplitude": amp, "ok": ok, "zone": zone, "m": r_ep / (m_xp * rs),
-            "wavelength_nm": wavelength_nm}
+            "wavelength_nm": wavelength_nm, "basis": np.stack([e1, e2]), "radius": rho,
+            "n_vitreous": float(f["n_vitreous"])}
 
 
 def _trace_forward(eye, lens, rot, vertex, one: ObjectPoints, points, accommodation,

@@ -100,14 +100,15 @@ def line_wave(eye: SchematicEye, lens, rot, vertex, eye_dir, accommodation: floa
     xy = stop_grid(eye.stop_radius(accommodation, wavelength_nm), grid)
     w, ok = stop_opd(eye, lens, rot, vertex, eye_dir, accommodation, object_point,
                      object_dir, xy, wavelength_nm=wavelength_nm)
-    return _measures(xy, w, ok, wavelength_nm)
+    return wave_measures(xy, w, ok, wavelength_nm)
 
 
 def stop_opd(eye: SchematicEye, lens, rot, vertex, eye_dir, accommodation: float,
-             object_point, object_dir, xy, *, wavelength_nm: float):
+             object_point, object_dir, xy, *, wavelength_nm: float, eye_exits: bool = False):
     """The wave aberration (m,) (m; nan where lost) at stop points ``xy`` (m, 2; eye x, y
     from the stop's centre, m) of :func:`line_wave`'s line of sight, and which rays got
-    through (m,)."""
+    through (m,); with ``eye_exits`` also each ray as it leaves the cornea (points (m, 3),
+    directions (m, 3), world), before any lens."""
     d_in = np.asarray(eye_dir, float)[None]
     retina, v0, st = retina_points(eye, rot, vertex, d_in, accommodation, wavelength_nm)
     xy = np.concatenate([[[0.0, 0.0]], np.asarray(xy, float)])
@@ -118,6 +119,7 @@ def stop_opd(eye: SchematicEye, lens, rot, vertex, eye_dir, accommodation: float
                                       (np.zeros(m, int), jac), accommodation, wavelength_nm,
                                       path=True)
     ok &= (st[0] & np.uint8(FATAL)) == 0
+    exits = (o[1:].copy(), d[1:].copy())
     if lens is not None:
         res = lens.trace(o, d, wavelength_nm, reverse=True)
         nl = lens.material.n(wavelength_nm)
@@ -130,7 +132,7 @@ def stop_opd(eye: SchematicEye, lens, rot, vertex, eye_dir, accommodation: float
     path = path + _to_reference(o, d, object_point, object_dir)
     w = path[0] - path[1:]
     good = ok[1:] & np.isfinite(w)
-    return np.where(good, w, np.nan), good
+    return (np.where(good, w, np.nan), good) + (exits if eye_exits else ())
 
 
 def _to_reference(o, d, object_point, object_dir):
@@ -148,7 +150,10 @@ def _to_reference(o, d, object_point, object_dir):
     return np.where(np.abs(t1) < np.abs(t2), t1, t2)
 
 
-def _measures(xy, w, ok, wavelength_nm) -> RetinalWave:
+def wave_measures(xy, w, ok, wavelength_nm) -> RetinalWave:
+    """The :class:`RetinalWave` of the wave ``w`` (m,) at stop points ``xy`` (m, 2; a
+    square lattice), ``ok`` (m,) its rays that got through: RMS, RMS beyond second order,
+    Strehl ratio (module doc)."""
     x, y, v = xy[ok, 0], xy[ok, 1], w[ok]
     rms = float(np.sqrt(np.mean((v - v.mean()) ** 2)))
     basis = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], -1)
