@@ -104,7 +104,7 @@ def test_bad_schematic_eyes_are_refused_by_name(eye, field, words):
     assert e.value.field == field and words in str(e.value)
 
 
-@pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"], ["demo"],
+@pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"],
                                      ["maps", "--kind", "asworn"]])
 def test_what_takes_the_thin_eye_refuses_a_schematic_one(tmp_path, capsys, command):
     spec = tmp_path / "s.toml"
@@ -151,3 +151,42 @@ def test_the_guides_numbers_are_the_maps(tmp_path):
         rpr = prof["points"][prof["field_deg"].index(30.0)]["rpr_d"]
         assert f"{rpr:+.2f} D" in guide, (part, rpr)
     assert (root / "docs" / "gallery" / "myope-periphery.png").is_file()
+
+
+def test_the_demo_shows_a_schematic_eye_and_its_emmetrope(tmp_path):
+    """``eyelab demo`` of a Navarro myope: uncorrected, with its lens, and the emmetrope of
+    the same model (its axial length shortened by about 0.37 mm per dioptre of the
+    myope's ocular refraction, SCIENCE.md §5), each panel the image a renderer draws of
+    that eye alone."""
+    import json
+
+    from PIL import Image
+
+    from eyelab.imaging.contract import View
+    from eyelab.imaging.options import RasterQuality
+    from eyelab.optics.eye.schematic import SchematicEye
+    from eyelab.render.raster import RasterRenderer
+    from eyelab.scene.library import room_scene
+
+    spec = tmp_path / "s.toml"
+    spec.write_text(MYOPE.format(extra="") + "[render]\nwidth = 64\nheight = 48\n"
+                    "samples = 4\nscene = \"room\"\n")
+    out = tmp_path / "d.png"
+    assert main(["demo", str(spec), "-o", str(out)]) == 0
+    rep = json.loads(out.with_suffix(".json").read_text())
+    assert list(rep["panels"]) == ["uncorrected", "with the lens", "emmetrope"]
+    myope, emm = rep["eye"], rep["emmetrope"]
+    assert myope["model"] == emm["model"] == "navarro"
+    ocular = 3.0 / (1 + 0.012 * 3.0)                          # -3.00 at 12 mm, at the eye
+    assert myope["axial_length_mm"] - emm["axial_length_mm"] == pytest.approx(
+        0.37 * ocular, rel=0.1)
+    with RasterRenderer(RasterQuality(samples=4)) as r:
+        alone = r.render(room_scene(), SchematicEye(axial_length=emm["axial_length_mm"] / 1e3),
+                         None, View(width=64, height=48)).srgb
+    with Image.open(out) as im:
+        fig = np.asarray(im.convert("RGB"))
+    # the emmetrope's panel (the third, under its label band) is the image of that eye
+    # alone, inside the panel's frame
+    h, w = alone.shape[:2]
+    panel = fig[fig.shape[0] - h:, 2 * w:3 * w]
+    np.testing.assert_array_equal(panel[2:-2, 2:-2], alone[2:-2, 2:-2])

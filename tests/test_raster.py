@@ -399,3 +399,22 @@ def test_plus_lenses_with_a_thin_edge_render(sph):
     assert np.isfinite(res.linear).all() and res.linear.mean() > 0.2
     minus = SpectacleLens.from_rx(Prescription(-sph))
     assert widened_lens(minus).diameter > minus.diameter
+
+
+def test_a_renderer_drawing_many_fields_draws_the_last_as_a_fresh_one():
+    """Schematic eyes' per-pass textures and the fields of several eyes in one renderer (the
+    demo's three panels, an inspector's changes): each texture kept holds a GL texture unit
+    while active, and a GL has only so many; the field bound for a draw is the only one
+    active, so the second eye's image is a fresh renderer's, byte for byte (it was not:
+    the units ran out and a panel drew with the wrong field)."""
+    from eyelab.optics.eye.schematic import SchematicEye
+
+    view = View(width=64, height=48, fov_y_deg=20.0)
+    q = RasterQuality(samples=8)
+    eyes = [SchematicEye.from_rx(rx) for rx in ("-3.00", "+0.00")]
+    with RasterRenderer(q) as r:
+        for eye in eyes:
+            last = r.render(room_scene(), eye, None, view).srgb
+    with RasterRenderer(q) as fresh:
+        want = fresh.render(room_scene(), eyes[-1], None, view).srgb
+    np.testing.assert_array_equal(last, want)

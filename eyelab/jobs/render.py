@@ -89,8 +89,14 @@ def render_binocular_spec(spec, *, no_lens: bool = False, renderer: Renderer | N
 
 
 def _emmetrope(eye):
-    """The eye made emmetropic (same accommodation, pupil and chromatic aberration)."""
-    return dataclasses.replace(eye, power_min=eye.emmetropic_power, astigmatism=0.0)
+    """The eye made emmetropic (same accommodation, pupil and chromatic aberration): a thin
+    eye's powers set to its emmetropic power; a schematic eye of the same model, its axial
+    length the one that images infinity on its retina (its ``rx`` 0)."""
+    if hasattr(eye, "power_min"):
+        return dataclasses.replace(eye, power_min=eye.emmetropic_power, astigmatism=0.0)
+    return type(eye).from_rx("+0.00", model=eye.model, accommodation_max=eye.accommodation_max,
+                             pupil_diameter=eye.pupil_diameter,
+                             rotation_centre=eye.rotation_centre)
 
 
 def demo(spec):
@@ -107,9 +113,6 @@ def demo(spec):
 
         raise SpecError("render.camera", "the demo compares eyes; render a camera lens with "
                                          "eyelab render")
-    from eyelab.spec.load import thin_eye
-
-    thin_eye(spec, "eyelab demo")
     scene = build_scene(rs.scene)
     if spec.binocular is not None:
         return _demo_binocular(spec, scene)

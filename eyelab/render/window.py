@@ -173,6 +173,10 @@ class OffscreenWindow:
         while len(store) > limit:
             _, (old, _) = store.popitem(last=False)
             old.ReleaseGraphicsResources(self.win)
+        if self.field_texture is not None and self.field_texture is not kept[0]:
+            # one field is bound per draw: give its texture unit back (a kept texture
+            # that stays active holds a unit, and a GL has only so many: 32 here)
+            self.field_texture.Deactivate()
         self.field_texture = kept[0]
         self.field_texture_key = field.key
 
