@@ -487,3 +487,30 @@ def test_workers_without_dask_are_one_line_and_nothing_written(tmp_path, monkeyp
         run_batch(js, scheduler="tcp://127.0.0.1:1", progress=False)
     assert not (tmp_path / "out").exists()
     assert run_batch(js, workers=1, progress=False)["errors"] == []
+
+
+def test_a_schematic_base_sweeps_its_own_keys(tmp_path, capsys):
+    """A schematic eye's base spec (``spec = FILE``, the naked eye) swept over its axial
+    length: each job renders its own eye (the summary names its length) — and a bad key in that
+    file is blamed on it, not on [base]."""
+    import csv
+
+    from eyelab.apps.cli import main
+
+    (tmp_path / "eye.toml").write_text('[eye]\nmodel = "navarro"\npupil_diameter_mm = 4\n')
+    spec = tmp_path / "jobs.toml"
+    spec.write_text('spec = "eye.toml"\n[base]\nrender = {width = 32, height = 24, '
+                    'samples = 4}\n[sweep]\n"eye.axial_length_mm" = [23.0, 25.0]\n')
+    assert main(["batch", str(spec), "-o", str(tmp_path / "out")]) == 0
+    with (tmp_path / "out" / "summary.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [float(r["param:eye.axial_length_mm"]) for r in rows] == [23.0, 25.0]
+    assert all(r["status"] == "ok" for r in rows), rows
+    a, b = ((tmp_path / "out" / r["image"]).read_bytes() for r in rows)
+    assert a != b                                  # 23 mm is hyperopic, 25 mm myopic
+    capsys.readouterr()
+    (tmp_path / "eye.toml").write_text('[eye]\nmodel = "navarro"\nage = 5\n')
+    spec.write_text('spec = "eye.toml"\n[base]\nrender = {width = 32, height = 24}\n')
+    assert main(["batch", str(spec), "-o", str(tmp_path / "out2")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("eyelab: error: jobspec.spec (eye.toml) (eye.age): "), err

@@ -89,6 +89,29 @@ class JobSpec:
     source: str
     axes: tuple = ()
     cases: tuple = ()
+    #: Where the base's keys came from: the ``spec = FILE`` path (None: the built-in
+    #: spec) and the ``[base]`` table merged over it (a bad key is blamed on its source).
+    spec_file: str | None = None
+    base_table: dict | None = None
+
+    def base_origin(self, field: str) -> str:
+        """The job spec's part that set the base spec's ``field`` (a spec field name such
+        as "eye.model" or "points[0].distance_m"): ``jobspec.base`` when its ``[base]``
+        holds it, else the spec file (``jobspec.spec (FILE)``)."""
+        import re
+
+        t = self.base_table or {}
+        for part in (p for p in re.split(r"[.\[\]]", field) if p):
+            if isinstance(t, list) and part.isdigit() and int(part) < len(t):
+                t = t[int(part)]
+            elif isinstance(t, dict) and part in t:
+                t = t[part]
+            else:
+                return ("jobspec.base" if self.spec_file is None else
+                        f"jobspec.spec ({Path(self.spec_file).name})")
+            if not isinstance(t, (dict, list)):
+                break
+        return "jobspec.base"
 
 
 def _set(data: dict, dotted: str, value, where: str) -> None:
@@ -142,8 +165,11 @@ def load_job_spec(path, *, out_dir=None, max_jobs: int = MAX_JOBS) -> JobSpec:
         for k, v in params.items():
             _set(data, k, v, f"jobspec.job[{i}].{k}")
         jobs.append(Job(i, data, params))
+    spec_file = js.get("spec")
     return JobSpec(tuple(jobs), folder, formats, str(p), tuple(axes[1].items()),
-                   tuple(dict(c) for c in cases))
+                   tuple(dict(c) for c in cases),
+                   None if spec_file is None else str(spec_file),
+                   copy.deepcopy(js.get("base", {})))
 
 
 def validate_jobs(js: JobSpec) -> None:
@@ -155,7 +181,7 @@ def validate_jobs(js: JobSpec) -> None:
     first = js.jobs[0]
     origin = ({k: f'jobspec.sweep."{k}"[0]' for k, _ in js.axes} if js.axes else
               dict.fromkeys(first.params, "jobspec.cases[0]"))
-    _check_job(first.data, origin, "jobspec.base")
+    _check_job(first.data, origin, js.base_origin)
     for key, values in js.axes:
         for i, v in enumerate(values[1:], 1):
             data = copy.deepcopy(first.data)
@@ -192,24 +218,25 @@ def fixed_lens_note(js: JobSpec) -> str | None:
     return None
 
 
-def _check_job(data: dict, origin: dict, where: str) -> None:
+def _check_job(data: dict, origin: dict, where) -> None:
     """Parse one job's spec as the job would; a :class:`SpecError` is re-raised naming
     where the bad value came from — ``origin[key]`` when the field is under a dotted key
-    of ``origin``, else ``where`` — and the spec field. The memory limit is checked for one
-    image: a job with two eyes renders them one after the other."""
+    of ``origin``, else ``where`` (a name, or a function of the field giving one) — and the
+    spec field. The memory limit is checked for one image: a job with two eyes renders
+    them one after the other."""
     from eyelab.imaging.memory import check_memory, memory_limit
-    from eyelab.spec import parse_spec, thin_eye
+    from eyelab.spec import parse_spec
 
     try:
-        spec = thin_eye(parse_spec(copy.deepcopy(data), "eyelab batch"), "eyelab batch")
+        spec = parse_spec(copy.deepcopy(data), "eyelab batch")
         check_memory(spec.render, memory_limit())
     except SpecError as e:
         # the key itself, a field under it, or a table on its path (a swept "eye.middle.rx"
         # makes the table eye.middle)
         hit = [k for k in origin if e.field == k or e.field.startswith((k + ".", k + "["))
                or k.startswith(e.field + ".")]
-        raise SpecError(f"{origin[hit[0]] if hit else where} ({e.field})", e.message) \
-            from None
+        blame = origin[hit[0]] if hit else where if isinstance(where, str) else where(e.field)
+        raise SpecError(f"{blame} ({e.field})", e.message) from None
 
 
 def _base_spec(js: dict, here: Path) -> dict:
