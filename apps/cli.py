@@ -81,6 +81,7 @@ def _build_parser() -> argparse.ArgumentParser:
                          "(a schematic eye's default)")
     mp.add_argument("-o", "--output", default="eyelab-maps.png", help="PNG file")
     mp.add_argument("--json", help="also write the maps as JSON here")
+    mp.add_argument("--eye", choices=("right", "left"), help="a two-eye spec's eye")
     mp.add_argument("--half-angle", type=float, default=30.0,
                     help="eye rotations (Fick angles about the centre of rotation), or "
                          "field angles (peripheral), within +-this many degrees (default 30)")
@@ -370,15 +371,14 @@ def _write_demo(args, spec) -> None:
 
 
 def _maps(args) -> int:
+    from dataclasses import replace
+
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, report_writer
     from eyelab.jobs import maps as job
-    from eyelab.spec import load_spec, one_eye, thin_eye
+    from eyelab.spec import load_spec, no_camera, pick_eye
 
-    spec = one_eye(load_spec(args.spec), "eyelab maps")
+    spec = pick_eye(no_camera(load_spec(args.spec), "maps"), args.eye, "eyelab maps")
     warn(spec.warnings)
-    if spec.render.camera is not None:
-        raise SpecError("render.camera", "maps show a spectacle lens as worn; this spec has "
-                        "a camera lens: render it with eyelab render")
     if not args.output.lower().endswith(".png"):
         raise SpecError("--output", f"must be a .png file, got {args.output!r}")
     check_output("--output", args.output)
@@ -388,7 +388,7 @@ def _maps(args) -> int:
     kind = args.kind or ("asworn" if isinstance(spec.eye, Eye) else "peripheral")
     if kind == "peripheral":
         return _peripheral(args, spec)
-    thin_eye(spec, "eyelab maps --kind asworn")
+    spec = replace(spec, eye=job.lens_wearer(spec.eye))
     if spec.lens is None:
         raise SpecError("lens", "the spec has no lens to map")
     maps, maps_origin = job.cli_maps(spec.eye, spec.lens, half_angle_deg=args.half_angle,

@@ -190,3 +190,24 @@ def test_the_demo_shows_a_schematic_eye_and_its_emmetrope(tmp_path):
     h, w = alone.shape[:2]
     panel = fig[fig.shape[0] - h:, 2 * w:3 * w]
     np.testing.assert_array_equal(panel[2:-2, 2:-2], alone[2:-2, 2:-2])
+
+
+def test_as_worn_maps_of_a_schematic_wearer_are_its_lenss(tmp_path, capsys):
+    """As-worn maps are the lens's, about the wearer's centre of rotation: a schematic
+    eye's spec maps its lens as a thin eye with that centre and pupil does; a two-eye spec
+    maps the side --eye names."""
+    import eyelab
+
+    m = eyelab.maps("examples/myope.toml", n=5)
+    t = eyelab.maps({"eye": {"rx": "-3.00", "rotation_centre_mm": 13.5,
+                             "pupil_diameter_mm": 4}, "lens": {"rx": "-3.00"}}, n=5)
+    np.testing.assert_array_equal(m.mean_error_d, t.mean_error_d)
+    assert abs(m.mean_error_d[2, 2]) < 0.01                  # straight ahead: the Rx
+    two = tmp_path / "two.toml"
+    two.write_text('[eye.right]\nrx = "-3.00"\n[eye.left]\nrx = "-2.00"\n[lens]\n')
+    left = eyelab.maps(str(two), n=5, eye="left")
+    assert main(["maps", str(two), "--eye", "left", "--points", "5",
+                 "-o", str(tmp_path / "l.png")]) == 0
+    assert (tmp_path / "l.png").exists() and np.isfinite(left.mean_error_d).all()
+    assert main(["maps", str(two), "--points", "5", "-o", str(tmp_path / "x.png")]) == 2
+    assert "--eye right|left" in capsys.readouterr().err

@@ -47,12 +47,14 @@ def analyze(spec=None, *, no_lens: bool = False, session: Session | None = None)
     return session_or_default(session).analyze(spec, no_lens=no_lens)
 
 
-def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31,
+def maps(spec=None, *, half_angle_deg: float = 30.0, n: int = 31, eye: str | None = None,
          session: Session | None = None):
     """As-worn maps of the spec's lens over an n x n grid of eye rotations (Fick angles
     about the centre of rotation) within ±half_angle_deg
-    (:class:`~eyelab.optics.lens.asworn.AsWornMaps`)."""
-    return session_or_default(session).maps(spec, half_angle_deg=half_angle_deg, n=n)
+    (:class:`~eyelab.optics.lens.asworn.AsWornMaps`); ``eye``: a two-eye spec's "right" or
+    "left"."""
+    return session_or_default(session).maps(spec, half_angle_deg=half_angle_deg, n=n,
+                                            eye=eye)
 
 
 def psf(spec=None, *, point: int = 0, no_lens: bool = False,

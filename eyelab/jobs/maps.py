@@ -73,6 +73,18 @@ def named_maps(eye, lens, names: dict | None = None, **kw) -> tuple:
     return maps, status.to_json()
 
 
+def lens_wearer(eye):
+    """The eye as-worn maps are measured for: a thin eye as it is; a schematic eye as a
+    thin eye with its centre of rotation and pupil (the maps are the lens's: the wave at
+    the vertex sphere about that centre against the prescription, which the eye's own
+    optics do not enter)."""
+    from eyelab.optics.eye.thin import Eye
+
+    if isinstance(eye, Eye):
+        return eye
+    return Eye(rotation_centre=eye.rotation_centre, pupil_diameter=eye.pupil_diameter)
+
+
 def cli_maps(eye, lens, **kw) -> tuple:
     """``eyelab maps``'s call of :func:`~eyelab.optics.lens.asworn.as_worn_maps`: the same
     arguments, an error naming the command's flag (:data:`MAPS_FLAGS`); (maps, origin) as

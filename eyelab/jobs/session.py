@@ -192,19 +192,21 @@ class Session:
         self._check_open()
         return analyze_spec(as_spec(spec), no_lens=no_lens)
 
-    def maps(self, spec=None, *, half_angle_deg: float = 30.0, n: int = 31):
+    def maps(self, spec=None, *, half_angle_deg: float = 30.0, n: int = 31,
+             eye: str | None = None):
         """:func:`eyelab.maps`: as-worn maps of the spec's lens over an n x n grid of eye
-        rotations within ±half_angle_deg (degrees)."""
+        rotations within ±half_angle_deg (degrees), for its eye's centre of rotation (any
+        eye model; of a two-eye spec, the ``eye`` "right" or "left")."""
         from eyelab.core.errors import SpecError
+        from eyelab.jobs.maps import lens_wearer
         from eyelab.optics.lens.asworn import as_worn_maps
-        from eyelab.spec import no_camera, one_eye, thin_eye
+        from eyelab.spec import no_camera, pick_eye
 
         self._check_open()
-        s = thin_eye(one_eye(no_camera(as_spec(spec), "maps"), "maps"),
-                     "eyelab.maps (as-worn maps)")
+        s = pick_eye(no_camera(as_spec(spec), "maps"), eye, "eyelab.maps")
         if s.lens is None:
             raise SpecError("lens", "the spec has no lens to map")
-        return as_worn_maps(s.eye, s.lens, half_angle_deg=half_angle_deg, n=n,
+        return as_worn_maps(lens_wearer(s.eye), s.lens, half_angle_deg=half_angle_deg, n=n,
                             wavelength_nm=s.wavelength_nm)
 
     def psf(self, spec=None, *, point: int = 0, no_lens: bool = False,
