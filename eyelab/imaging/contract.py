@@ -287,12 +287,13 @@ class Renderer(abc.ABC):
             return self._render_camera(scene, eye, view, quality, progressive)
         _check_lenslets(self.name, lens)
         if not isinstance(eye, Eye):            # a schematic eye: its retinal image
-            from eyelab.imaging.registry import SCHEMATIC_RENDERERS
+            from eyelab.imaging.registry import REGISTRY, SCHEMATIC_RENDERERS
 
             if self.name not in SCHEMATIC_RENDERERS:
+                why = REGISTRY[self.name].thin_eye_why
                 raise SpecError("eye.model", f"the {eye.model} eye's retinal image renders "
                                 f"with {' or '.join(map(repr, SCHEMATIC_RENDERERS))}, not "
-                                f"{self.name!r}")
+                                f"{self.name!r}" + (f": {why}" if why else ""))
             return self._render_schematic(scene, eye, lens, view, quality, progressive)
         if getattr(eye, "aberrations", None) is not None:     # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import render_aberrated

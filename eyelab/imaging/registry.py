@@ -20,8 +20,9 @@ from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQu
 class RendererEntry:
     """One renderer: ``name`` (``render.renderer``), its options class ``quality``, its
     implementation ``"module:Class"``, whether it renders camera lens systems, whether it
-    renders a schematic eye's retinal image and whether it renders the simultaneous images
-    of a lenslet lens (:mod:`eyelab.optics.lens.lenslets`)."""
+    renders a schematic eye's retinal image (if not, ``thin_eye_why``: the physical reason)
+    and whether it renders the simultaneous images of a lenslet lens
+    (:mod:`eyelab.optics.lens.lenslets`)."""
 
     name: str
     quality: type
@@ -29,6 +30,7 @@ class RendererEntry:
     sees_cameras: bool
     sees_schematic_eyes: bool = False
     sees_lenslets: bool = False
+    thin_eye_why: str = ""
 
     def load(self) -> type:
         """The renderer class (imports its module)."""
@@ -42,7 +44,10 @@ REGISTRY = {e.name: e for e in (
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
                   True, sees_schematic_eyes=True, sees_lenslets=True),
     RendererEntry("imagebased", ImageBasedQuality,
-                  "eyelab.render.imagebased:ImageBasedRenderer", True),
+                  "eyelab.render.imagebased:ImageBasedRenderer", True,
+                  thin_eye_why="its eye rays are the thin eye's (a thin lens focused on one "
+                  "plane, eyelab.render.imagebased.rays): a schematic eye's surfaces and "
+                  "their aberrations are not traced there"),
 )}
 #: Renderer names, the default first.
 RENDERERS = tuple(REGISTRY)
