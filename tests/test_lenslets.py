@@ -51,6 +51,15 @@ def test_the_dims_like_layout_holds_the_published_count(dims):
     assert r.min() - D / 2 >= 4.7e-3 - 1e-12 and r.max() + D / 2 <= 16.5e-3 + 1e-12
     d = np.hypot(*(s.centres[:, None] - s.centres[None]).transpose(2, 0, 1))
     assert d[~np.eye(len(d), dtype=bool)].min() == pytest.approx(P, rel=1e-12)
+    # the count fixes the pitch only to two ranges (the spec reference says which): their
+    # ends hold 396, a micron beyond them does not
+    for pitch_um, holds in ((1419, True), (1435, True), (1447, True), (1453, True),
+                            (1418, False), (1436, False), (1446, False), (1454, False)):
+        n = len(honeycomb(pitch_um * 1e-6, D, 9.4e-3, 33e-3))
+        assert (n == 396) == holds, (pitch_um, n)
+    # the lattice: rows along x, a lattice point on the lens's centre
+    assert np.any(np.isclose(s.centres[:, 1], 0.0) & np.isclose(np.abs(s.centres[:, 0]),
+                                                                  4 * P))
 
 
 def test_contiguous_rings_hold_as_many_as_fit():

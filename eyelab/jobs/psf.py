@@ -82,6 +82,9 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
                "it: their rays' footprint on the lens), at the green channel's wavelength",
                "wave": "over the lenslets' zones of the pupil the field takes their rays' "
                "optical paths and their light: the PSF holds both images",
+               "through_focus_scale": "intensity over the aberration-free peak of the same "
+               "pupil (|sum of its amplitudes|^2: the lenslets' light and dark rims "
+               "included), the line of sight the carrier's chief ray (as analyze's)",
                "through_focus": focus},
            "stiles_crawford": sc, "channels": channels,
            "mtf_frequencies_cpd": list(MTF_FREQUENCIES_CPD)}

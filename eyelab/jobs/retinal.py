@@ -47,7 +47,9 @@ DEFINITIONS = {
     "strehl": "the point-spread function's peak over the aberration-free peak of the same "
               "pupil, at the wavelength (wherever the peak lies)",
     "through_focus": "with lenslets: the intensity at the chief ray's image point over the "
-                     "aberration-free one, with the retina moved to where a wave vergence_d "
+                     "aberration-free one (|sum of the pupil's amplitudes|^2: the same pupil, "
+                     "its lenslets' light and dark rims included), with the retina moved to "
+                     "where a wave vergence_d "
                      "more converging at the entrance pupil focuses (the forward wave); "
                      "peaks: the carrier's image and the lenslets'",
     "share, myopic_defocus_d": "maps --kind peripheral through lenslets (lens.lenslets): "

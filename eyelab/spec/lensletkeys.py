@@ -22,7 +22,8 @@ LAYOUT_KEYS = {"honeycomb": ("pitch_mm", "clear_zone_mm", "zone_mm"),
 COMMON_KEYS = ("layout", "add_d", "diameter_mm", "conic")
 ALLOWED = set(COMMON_KEYS).union(*LAYOUT_KEYS.values())
 #: A DIMS-like honeycomb (docs/SCIENCE.md §12b: 396 lenslets of +3.50 D, 1.03 mm, in the
-#: annulus 9.4-33 mm; the pitch 1.43 mm is the one that puts 396 lattice lenslets there).
+#: annulus 9.4-33 mm; the pitch is not published: every pitch in 1.419-1.435 mm and
+#: 1.447-1.453 mm puts 396 lattice lenslets there, and 1.43 mm is taken).
 DIMS_LIKE = {"layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03, "pitch_mm": 1.43,
              "clear_zone_mm": 9.4, "zone_mm": 33.0}
 #: A HALT-like ring layout (docs/SCIENCE.md §12b: 1,021 contiguous lenslets of 1.12 mm on 11
@@ -45,18 +46,23 @@ LENSLET_KEYS = (
     (("lens", "lenslets", "text", "", "none", "a lenslet array on the front surface: "
       "table `[lens.lenslets]`"), {"range_text": "a table"}),
     ((WHERE, "layout", "choice", "", "required", "honeycomb: a hexagonal lattice in an "
-      "annulus; rings: concentric rings; list: centres one by one"),
+      "annulus, its rows along x (the wearer's horizontal) and one lattice point on the "
+      "lens's centre; rings: concentric rings about the centre, each ring's first lenslet "
+      "on +x, alternate rings turned by half a step; list: centres one by one"),
      {"choices": LAYOUTS, "base": BASE,
       "choice_base": {"rings": RINGS_BASE, "list": LIST_BASE}}),
     ((WHERE, "add_d", "number", "D", "required", "each lenslet's add as worn: the mean "
       "power along the line of sight through its centre less the carrier's there "
       "(designed; not 0)"), {"base": BASE}),
-    ((WHERE, "diameter_mm", "number", "mm", "required", "each lenslet's diameter"),
+    ((WHERE, "diameter_mm", "number", "mm", "required", "each lenslet's diameter, in the "
+      "lens's x, y plane; inside it a conicoid sag is added to the carrier's along the "
+      "lens's axis, lowered to meet the carrier at the rim"),
      {"base": BASE, "edges": False}),
     ((WHERE, "conic", "number", "", "0 (spherical)", "conic constant of the lenslets' "
       "added sag (aspherical lenslets)"), {"base": BASE}),
     ((WHERE, "pitch_mm", "number", "mm", "required (honeycomb)", "centre to centre; not "
-      "below `diameter_mm`"), {"base": BASE, "edges": False}),
+      "below `diameter_mm` (a count fixes a range of pitches: 396 DIMS-like lenslets for "
+      "any pitch in 1.419–1.435 or 1.447–1.453 mm)"), {"base": BASE, "edges": False}),
     ((WHERE, "clear_zone_mm", "number", "mm", "0", "honeycomb: the clear centre's "
       "diameter (no lenslet reaches into it)"), {"base": BASE, "edges": False}),
     ((WHERE, "zone_mm", "number", "mm", "the lens's diameter less 2 mm", "honeycomb: the "
@@ -65,7 +71,8 @@ LENSLET_KEYS = (
       "diameters (a list)"), {"range_text": "a list of numbers in [1, 90]",
                               "base": RINGS_BASE}),
     ((WHERE, "per_ring", "text", "", "as many as fit", "rings: lenslets on each ring (a "
-      "list of integers, one per ring)"), {"range_text": "integers in [1, 2000]",
+      "list of integers, one per ring); else as many as fit contiguously: the most whose "
+      "chords between neighbours are at least `diameter_mm`"), {"range_text": "integers in [1, 2000]",
                                            "base": RINGS_BASE}),
     ((WHERE, "centres_mm", "text", "mm", "required (list)", "the lenslets' centres [[x, y], "
       "...] on the lens (x toward the wearer's right, y up)"),
