@@ -72,8 +72,8 @@ LENSLET_KEYS = (
                               "base": RINGS_BASE}),
     ((WHERE, "per_ring", "text", "", "as many as fit", "rings: lenslets on each ring (a "
       "list of integers, one per ring); else as many as fit contiguously: the most whose "
-      "chords between neighbours are at least `diameter_mm`"), {"range_text": "integers in [1, 2000]",
-                                           "base": RINGS_BASE}),
+      "chords between neighbours are at least `diameter_mm`"),
+     {"range_text": "integers in [1, 2000]", "base": RINGS_BASE}),
     ((WHERE, "centres_mm", "text", "mm", "required (list)", "the lenslets' centres [[x, y], "
       "...] on the lens (x toward the wearer's right, y up)"),
      {"range_text": "pairs in [-45, 45]", "base": LIST_BASE}),
