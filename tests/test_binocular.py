@@ -371,3 +371,61 @@ def test_one_eye_tools_refuse_a_binocular_spec(tmp_path, capsys):
     with pytest.raises(SpecError) as e:
         one_eye(_spec(binocular={}), "the inspector")
     assert e.value.field == "binocular"
+
+
+# --------------------------------------------------------------- two schematic eyes
+@pytest.mark.parametrize("rx_r, rx_l, dist, driver", [
+    ("+1.00", "+3.00", math.inf, "right"),      # hyperopes: the lower response
+    ("-1.00", "-4.00", 0.4, "right"),           # the left's far point is nearer than 0.4 m
+    ("-3.00", "-1.50", 0.5, "left"),            # the right's too
+])
+def test_two_schematic_eyes_share_the_less_blurred_eyes_response(rx_r, rx_l, dist, driver):
+    """Two Navarro eyes (axial anisometropia, naked) fixating a point: the driving eye is
+    the thin pair's for the same prescriptions, and the exact trace to its retina finds it
+    focused (refraction along its line of sight within 0.02 D of the object's vergence
+    there, i.e. M = 0) while the other lags or leads by about the anisometropia."""
+    tables = {"eye": {"model": "navarro", "right": {"rx": rx_r}, "left": {"rx": rx_l}},
+              "binocular": {}}
+    pts = ObjectPoints.from_angles(dist, 0.0, 0.0)
+    an = analyze_binocular(_spec(**tables).binocular, pts, fixation="rotating")
+    thin = {"eye": {"right": {"rx": rx_r}, "left": {"rx": rx_l}, "accommodation_max_d": 8.0},
+            "binocular": {}}
+    assert an["driving_eye"][0] == driver
+    assert analyze_binocular(_spec(**thin).binocular, pts)["driving_eye"][0] == driver
+    other = "left" if driver == "right" else "right"
+    assert abs(an[driver].m[0]) < 0.02, an[driver].m
+    assert abs(an[other].m[0]) > 0.5, an[other].m
+
+
+def test_two_schematic_eyes_render_analyze_and_refuse_a_pair_of_models(tmp_path, capsys):
+    """eyelab render --binocular of examples/myope.toml (the Navarro myope, both eyes from
+    [eye] and [lens]) runs and turns each eye as a thin pair with the same centres of
+    rotation does (the vergence is geometry); analyze prints both eyes' exact rows; a
+    thin eye beside a schematic one is refused in one line naming the side's key."""
+    import json
+
+    from eyelab.apps.cli import main
+
+    out = tmp_path / "b.png"
+    assert main(["render", "examples/myope.toml", "--binocular", "--width", "48", "--height",
+                 "36", "--samples", "2", "-o", str(out), "--report",
+                 str(tmp_path / "b.json")]) == 0
+    rep = json.loads((tmp_path / "b.json").read_text())["binocular"]
+    assert rep["eyes"]["right"]["accommodation_d"] == rep["accommodation_d"]
+    near = {"eye": {"model": "navarro", "rx": "-2.00"}, "lens": {"rx": "-2.00"},
+            "binocular": {"fixation_distance_m": 0.4}}
+    thin = {"eye": {"rx": "-2.00"}, "lens": {"rx": "-2.00"},
+            "binocular": {"fixation_distance_m": 0.4}}
+    for side in SIDES:
+        assert _spec(**near).binocular.gaze(side) == _spec(**thin).binocular.gaze(side)
+    both = analyze_spec(_spec(**near))
+    assert set(both["eyes"]) == {"right", "left"}
+    assert both["eyes"]["left"]["eye"]["model"] == "navarro"
+    assert "prism" in both["points"][0]
+    capsys.readouterr()
+    mixed = tmp_path / "mixed.toml"
+    mixed.write_text('[eye.right]\nrx = "-2.00"\n[eye.left]\nmodel = "navarro"\n'
+                     'rx = "-2.00"\n')
+    assert main(["analyze", str(mixed)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "eye.left.model" in err[0], err

@@ -13,7 +13,13 @@ import numpy as np
 
 from eyelab.core.color import encode_srgb
 from eyelab.core.errors import SpecError
-from eyelab.optics.chain.binocular import SIDES, Binocular, analyze_binocular, prism_rows
+from eyelab.optics.chain.binocular import (
+    SIDES,
+    Binocular,
+    analyze_binocular,
+    fixation_blur_arcmin,
+    prism_rows,
+)
 from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 
 #: Binocular images: both side by side for parallel or crossed free viewing, a red/cyan
@@ -157,13 +163,11 @@ def binocular_report(pose: BinocularPose) -> dict:
     per_eye = {}
     for side in SIDES:
         lens, r = b.lens(side), an[side]
-        maj, mnr, _ = r.blur_axes()
         per_eye[side] = {
             "pupil_mm": [float(x) for x in b.pupil(side) * 1e3],
             "gaze_deg": list(pose.gazes[side]),
             "accommodation_d": float(r.accommodation[0]),
-            "blur_at_fixation_arcmin": [float(r.to_arcmin(maj[0])),
-                                        float(r.to_arcmin(mnr[0]))],
+            "blur_at_fixation_arcmin": fixation_blur_arcmin(b.eye(side), r, 0),
             "rx": None if lens is None or lens.rx is None else lens.rx.format()}
     return {
         "output": b.output, "monocular_pd_mm": [v * 1e3 for v in b.monocular_pd],

@@ -190,8 +190,15 @@ def analyze_binocular_spec(spec: Spec, *, no_lens: bool = False) -> dict:
     an = analyze_binocular(traced, spec.points, wavelength_nm=spec.wavelength_nm,
                            fixation=spec.fixation, accommodation=spec.accommodation,
                            vertex_sphere=spec.vertex_sphere, no_lens=no_lens)
-    eyes = {s: _eye_report(b.eye(s), None if no_lens else b.lens(s), an[s], an["points"][s],
-                           spec) for s in SIDES}
+    if isinstance(b.right, Eye):
+        eyes = {s: _eye_report(b.eye(s), None if no_lens else b.lens(s), an[s],
+                               an["points"][s], spec) for s in SIDES}
+    else:                                   # schematic eyes: their exact traces' rows
+        from eyelab.jobs.retinal import schematic_eye_report
+
+        eyes = {s: dict(schematic_eye_report(b.eye(s), None if no_lens else b.lens(s),
+                                             an[s], spec), accommodation="shared (below)")
+                for s in SIDES}
     points = []
     for i in range(len(spec.points)):
         row = {"index": i, "object": object_row(spec.points, i),
@@ -244,7 +251,12 @@ def _format_binocular(rep: dict) -> str:
         lines.append(line)
     for side, eye_rep in rep["eyes"].items():
         lines.append(f"\n— {side} eye —")
-        lines.extend(_format_eye(eye_rep))
+        if eye_rep["eye"].get("model", "thin") != "thin":
+            from eyelab.jobs.retinal import schematic_eye_lines
+
+            lines.extend(schematic_eye_lines(eye_rep))
+        else:
+            lines.extend(_format_eye(eye_rep))
     return "\n".join(lines)
 
 

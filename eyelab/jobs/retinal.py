@@ -91,15 +91,23 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
     the fixation's accommodation at each point's distance)."""
     eye = spec.eye
     lens = None if no_lens else spec.lens
-    traced = line_of_sight_lens(lens)
-    r = trace_objects(eye, traced, spec.points, fixation=spec.fixation,
+    r = trace_objects(eye, line_of_sight_lens(lens), spec.points, fixation=spec.fixation,
                       accommodation=spec.accommodation, wavelength_nm=spec.wavelength_nm)
-    waves = retinal_waves(eye, traced, r, fixation=spec.fixation,
+    return dict({"source": spec.source}, **schematic_eye_report(eye, lens, r, spec))
+
+
+def schematic_eye_report(eye, lens, r: RetinalTrace, spec) -> dict:
+    """One schematic eye's part of analyze's report from its trace ``r`` (through ``lens``'s
+    carrier, the points in the eye's frame: one eye's, or a side's of two): the eye, the
+    lens, and per point its row (:data:`DEFINITIONS`), the wave along it and, through
+    lenslets, their share and the image through focus."""
+    waves = retinal_waves(eye, line_of_sight_lens(lens), r, fixation=spec.fixation,
                           wavelength_nm=spec.wavelength_nm)
     points = []
-    for i in range(len(spec.points)):
+    for i in range(len(r.status)):
         st = int(r.status[i])
-        entry = {"index": i, "status": Status.describe(st), "object": object_row(spec.points, i)}
+        entry = {"index": i, "status": Status.describe(st),
+                 "object": object_row(r.object_points, i)}
         if not r.ok[i]:
             entry["reason"] = no_path_reason(st)
         else:
@@ -108,7 +116,7 @@ def schematic_report(spec, *, no_lens: bool = False) -> dict:
                 entry["lenslets"] = _lenslets(eye, lens, r, i, spec)
                 entry["through_focus"] = _through_focus(eye, lens, r, i, spec)
         points.append(entry)
-    return {"source": spec.source, "eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
+    return {"eye": dict(eye.spec_keys(), **_eye_optics(eye, spec)),
             "lens": None if lens is None else lens_info(lens, spec.wavelength_nm),
             "wavelength_nm": spec.wavelength_nm, "fixation": spec.fixation,
             "accommodation": "the fixation's: the eye focuses the object on its axis at each "
@@ -155,9 +163,13 @@ def _eye_optics(eye, spec) -> dict:
 
 def format_schematic(rep: dict) -> str:
     """The text of :func:`schematic_report`."""
+    return "\n".join([f"eyelab analyze — {rep['source']}", *schematic_eye_lines(rep)])
+
+
+def schematic_eye_lines(rep: dict) -> list:
+    """The text lines of :func:`schematic_eye_report`'s part of a report."""
     e = rep["eye"]
-    lines = [f"eyelab analyze — {rep['source']}",
-             f"eye: {e['model']} schematic eye, axial length {e['axial_length_mm']:.3f} mm, "
+    lines = [f"eye: {e['model']} schematic eye, axial length {e['axial_length_mm']:.3f} mm, "
              f"paraxial refraction {e['refraction_d']:+.3f} D, power {e['power_d']:.3f} D, "
              f"entrance pupil {e['pupil_diameter_mm']:.2f} mm at {e['entrance_pupil_mm']:.3f}"
              " mm",
@@ -188,7 +200,7 @@ def format_schematic(rep: dict) -> str:
             peaks = ", ".join(f"{v:+.2f} D ({a:.3f})" for v, a in p["through_focus"]["peaks"])
             lines.append(f"  through focus (intensity at the image point over the "
                          f"aberration-free peak): peaks at {peaks}")
-    return "\n".join(lines)
+    return lines
 
 
 # ------------------------------------------------------------------ peripheral map

@@ -88,7 +88,7 @@ def parse_binocular(data: dict, frame=None):
     output = check_choice("binocular.output", bt.get("output", "side-by-side"), OUTPUTS)
     eye_shared, eye_sides = _split_sides(data.get("eye", {}), "eye")
     lens_shared, lens_sides = _split_sides(data.get("lens"), "lens")
-    _thin_eyes(eye_shared, eye_sides)
+    _one_model(eye_shared, eye_sides)
     eyes, lenses = {}, {}
     for side in SIDES:
         letter = side[0].upper()
@@ -160,16 +160,17 @@ def eye_rx_of(t: dict):
     return None
 
 
-def _thin_eyes(shared: dict, sides: dict) -> None:
-    """Two eyes are thin eyes: a schematic model or key is refused, named by a side's own
-    key where one has it (its schematic length first), else by ``eye.model``."""
-    merged = [{**shared, **sides[s]} for s in SIDES]
-    if all(m.get("model", "thin") == "thin" and "axial_length_mm" not in m for m in merged):
+def _one_model(shared: dict, sides: dict) -> None:
+    """Two eyes are of one model (both thin, or both the same schematic eye): a pair of
+    models is refused, named by the side's own ``model`` key where one has it."""
+    models = [{**shared, **sides[s]}.get("model", "thin") for s in SIDES]
+    if models[0] == models[1]:
         return
-    own = [(s, k) for s in SIDES for k in ("axial_length_mm", "model") if k in sides[s]]
-    side, key = own[0] if own else (SIDES[0], "model")
-    raise SpecError(_written("eye", side, sides[side], key), "two eyes take the thin eye "
-                    "(eye.model = \"thin\"); analyse a schematic eye one at a time")
+    own = [s for s in SIDES if "model" in sides[s]]
+    side = own[-1] if own else SIDES[1]
+    raise SpecError(_written("eye", side, sides[side], "model"), "two eyes are of one model "
+                    f"(here {models[0]!r} and {models[1]!r}): the accommodation they share "
+                    "and the images they are compared by are one eye model's")
 
 
 def parse_one_eye(data: dict, frame=None) -> tuple:

@@ -176,6 +176,9 @@ def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=EY
     "line_of_sight_prism": {side: (prism (n,), deviation (n, 3), ok (n,))} (lenses only)}.
     """
     check_choice("fixation", fixation, FIXATIONS)
+    if not isinstance(bino.right, Eye):
+        return _schematic_pair(bino, points, wavelength_nm=wavelength_nm, fixation=fixation,
+                               accommodation=accommodation, no_lens=no_lens)
     chief, pts = {}, {}
     for side in SIDES:
         eye = bino.eye(side)
@@ -202,20 +205,80 @@ def analyze_binocular(bino: Binocular, points: ObjectPoints, *, wavelength_nm=EY
         driving = np.array(["fixed"] * n, dtype=object)
     else:
         own = {s: trace(s, None).accommodation for s in SIDES}
-        score = {}
-        for cand in SIDES:
-            blurs = [rms_blur(trace(s, own[cand])) for s in SIDES]
-            score[cand] = np.minimum(*blurs)
-        tol = 1e-10     # m of retinal blur: equal within rounding
-        right_wins = (score["right"] < score["left"] - tol) | (
-            (np.abs(score["right"] - score["left"]) <= tol) & (own["right"] <= own["left"]))
-        acc = np.where(right_wins, own["right"], own["left"])
-        driving = np.where(right_wins, "right", "left").astype(object)
+        acc, driving = _less_blurred(own, lambda s, a: rms_blur(trace(s, a)))
     los = {s: line_of_sight_prism(bino.eye(s), chief[s][0], pts[s], wavelength_nm)
            for s in SIDES if chief[s][0] is not None}
     return {"right": trace("right", acc), "left": trace("left", acc),
             "accommodation_d": acc, "driving_eye": driving, "points": pts,
             "line_of_sight_prism": los}
+
+
+def _less_blurred(own: dict, blur) -> tuple:
+    """(accommodation (n,), driving eye (n,)) by the less-blurred-eye rule: of the eyes'
+    own responses ``own`` {side: (n,)}, the one whose smaller retinal blur over both eyes
+    (``blur(side, candidate)`` (n,), any unit) is smaller; the lower response when equal
+    within rounding (least effort)."""
+    score = {cand: np.minimum(*[blur(s, own[cand]) for s in SIDES]) for cand in SIDES}
+    tol = 1e-10 * max(1.0, float(max(np.max(np.abs(v)) for v in score.values())))
+    right_wins = (score["right"] < score["left"] - tol) | (
+        (np.abs(score["right"] - score["left"]) <= tol) & (own["right"] <= own["left"]))
+    return (np.where(right_wins, own["right"], own["left"]),
+            np.where(right_wins, "right", "left").astype(object))
+
+
+def _schematic_pair(bino: Binocular, points: ObjectPoints, *, wavelength_nm, fixation,
+                    accommodation, no_lens) -> dict:
+    """:func:`analyze_binocular` for two schematic eyes: each eye's exact trace
+    (:func:`~eyelab.optics.chain.retina.trace_objects`, a :class:`~eyelab.optics.chain.
+    retina.RetinalTrace` per side) at the accommodation both share — the less-blurred-eye
+    rule on each eye's own response (the one that focuses the point on its axis) and its
+    geometric blur, the entrance pupil's radius times the refraction error's RMS
+    principal value (rad), decided at the eyes' reference wavelength."""
+    from eyelab.optics.chain.retina import trace_objects
+
+    pts = {s: bino.points_for(s, points) for s in SIDES}
+    lenses = {s: None if no_lens else bino.lens(s) for s in SIDES}
+
+    def trace(side, acc, wl=wavelength_nm):
+        eye = bino.eye(side)
+        a = None if acc is None else np.minimum(np.asarray(acc, float), eye.accommodation_max)
+        return trace_objects(eye, lenses[side], pts[side], fixation=fixation,
+                             accommodation=a, wavelength_nm=wl)
+
+    n = len(points)
+    if accommodation is not None:
+        acc = np.full(n, float(accommodation))
+        driving = np.array(["fixed"] * n, dtype=object)
+    else:
+        own = {s: np.clip(trace(s, None, EYE_REFERENCE_NM).accommodation, 0.0,
+                          bino.eye(s).accommodation_max) for s in SIDES}
+
+        def blur(side, acc):
+            e = trace(side, acc, EYE_REFERENCE_NM).refraction           # (n, 3) D
+            mean, half = (e[:, 0] + e[:, 2]) / 2, np.hypot((e[:, 0] - e[:, 2]) / 2, e[:, 1])
+            rms = np.sqrt(((mean + half) ** 2 + (mean - half) ** 2) / 2)
+            return bino.eye(side).pupil_diameter / 2 * rms
+
+        acc, driving = _less_blurred(own, blur)
+    los = {s: line_of_sight_prism(bino.eye(s), lenses[s], pts[s], wavelength_nm)
+           for s in SIDES if lenses[s] is not None}
+    return {"right": trace("right", acc), "left": trace("left", acc),
+            "accommodation_d": acc, "driving_eye": driving, "points": pts,
+            "line_of_sight_prism": los}
+
+
+def fixation_blur_arcmin(eye, trace, i: int) -> list:
+    """[major, minor] (arcmin) of the retinal blur of row ``i`` of one eye's trace in a
+    two-eye analysis: a thin eye's blur ellipse semi-axes
+    (:class:`~eyelab.optics.chain.analysis.PointAnalysis`), a schematic eye's geometric
+    blur, the entrance pupil's radius times the refraction error's principal values."""
+    if hasattr(trace, "blur_axes"):
+        maj, mnr, _ = trace.blur_axes()
+        return [float(trace.to_arcmin(maj[i])), float(trace.to_arcmin(mnr[i]))]
+    exx, exy, eyy = trace.refraction[i]
+    mean, half = (exx + eyy) / 2, math.hypot((exx - eyy) / 2, exy)
+    ax = sorted((abs(mean + half), abs(mean - half)), reverse=True)
+    return [float(math.degrees(eye.pupil_diameter / 2 * a) * 60) for a in ax]
 
 
 def prism_rows(bino: Binocular, an: dict, i: int) -> dict | None:
