@@ -104,8 +104,7 @@ def test_bad_schematic_eyes_are_refused_by_name(eye, field, words):
     assert e.value.field == field and words in str(e.value)
 
 
-@pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"],
-                                     ["maps", "--kind", "asworn"]])
+@pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"]])
 def test_what_takes_the_thin_eye_refuses_a_schematic_one(tmp_path, capsys, command):
     spec = tmp_path / "s.toml"
     spec.write_text(MYOPE.format(extra=""))
