@@ -1,0 +1,175 @@
+"""The capability matrix (docs/guide/matrix.md): every eye with every lens in every command,
+each cell run as a user runs it (the ``eyelab`` command, in-process, at a tiny size) and
+its outcome recorded — it works, it refuses in one line (the line is the table's), or it
+is broken (any other exit or an exception: a defect). ``python -m eyelab.apps.matrix``
+prints the table; ``--write PATH`` rewrites the page; ``tests/test_matrix.py`` runs it
+and asserts that no cell is broken and every refusal names a field and its reason.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import tempfile
+from pathlib import Path
+
+#: The eyes (their ``[eye]`` tables; two eyes as per-side tables).
+EYES = {
+    "thin": {"eye": {"rx": "-2.00", "pupil_diameter_mm": 4}},
+    "thin + Zernike": {"eye": {"rx": "-2.00", "pupil_diameter_mm": 4, "aberrations": {
+        "coefficients_um": [0, 0, 0, 0, 0, 0, 0, 0.2, 0, 0, 0, 0, 0.1], "pupil_mm": 6.0}}},
+    "Navarro": {"eye": {"model": "navarro", "rx": "-2.00", "pupil_diameter_mm": 4}},
+    "Navarro, accommodated": {"eye": {"model": "navarro", "rx": "-2.00",
+                                      "pupil_diameter_mm": 4, "accommodation_d": 1.5}},
+    "two thin": {"eye": {"right": {"rx": "-2.00"}, "left": {"rx": "-1.50"},
+                         "pupil_diameter_mm": 4}},
+    "two Navarro": {"eye": {"model": "navarro", "right": {"rx": "-2.00"},
+                            "left": {"rx": "-1.50"}, "pupil_diameter_mm": 4}},
+}
+#: The lenses (their ``[lens]`` tables; None: no lens).
+LENSES = {
+    "none": None,
+    "sphere": {"rx": "-2.00"},
+    "toric": {"rx": "-2.00 -1.00 x 90"},
+    "progressive": {"rx": "-2.00 add +2.00", "design": "progressive"},
+    "lenslets": {"rx": "-2.00", "lenslets": {"layout": "honeycomb", "add_d": 3.5,
+                                             "diameter_mm": 1.03, "pitch_mm": 1.43,
+                                             "clear_zone_mm": 9.4, "zone_mm": 33}},
+}
+TINY = ["--width", "32", "--height", "24", "--samples", "2"]
+#: The commands: name -> the arguments after the spec path (``{out}``: a folder).
+COMMANDS = {
+    "render (raster)": ["render", *TINY, "-o", "{out}/r.png"],
+    "render (reference)": ["render", "--renderer", "reference", *TINY, "-o", "{out}/r.png"],
+    "render (image-based)": ["render", "--renderer", "imagebased", *TINY,
+                             "-o", "{out}/r.png"],
+    "demo": ["demo", *TINY, "-o", "{out}/d.png"],
+    "analyze": ["analyze"],
+    "maps (as worn)": ["maps", "--kind", "asworn", "--points", "5", "-o", "{out}/m.png"],
+    "maps (peripheral)": ["maps", "--kind", "peripheral", "--points", "3",
+                          "-o", "{out}/m.png"],
+    "psf": ["psf", "--size", "33", "-o", "{out}/p.npy"],
+}
+
+
+def _toml(value) -> str:
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def spec_text(eye: dict, lens: dict | None) -> str:
+    """A spec file's text for one cell: the eye's tables, the lens's (each side's when the
+    eye has two), a distant point straight ahead and one 20 deg down at 0.5 m."""
+    lines = []
+
+    def table(name, t):
+        lines.append(f"[{name}]")
+        subs = {k: v for k, v in t.items() if isinstance(v, dict)}
+        lines.extend(f"{k} = {_toml(v)}" for k, v in t.items() if not isinstance(v, dict))
+        for k, v in subs.items():
+            table(f"{name}.{k}", v)
+
+    table("eye", eye["eye"])
+    if lens is not None:
+        table("lens", lens)
+    lines.append("[[points]]\nfield_deg = [0, 0]\n[[points]]\nfield_deg = [0, -20]\n"
+                 "distance_m = 0.5")
+    return "\n".join(lines) + "\n"
+
+
+def run_cell(eye: dict, lens: dict | None, argv: list, folder: Path) -> tuple:
+    """(outcome, line): "works", "refuses" (exit 2 and one line on stderr: that line) or
+    "broken" (another exit, more lines, or an exception: its text)."""
+    from eyelab.apps.cli import main
+
+    spec = folder / "spec.toml"
+    spec.write_text(spec_text(eye, lens))
+    args = [a.replace("{out}", str(folder)) for a in argv]
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            rc = main([args[0], str(spec), *args[1:]])
+    except BaseException as e:              # noqa: BLE001 - a cell that raises is broken
+        return "broken", f"{type(e).__name__}: {e}"[:200]
+    lines = [x for x in err.getvalue().splitlines() if x.startswith("eyelab: error:")]
+    if rc == 0:
+        return "works", ""
+    if rc == 2 and len(lines) == 1:          # (the cell's own folder is not the message's)
+        return "refuses", lines[0].removeprefix("eyelab: error: ").replace(str(folder), "…")
+    return "broken", f"exit {rc}: {err.getvalue().strip()[-200:]}"
+
+
+def matrix(eyes=None, lenses=None, commands=None, progress=None) -> dict:
+    """{(eye, lens, command): (outcome, line)} over the named subsets (default: all)."""
+    out = {}
+    for en in eyes or EYES:
+        for ln in lenses or LENSES:
+            for cn in commands or COMMANDS:
+                with tempfile.TemporaryDirectory() as tmp:
+                    out[en, ln, cn] = run_cell(EYES[en], LENSES[ln], COMMANDS[cn], Path(tmp))
+                if progress is not None:
+                    progress(f"{en} | {ln} | {cn}: {out[en, ln, cn][0]}")
+    return out
+
+
+HEADER = """# What every command does with every eye and lens
+
+Generated by running each cell as a user would (`python -m eyelab.apps.matrix --write
+docs/guide/matrix.md`: the `eyelab` command at a tiny size, a spec per cell with a point
+straight ahead and one 20° down at 0.5 m); `tests/test_matrix.py` runs it and asserts
+that no cell is broken and each refusal is one line naming a field. ✓ works; a number
+refuses, for the reason under the table.
+"""
+
+
+def table(results: dict) -> str:
+    """The page: per eye a table of lenses x commands, the refusals' lines numbered."""
+    reasons: dict[str, int] = {}
+    parts = [HEADER]
+    eyes = list(dict.fromkeys(k[0] for k in results))
+    lenses = list(dict.fromkeys(k[1] for k in results))
+    commands = list(dict.fromkeys(k[2] for k in results))
+    for en in eyes:
+        parts.append(f"\n## {en}\n\n| lens | " + " | ".join(commands) + " |\n|---|"
+                     + "---|" * len(commands))
+        for ln in lenses:
+            cells = []
+            for cn in commands:
+                outcome, line = results[en, ln, cn]
+                if outcome == "works":
+                    cells.append("✓")
+                elif outcome == "refuses":
+                    cells.append(str(reasons.setdefault(line, len(reasons) + 1)))
+                else:
+                    cells.append("**broken**")
+            parts.append(f"| {ln} | " + " | ".join(cells) + " |")
+    parts.append("\n## Refusals\n")
+    parts.extend(f"{n}. {line.replace('|', '/')}" for line, n in reasons.items())
+    return "\n".join(parts) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m eyelab.apps.matrix", description=__doc__)
+    p.add_argument("--write", help="rewrite this page (docs/guide/matrix.md)")
+    args = p.parse_args(argv)
+    import sys
+
+    text = table(matrix(progress=lambda s: print(s, file=sys.stderr)))
+    if args.write:
+        from eyelab.core.fileio import atomic_path
+
+        with atomic_path(args.write, suffix=".md") as tmp:
+            Path(tmp).write_text(text)
+    else:
+        print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,38 @@
+"""The capability matrix (eyelab.apps.matrix, docs/guide/matrix.md): every eye with every
+lens in every command, run as a user runs it. No cell may be broken (an exception, a
+traceback, another exit than 0 or 2, or more than one line); a refusal is one line naming
+the field. The page is what the matrix gives (the full run is slow: `-m slow`); a few
+cells of each eye run in the default suite."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from eyelab.apps.matrix import COMMANDS, EYES, LENSES, matrix, table
+
+ROOT = Path(__file__).resolve().parents[1]
+FIELD = re.compile(r"^[-\w.\[\]\"]+( \([-\w.\[\]\"]+\))?: \S")
+
+
+def _check(results):
+    broken = {k: v for k, v in results.items() if v[0] == "broken"}
+    assert not broken, broken
+    for k, (outcome, line) in results.items():
+        if outcome == "refuses":
+            assert FIELD.match(line), (k, line)
+
+
+@pytest.mark.parametrize("eye", list(EYES))
+def test_each_eye_analyzes_and_its_psf_through_a_sphere(eye):
+    _check(matrix(eyes=[eye], lenses=["sphere"], commands=["analyze", "psf"]))
+
+
+@pytest.mark.slow
+def test_the_whole_matrix_has_no_broken_cell_and_is_the_page():
+    results = matrix()
+    assert len(results) == len(EYES) * len(LENSES) * len(COMMANDS)
+    _check(results)
+    assert (ROOT / "docs" / "guide" / "matrix.md").read_text() == table(results)
