@@ -51,11 +51,12 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     images, channels = [], []
     wavelengths = channel_wavelengths()
     for wl in wavelengths:
-        c, extra, info = waves(wl)
+        green = wl == wavelengths[1]                     # the e line: the lenslets' figures
+        c, extra, info = waves(wl, share=lenslets and green)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
                   field="--pitch-arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
-        if lenslets and wl == wavelengths[1]:            # the green channel's (the e line)
+        if lenslets and green:
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
             share = info.pop("share")
         channels.append({
@@ -106,8 +107,9 @@ WAVE_MEANING = {
 
 
 def thin_waves(spec, lens, one, point):
-    """The thin eye's per-wavelength wave: a function wl -> (Zernike coefficients (um),
-    the lens's pupil field or None, the channel's report entries)."""
+    """The thin eye's per-wavelength wave: a function (wl, share) -> (Zernike coefficients
+    (um), the lens's pupil field or None, the channel's report entries; with ``share`` also
+    "share", the pupil's light through lenslets)."""
     from eyelab.optics.chain.analysis import analyze_points
     from eyelab.optics.eye import zernike as zk
     from eyelab.optics.eye.aberrations import point_wave
@@ -117,7 +119,7 @@ def thin_waves(spec, lens, one, point):
 
     eye = spec.eye
 
-    def thin(wl):
+    def thin(wl, share=False):
         res = analyze_points(eye, carrier(lens), one, wavelength_nm=wl,
                              fixation=spec.fixation, accommodation=spec.accommodation,
                              vertex_sphere=spec.vertex_sphere)
@@ -127,7 +129,7 @@ def thin_waves(spec, lens, one, point):
         extra = None if lens is None else pupil_wave(lens, res, 0, wl)
         info = {"rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
                 "coefficients_um": [float(v) for v in c]}
-        if lens is not None and lens.has_lenslets:
+        if share:
             info["share"] = lenslet_share(extra[0], eye.pupil_diameter / 2)
         return c, extra, info
 
@@ -155,7 +157,7 @@ def schematic_waves(spec, lens, one, point):
 
     acc = float(trace(EYE_REFERENCE_NM, spec.accommodation).accommodation[0])
 
-    def schematic(wl):
+    def schematic(wl, share=False):
         r = trace(wl, acc)
         try:
             field, slope, wave = retinal_pupil_field(eye, lens, r, 0, fixation=spec.fixation,
@@ -166,7 +168,7 @@ def schematic_waves(spec, lens, one, point):
             raise SpecError("--point", f"point {point}: {e} at {wl:g} nm") from None
         info = {**wave_rms(wave), "accommodation_d": acc,
                 "m_d": float(r.m[0]), "j0_d": float(r.j0[0]), "j45_d": float(r.j45[0])}
-        if lens is not None and lens.has_lenslets:
+        if share:
             rot, vertex = eye_in_world(eye, spec.fixation, r.eye_dir[0])
             z_ep, _ = eye.entrance_pupil(acc, wl)
             info["share"] = lenslet_row(lens, r.object_points, 0,
