@@ -4,6 +4,7 @@ run it starts, and its JSON written atomically with the summary printed."""
 from __future__ import annotations
 
 import json
+import re
 
 from eyelab.apps.common import add_quiet
 from eyelab.core.errors import SpecError
@@ -121,11 +122,13 @@ def run(args) -> int:
         check_range_int("--points", args.points, 1000, 20_000_000)
     if getattr(args, "repeats", None) is not None:
         check_range_int("--repeats", args.repeats, 1, 50)
-    output = args.output or f"bench-{args.what}.json"
+    output = f"bench-{args.what}.json" if args.output is None else args.output
     from eyelab.core.fileio import check_distinct, check_output
 
     check_output("--output", output)
-    if getattr(args, "plot", None):
+    if getattr(args, "plot", None) is not None:
+        if not args.plot.lower().endswith(".png"):
+            raise SpecError("--plot", f"must be a .png file, got {args.plot!r}")
         check_output("--plot", args.plot)
         check_distinct(**{"--output": output, "--plot": args.plot})
     res = _BENCH_RUNS[args.what](args)
@@ -168,11 +171,15 @@ def _bench_quality(args):
 
     if args.merge:
         return merge_results([_read_json("--merge", p) for p in args.merge],
-                             plot_path=args.plot)
+                             plot_path=args.plot, names=args.merge)
+    ref_spp = _int_list("--reference-spp", args.reference_spp)
+    if ref_spp == []:
+        raise SpecError("--reference-spp", "must name at least one spp, got "
+                        f"{args.reference_spp!r}")
     return run_quality_bench(quick=not args.full, size=_size("--size", args.size),
                              plot_path=args.plot,
                              truth_spp=args.truth_spp,
-                             ref_spp=_int_list("--reference-spp", args.reference_spp),
+                             ref_spp=ref_spp,
                              only_configs=_names(args.configs),
                              only_scenes=_names(args.scenes),
                              truth_cache=args.truth_cache, omit=_names(args.omit))
@@ -275,7 +282,7 @@ def _size(flag, text):
     if text is None:
         return None
     parts = text.lower().split("x")
-    if len(parts) != 2 or not all(p.strip().isdigit() for p in parts):
+    if len(parts) != 2 or not all(re.fullmatch(r"[0-9]+", p.strip()) for p in parts):
         raise SpecError(flag, f"must be WxH, e.g. 320x240, got {text!r}")
     w, h = (int(p) for p in parts)
     check_range_int(flag, w, *_SIZE_RANGE)
@@ -291,7 +298,7 @@ def _int_list(flag, text):
     if text is None:
         return None
     try:
-        vals = [int(t) for t in text.split(",")]
+        vals = [int(t) for t in text.split(",") if t.strip()]
     except ValueError:
         raise SpecError(flag, f"must be comma-separated integers, got {text!r}") from None
     return vals

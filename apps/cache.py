@@ -1,6 +1,8 @@
 """``eyelab cache [--clear]``: the on-disk cache of expensive deterministic results
 (:mod:`eyelab.core.diskcache`: optimised progressive designs) — its folder, whether it is
-on, its entries and bound; ``--clear`` removes the entries."""
+on, its entries and bound; ``--clear`` removes the entries. A bad ``$EYELAB_CACHE_DIR`` or
+``$EYELAB_CACHE_MAX_MB`` is refused first (one line naming it, exit status 2, nothing
+removed)."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ def run(args) -> int:
     from eyelab.core import diskcache
     from eyelab.core.fileio import json_text
 
+    diskcache.check_environment(always=True)     # SpecError before anything is removed
     removed = diskcache.clear() if args.clear else None
     info = diskcache.info()
     if removed is not None:

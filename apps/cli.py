@@ -185,13 +185,14 @@ def _main(args) -> int:
         from eyelab.core.progress import set_enabled
 
         set_enabled(False)
-    from eyelab.core.diskcache import OFF_ENV
+    from eyelab.core.diskcache import OFF_ENV, check_environment
     from eyelab.core.parallel import scoped_environ
 
     # --no-cache: EYELAB_NO_CACHE=1 for this command and the processes it starts
     off = {OFF_ENV: "1"} if getattr(args, "no_cache", False) else {}
     try:
         with scoped_environ(**off):
+            check_environment()      # $EYELAB_CACHE_DIR / _MAX_MB: one line, before any work
             return _COMMANDS[args.command](args)
     except SpecError as e:
         print(f"eyelab: error: {e}", file=sys.stderr)
@@ -419,7 +420,10 @@ def _peripheral(args, spec) -> int:
         raise SpecError("eye.model", "a peripheral refraction map needs a schematic eye "
                         "(eye.model = \"navarro\"): the thin eye images every line of sight "
                         "as the fovea does")
-    rep = retinal.peripheral_map(spec, half_angle_deg=args.half_angle, n=args.points)
+    from eyelab.jobs.maps import MAPS_FLAGS, named_as
+
+    with named_as(MAPS_FLAGS):
+        rep = retinal.peripheral_map(spec, half_angle_deg=args.half_angle, n=args.points)
     lens = "naked eye" if spec.lens is None else f"{spec.lens.rx.format()} lens" \
         if spec.lens.rx is not None else "lens"
     title = (f"peripheral refraction: {spec.eye.model} eye, axial length "

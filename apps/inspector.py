@@ -100,6 +100,10 @@ def run(args) -> int:
 
         with _mesh_flag_errors(args):
             parse_scene(_scene(args), None, Path.cwd())
+    if args.spec is not None:            # a bad spec is named before a missing display
+        from eyelab.spec import load_spec
+
+        load_spec(args.spec)
     from eyelab.render import has_display, use_offscreen
 
     offscreen = args.offscreen or (args.screenshot is not None and not has_display())

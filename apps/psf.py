@@ -5,7 +5,7 @@ rows top to bottom), its sampling, Strehl ratios, RMS and coefficients in the JS
 
 from __future__ import annotations
 
-from eyelab.jobs.psf import PITCH_ARCMIN, SIZE
+from eyelab.jobs.psf import PITCH_ARCMIN, PSF_LIMITS, SIZE
 
 
 def add_parser(sub) -> None:
@@ -22,8 +22,11 @@ def add_parser(sub) -> None:
     p.add_argument("--json", help="also write the report (sampling, Strehl, RMS, MTF, "
                    "coefficients) here")
     p.add_argument("--pitch-arcmin", type=float, default=PITCH_ARCMIN,
-                   help=f"arcmin per pixel (default {PITCH_ARCMIN:g})")
-    p.add_argument("--size", type=int, default=SIZE, help=f"pixels a side, odd (default {SIZE})")
+                   help=f"arcmin per pixel, in [{PSF_LIMITS['pitch_arcmin'][0]:g}, "
+                   f"{PSF_LIMITS['pitch_arcmin'][1]:g}] (default {PITCH_ARCMIN:g})")
+    lo, hi = PSF_LIMITS["size"]
+    p.add_argument("--size", type=int, default=SIZE,
+                   help=f"pixels a side, odd, in [{lo}, {hi}] (default {SIZE})")
 
 
 def run(args) -> int:
@@ -32,9 +35,9 @@ def run(args) -> int:
     import numpy as np
 
     from eyelab.apps.common import warn
-    from eyelab.core.errors import SpecError
+    from eyelab.core.errors import SpecError, renamed
     from eyelab.core.fileio import atomic_group, check_distinct, check_output, json_writer
-    from eyelab.jobs.psf import point_psf
+    from eyelab.jobs.psf import PSF_FLAGS, point_psf
     from eyelab.spec import load_spec
 
     if not str(args.output).endswith(".npy"):
@@ -45,8 +48,9 @@ def run(args) -> int:
         check_distinct(**{"--output": args.output, "--json": args.json})
     spec = load_spec(args.spec)
     warn(spec.warnings)
-    img, rep = point_psf(spec, point=args.point, no_lens=args.no_lens,
-                         pitch_arcmin=args.pitch_arcmin, size=args.size, side=args.eye)
+    with renamed(PSF_FLAGS):
+        img, rep = point_psf(spec, point=args.point, no_lens=args.no_lens,
+                             pitch_arcmin=args.pitch_arcmin, size=args.size, side=args.eye)
 
     def npy(path):
         buf = io.BytesIO()

@@ -9,8 +9,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 #: The default grid spacing (mm).
 SPACING_MM = 0.5
+#: Samples a lenslet surface's grid puts across each lenslet at least (its spacing at most
+#: the lenslets' diameter / this, and the finest spacing the format takes).
+LENSLET_SAMPLES = 8
 
 
 def add_parser(sub) -> None:
@@ -21,8 +26,9 @@ def add_parser(sub) -> None:
                    help="which surface of the lens")
     s.add_argument("-o", "--output", required=True,
                    help="the points file: .sdf (DCS SURFMT + ZZ records), .csv or .npy")
-    s.add_argument("--spacing-mm", type=float, default=SPACING_MM, metavar="S",
-                   help=f"grid spacing in mm (default {SPACING_MM:g})")
+    s.add_argument("--spacing-mm", type=float, metavar="S",
+                   help=f"grid spacing in mm (default {SPACING_MM:g}; a surface with "
+                   f"lenslets: their diameter / {LENSLET_SAMPLES}, and no coarser)")
     s.add_argument("--size-mm", type=float, metavar="D", help="side of the square grid in mm "
                    "(default: the lens's diameter plus 2 mm on each side, within a free-form "
                    "surface's own grid)")
@@ -48,6 +54,26 @@ def _lens(spec, eye: str):
     return lens, letter
 
 
+def _spacing(asked, surface, finest: float) -> float:
+    """The grid's spacing (mm): ``asked``, or the default; a surface with lenslets takes at
+    most their diameter / :data:`LENSLET_SAMPLES` (not below ``finest``): a coarser grid
+    would miss them, and is refused naming ``--spacing-mm``."""
+    from eyelab.core.errors import SpecError
+
+    radius = getattr(surface, "radius", None)
+    if radius is None or not len(radius):
+        return SPACING_MM if asked is None else asked
+    d_mm = 2e3 * float(np.min(radius))
+    most = max(finest, math.floor(d_mm / LENSLET_SAMPLES * 1e3) / 1e3)
+    if asked is None:
+        return most
+    if asked > most + 1e-12:
+        raise SpecError("--spacing-mm", f"{asked:g} mm puts {d_mm / asked:.1f} samples "
+                        f"across the surface's {d_mm:g} mm lenslets; at most {most:g} mm "
+                        f"({LENSLET_SAMPLES} across)")
+    return asked
+
+
 def run(args) -> int:
     from eyelab.apps.common import warn
     from eyelab.core.checks import check_range
@@ -67,13 +93,15 @@ def run(args) -> int:
         raise SpecError("--output", f"must end in {', '.join(FORMATS)} (the format), got "
                                     f"{args.output!r}")
     check_output("--output", args.output)
-    spacing = check_range("--spacing-mm", args.spacing_mm, *LIMITS["lens.front.spacing_mm"])
+    if args.spacing_mm is not None:
+        check_range("--spacing-mm", args.spacing_mm, *LIMITS["lens.front.spacing_mm"])
     if args.size_mm is not None:
         check_range("--size-mm", args.size_mm, *LIMITS["surface.size_mm"])
     spec = load_spec(args.spec)
     warn(spec.warnings)
     lens, letter = _lens(spec, args.eye)
     surface = getattr(lens, args.side)
+    spacing = _spacing(args.spacing_mm, surface, LIMITS["lens.front.spacing_mm"][0])
     size = args.size_mm if args.size_mm is not None else default_size_mm(lens, spacing, surface)
     if size < lens.diameter * 1e3 - 1e-9:
         raise SpecError("--size-mm", f"{size:g} mm does not reach the rim of the "
@@ -85,6 +113,11 @@ def run(args) -> int:
     n = len(grid.x)
     side_mm = grid.x[-1] - grid.x[0]
     made = lens.rx.format() if lens.rx is not None else "explicit surfaces"
+    radius = getattr(surface, "radius", None)
+    if radius is not None and len(radius):
+        d_mm = 2e3 * float(np.min(radius))
+        made += (f"; {len(radius)} lenslets of {d_mm:g} mm, {d_mm / spacing:.1f} samples "
+                 "across each")
     print(f"wrote {args.output}: the {args.side} surface of the lens ({made}), {n} x {n} "
           f"sags at {spacing:g} mm over {side_mm:g} x {side_mm:g} mm ({fmt}; "
           + ("float64, mm" if fmt == "npy" else f"mm, {SAG_DECIMALS} decimals") + ")")

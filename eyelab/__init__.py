@@ -66,7 +66,8 @@ def __getattr__(name: str):
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_API))
+    """The public API only (not this module's imports, nor the layers' packages)."""
+    return sorted(__all__)
 
 
 class RenderFunction:

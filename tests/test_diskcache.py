@@ -1,22 +1,28 @@
-"""The on-disk cache (eyelab/core/diskcache.py): entries round-trip bit for bit, are keyed
-by eyelab's version, are never trusted when truncated, corrupt or pickled, survive
-concurrent writers whole, stay within their bound and are not written when the cache is
-off; an optimised progressive design read back in a fresh process is the computed lens,
-and a damaged entry is optimised again."""
+"""The on-disk cache (eyelab/core/diskcache.py): entries round-trip bit for bit, keyed by
+eyelab's version, never trusted truncated, corrupt, pickled or bit-flipped, never read
+unless regular files (not FIFOs, devices, links); concurrent writers, the bound, the cache
+off, bad settings (one line, exit status 2); an optimised design read back in a fresh
+process is the computed lens, and a damaged entry is optimised again."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
+import stat
+import struct
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import eyelab
-from eyelab.core import diskcache
+from eyelab.core import cacheentry, diskcache
+from eyelab.core.errors import SpecError
 from eyelab.optics.eye.prescription import Prescription
 from eyelab.optics.lens import optimise
 from eyelab.optics.lens.optimise import Settings, optimised_progressive
@@ -101,7 +107,8 @@ def test_a_damaged_entry_is_recomputed_and_replaced(folder, how):
     _damage(path, how)
     a2, _, s2 = diskcache.fetch(NS, {}, f)
     assert s2.source == "computed" and f.calls == 2, s2
-    assert s2.note.startswith("bad entry removed"), s2.note
+    assert s2.note is None and s2.path == s.path, s2              # computed and written
+    assert s2.replaced.startswith("bad entry removed"), s2
     np.testing.assert_array_equal(a2["a"], a["a"])
     a3, _, s3 = diskcache.fetch(NS, {}, f)             # the entry was written again, whole
     assert s3.source == "disk" and s3.path == s.path and f.calls == 2
@@ -132,6 +139,142 @@ def test_a_pickled_payload_is_never_loaded(folder):
     with pytest.raises(TypeError, match="numeric arrays only"):
         diskcache.store(NS, key, {"a": np.array([None])}, {})
 
+
+def _expired(signum, frame):
+    raise TimeoutError("still running past its deadline")
+
+
+@contextlib.contextmanager
+def deadline(seconds: int = 10):
+    """The block fails instead of hanging past ``seconds`` (s): a FIFO's read never ends."""
+    old = signal.signal(signal.SIGALRM, _expired)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+#: What is put in an entry's place (``p``; ``s`` a sound copy elsewhere), why it is refused:
+#: a FIFO's read blocks for ever, /dev/zero's never ends; a sparse file over the bound.
+REPLACEMENTS = {
+    "fifo": (lambda p, s: os.mkfifo(p), "not a regular file (a FIFO)"),
+    "link to /dev/zero": (lambda p, s: p.symlink_to("/dev/zero"), "(a symbolic link)"),
+    "link to a sound entry": (lambda p, s: p.symlink_to(s), "(a symbolic link)"),
+    "device": (lambda p, s: os.mknod(p, stat.S_IFCHR | 0o600, os.makedev(1, 5)),
+               "not a regular file (a character device)"),
+    "sparse file": (lambda p, s: (p.touch(), os.truncate(p, cacheentry.ENTRY_MAX_BYTES + 1)),
+                    "bytes, over the")}
+
+
+@pytest.mark.parametrize("what", REPLACEMENTS)
+def test_an_entry_that_is_no_sane_file_is_never_read(folder, tmp_path, what):
+    """None is read; each is removed (a link itself, never its target), the result
+    computed and written again, in seconds, and said so."""
+    f = Counter()
+    a, _, s = diskcache.fetch(NS, {}, f)
+    path, sound = Path(s.path), tmp_path / "elsewhere.entry"
+    sound.write_bytes(path.read_bytes())
+    path.unlink()
+    make, why = REPLACEMENTS[what]
+    try:
+        make(path, sound)
+    except PermissionError:
+        pytest.skip(f"making a {what} takes root")
+    with deadline(10):
+        a2, _, s2 = diskcache.fetch(NS, {}, f)
+        a3, _, s3 = diskcache.fetch(NS, {}, f)
+    assert (s2.source, s2.path, s2.note, f.calls) == ("computed", s.path, None, 2), s2
+    assert s2.replaced.startswith("bad entry removed: ") and why in s2.replaced, s2
+    assert path.is_file() and not path.is_symlink() and s3 == diskcache.Status("disk", s.path)
+    assert sound.is_file() and os.path.exists("/dev/zero")           # targets untouched
+    assert all(np.array_equal(b[k], a[k]) for b in (a2, a3) for k in a)
+
+
+def test_no_flipped_bit_anywhere_in_an_entry_goes_unnoticed(folder):
+    """Each byte of an entry flipped in its lowest and in its highest bit, one at a time:
+    each is refused (never a result), the header's length field is bounded before any
+    header is read, and the result recomputed over a damaged entry is the sound one."""
+    f = Counter(n=5)
+    a, m, s = diskcache.fetch(NS, {}, f)
+    path = Path(s.path)
+    key = path.name[len(NS) + 1:-len(diskcache.SUFFIX)]
+    sound = path.read_bytes()
+    for i in range(len(sound)):
+        for bit in (0x01, 0x80):
+            data = bytearray(sound)
+            data[i] ^= bit
+            path.write_bytes(bytes(data))
+            arrays, _, st = diskcache.load(NS, key, version=eyelab.__version__)
+            assert arrays is None and st.note.startswith("bad entry removed"), (i, bit, st)
+            assert not path.exists()
+    n = len(diskcache.MAGIC)
+    path.write_bytes(sound[:n] + struct.pack(">Q", 2**63) + sound[n + 8:])
+    assert "header length" in diskcache.load(NS, key)[2].note and not path.exists()
+    path.write_bytes(sound)
+    _damage(path, "payload")
+    a2, m2, s2 = diskcache.fetch(NS, {}, f)
+    assert s2.replaced == "bad entry removed: checksum mismatch" and f.calls == 2
+    assert path.read_bytes() == sound and m2 == m
+    for k in a:
+        np.testing.assert_array_equal(a2[k], a[k])
+
+
+#: Settings the cache refuses: (variable, value).
+BAD_SETTINGS = [(diskcache.MAX_ENV, v) for v in ("inf", "1e308", "1e400", "-1", "nan",
+                                                   "abc", "1000001", "-inf")] \
+    + [(diskcache.DIR_ENV, "~nosuchuser9/c"), (diskcache.DIR_ENV, "d" * 5000)]
+#: What each says is allowed.
+RANGES = {diskcache.MAX_ENV: "must be a finite number of MB in [{}, {}], got ".format(
+    *diskcache.MAX_MB_RANGE), diskcache.DIR_ENV: f"must be a folder path of at most "
+    f"{diskcache.DIR_MAX_CHARS} characters ('~' or '~user' of a known user), got "}
+
+
+@pytest.mark.parametrize("name, value", BAD_SETTINGS)
+def test_a_bad_setting_is_one_line_and_exit_status_2(folder, monkeypatch, capsys, tmp_path,
+                                                     name, value):
+    """``eyelab cache`` (``--clear`` included: nothing removed), ``eyelab maps`` of a
+    progressive lens and ``eyelab analyze`` of a lenslet lens: one line naming the
+    variable and its range, status 2, nothing computed or written, in seconds."""
+    from eyelab.apps.cli import main
+
+    f = Counter()
+    diskcache.fetch(NS, {}, f)
+    before = entries(folder)
+    monkeypatch.setenv(name, value)
+    monkeypatch.setattr(optimise, "_DESIGNS", None)
+    monkeypatch.chdir(os.path.dirname(os.path.dirname(__file__)))
+    out = tmp_path / "out"
+    runs = (["cache"], ["cache", "--clear", "--json"],
+            ["maps", "docs/gallery/pal.toml", "--points", "5", "-o", str(out / "m.png"),
+             "--json", str(out / "m.json")],
+            ["analyze", "examples/halt.toml", "-o", str(out / "a.json")])
+    for argv in runs:
+        with deadline(10):
+            assert main(argv) == 2, argv
+        said = capsys.readouterr()
+        assert said.out == "" and said.err.count("\n") == 1, (argv, said)
+        assert said.err.startswith(f"eyelab: error: {name}: {RANGES[name]}"), said.err
+    assert entries(folder) == before and not out.exists()
+    with pytest.raises(SpecError, match=name):
+        diskcache.fetch(NS, {"other": 1}, f)                # before computing
+    monkeypatch.setenv(diskcache.OFF_ENV, "1")
+    diskcache.check_environment()                           # off: not used, not checked
+    with pytest.raises(SpecError, match=name):
+        diskcache.check_environment(always=True)
+    assert f.calls == 1
+
+
+def test_good_size_bounds_and_the_docs(monkeypatch):
+    for value, mb in (("0", 0), (" 12.5 ", 12.5), ("1e6", 10**6), ("", 256)):
+        monkeypatch.setenv(diskcache.MAX_ENV, value)
+        assert diskcache.max_bytes() == int(mb * 10**6)
+    lo, hi = diskcache.MAX_MB_RANGE             # the ranges in docs/guide/python-api.md
+    text = (Path(__file__).parents[1] / "docs" / "guide" / "python-api.md").read_text()
+    assert f"`{diskcache.MAX_ENV}`, a number of MB in [{lo}, {hi}]" in text
+    assert f"under {diskcache.DEFAULT_MAX_BYTES // 10**6} MB" in text
+    assert f"longer than {diskcache.DIR_MAX_CHARS}\ncharacters" in text
 
 WRITER = """
 import sys, numpy as np
@@ -195,17 +338,23 @@ def test_the_cache_off_writes_nothing(folder, monkeypatch, off):
     assert diskcache.enabled()
 
 
-def test_an_unusable_folder_means_computing_quietly(tmp_path, monkeypatch, capsys):
-    """A cache "folder" that is a file: the result is computed, nothing printed or warned
-    (the suite turns warnings into errors), the status says why."""
+def test_an_unusable_folder_means_computing_quietly(folder, tmp_path, monkeypatch, capsys):
+    """A cache "folder" that is a file, an entry that is a folder: the result is computed,
+    nothing printed or warned (the suite turns warnings into errors), the status says why."""
+    f = Counter()
+    entry = Path(diskcache.fetch(NS, {}, f)[2].path)
+    entry.unlink()
+    entry.mkdir()
+    arrays, _, status = diskcache.fetch(NS, {}, f)
+    assert arrays is not None and status.source == "computed" and status.path is None
+    assert status.note.startswith("bad entry left in place") and "(a folder)" in status.note
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     monkeypatch.setenv(diskcache.DIR_ENV, str(blocker))
-    f = Counter()
     arrays, _, status = diskcache.fetch(NS, {}, f)
     assert arrays is not None and status.source == "computed" and status.path is None
     assert "cannot write the cache" in status.note, status.note
-    assert capsys.readouterr() == ("", "")
+    assert capsys.readouterr() == ("", "") and f.calls == 3
 
 
 def test_the_suite_never_touches_the_users_cache():
@@ -301,10 +450,15 @@ def test_a_missing_or_damaged_design_is_optimised_again(folder, monkeypatch, how
     lens2, _, rep2 = optimised_progressive(RX, 2.0, "soft", settings=SMALL)
     o = rep2["optimised"]
     assert o["source"] == "computed" and path.exists()
+    assert o["cache"]["note"] is None, o                      # computed and written again
     if how == "deleted":
-        assert o["cache"]["note"] is None, o
+        assert o["cache"]["replaced"] is None, o
     else:
-        assert o["cache"]["note"].startswith("bad entry removed: checksum"), o
+        assert o["cache"]["replaced"] == "bad entry removed: checksum mismatch", o
+    from eyelab.jobs.maps import design_origin, design_summary
+
+    line = design_summary(design_origin(lens2))[0]
+    assert line.endswith(f"; cached in {path}"), line          # not "not cached: ..."
     np.testing.assert_array_equal(lens2.front.z, lens.front.z)
     monkeypatch.setattr(optimise, "_DESIGNS", None)
     assert optimised_progressive(RX, 2.0, "soft", settings=SMALL)[2]["optimised"][

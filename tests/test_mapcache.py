@@ -1,12 +1,14 @@
 """As-worn maps and figures of merit on disk (eyelab/optics/lens/mapcache.py): a fresh process
 reads back the maps bit for bit and the very figures this one computed, a damaged entry
-is computed again, and an eye or lens without a complete content key is never cached
-(eyelab/core/cache.py: complete_key refuses what only a repr could stand for)."""
+(a flipped bit, a FIFO, a link to /dev/zero) is computed again and written over, and an
+eye or lens without a complete content key is never cached (eyelab/core/cache.py:
+complete_key refuses what only a repr could stand for)."""
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -93,17 +95,40 @@ def test_a_fresh_process_reads_the_same_maps_and_figures(folder, lens):
     assert origin_summary("maps", origin) == [f"maps: from the on-disk cache ({origin['path']})"]
 
 
-def test_a_damaged_figures_entry_is_computed_again(folder, lens):
-    """A flipped bit (tests/test_diskcache.py damages entries every other way)."""
+def _expired(signum, frame):
+    raise TimeoutError("still reading the entry after 30 s")
+
+
+@pytest.mark.parametrize("how, why", [
+    ("flipped bit", "checksum mismatch"), ("fifo", "not a regular file (a FIFO)"),
+    ("link to /dev/zero", "not a regular file (a symbolic link)")])
+def test_a_damaged_figures_entry_is_computed_again(folder, lens, how, why):
+    """A flipped bit, a FIFO (a read would block for ever), a link to /dev/zero (a read
+    would never end): the figures are computed again and written over it — and said so
+    (tests/test_diskcache.py damages entries every other way)."""
     figures, origin = figures_and_origin(Eye(), lens, **GRID)
     path = Path(origin["path"])
-    data = bytearray(path.read_bytes())
-    data[len(data) // 2] ^= 0x01
-    path.write_bytes(bytes(data))
-    again, origin2 = figures_and_origin(Eye(), lens, **GRID)
-    assert origin2["source"] == "computed" and origin2["path"] == str(path)
-    assert origin2["note"].startswith("bad entry removed: checksum"), origin2
-    assert again == figures
+    if how == "flipped bit":
+        data = bytearray(path.read_bytes())
+        data[len(data) // 2] ^= 0x01
+        path.write_bytes(bytes(data))
+    else:
+        path.unlink()
+        if how == "fifo":
+            os.mkfifo(path)
+        else:
+            path.symlink_to("/dev/zero")
+    signal.signal(signal.SIGALRM, _expired)           # fail, never hang
+    signal.alarm(30)
+    try:
+        again, origin2 = figures_and_origin(Eye(), lens, **GRID)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    assert origin2 == dict(origin, replaced=f"bad entry removed: {why}"), origin2
+    assert origin_summary("figures of merit", origin2) == [
+        f"figures of merit: computed in this run; cached in {path}"]
+    assert again == figures and path.is_file() and not path.is_symlink()
     third, origin3 = figures_and_origin(Eye(), lens, **GRID)   # written again, whole
     assert origin3 == dict(origin, source="disk") and third == figures
 

@@ -201,16 +201,29 @@ def run_quality_bench(quick: bool = True, size=None, plot_path=None, *, truth_sp
     return out
 
 
+#: Samples per pixel a reference image of the benchmark may take.
+SPP_RANGE = (1, 65536)
+#: Rays one reference image may take (pixels x spp): the full preset's converged reference.
+MAX_IMAGE_RAYS = 1024 * 768 * 4096
+
+
 def _preset(quick, size, truth_spp, ref_spp) -> tuple:
     """(width, height, raster S values, reference spp values, converged reference spp) of
     the preset with the overrides given, the spp values checked."""
     w, h = size or ((160, 120) if quick else (1024, 768))
     raster_s = tuple(sorted({1, 2, 4, 16, 32, DEFAULT_SAMPLES} | (set() if quick else {64})))
-    ref_spp = tuple(ref_spp or ((1, 4, 16, 64) if quick else (1, 4, 16, 64, 256, 1024)))
-    truth_spp = truth_spp or (256 if quick else 4096)
-    check_range("truth_spp", truth_spp, 1, 65536)
+    if ref_spp is None:
+        ref_spp = (1, 4, 16, 64) if quick else (1, 4, 16, 64, 256, 1024)
+    ref_spp = tuple(ref_spp)
+    truth_spp = (256 if quick else 4096) if truth_spp is None else truth_spp
+    check_range("--truth-spp", truth_spp, *SPP_RANGE)
     for spp in ref_spp:
-        check_range("reference_spp", spp, 1, 65536)
+        check_range("--reference-spp", spp, *SPP_RANGE)
+    for flag, spp in (("--truth-spp", truth_spp), ("--reference-spp", max(ref_spp))):
+        if w * h * spp > MAX_IMAGE_RAYS:
+            raise SpecError(flag, f"{spp} spp at {w}x{h} is {w * h * spp:.3g} rays an image; "
+                            f"the bound is {MAX_IMAGE_RAYS:.3g} (4096 spp at 1024x768, the "
+                            "full preset's converged reference: hours on one machine)")
     return w, h, raster_s, ref_spp, truth_spp
 
 
@@ -221,10 +234,10 @@ def _check_selection(quick, omit, only_scenes, only_configs) -> tuple:
     omit = tuple(omit or ())
     for name in omit:
         if name not in OPTIONAL_ROWS:
-            raise SpecError("omit", f"unknown rows {name!r}; choose from "
+            raise SpecError("--omit", f"unknown rows {name!r}; choose from "
                             f"{', '.join(OPTIONAL_ROWS)}")
-    for flag, names, known in (("scenes", only_scenes, known_s),
-                               ("configs", only_configs, known_c)):
+    for flag, names, known in (("--scenes", only_scenes, known_s),
+                               ("--configs", only_configs, known_c)):
         bad = sorted(set(names or ()) - known)
         if bad:
             raise SpecError(flag, f"unknown {bad}; allowed: {sorted(known)}")
@@ -406,7 +419,7 @@ def summarise(cases, *, preset, size, plot_path=None, camera_cases=()) -> dict:
     ``camera_cases`` (no raster rows) are listed and plotted beside them."""
     camera_cases = list(camera_cases)
     if not cases and not camera_cases:
-        raise SpecError("configs", "no case ran; name at least one configuration")
+        raise SpecError("--configs", "no case ran; name at least one configuration")
     for c in cases:                     # derived from the rows: recomputed when merging
         _compare_at_equal_time(c)
     rows = [_case_row(c) for c in cases + camera_cases]
@@ -480,19 +493,52 @@ def _raster_checks(cases) -> dict:
     }
 
 
-def merge_results(results, plot_path=None) -> dict:
+def merge_results(results, plot_path=None, names=None) -> dict:
     """One benchmark from several partial runs of the same preset, size and ladders (e.g.
     one run per configuration); the converged references may differ in spp (each case
-    records its own); raises SpecError naming what else differs."""
+    records its own); raises SpecError naming (``--merge``) the file (``names``: one per
+    result) that is not a quality benchmark's JSON, or what else differs."""
     if not results:
-        raise SpecError("merge", "needs at least one result")
+        raise SpecError("--merge", "needs at least one result")
+    names = names or [f"result {i + 1}" for i in range(len(results))]
+    for r, name in zip(results, names, strict=True):
+        _check_partial(r, name)
     first = results[0]
     for key in ("benchmark", "preset", "size", "reference_spp"):
         vals = {json.dumps(r.get(key)) for r in results}
         if len(vals) > 1:
-            raise SpecError("merge", f"results differ in {key}: {sorted(vals)}")
-    out = summarise([c for r in results for c in r["cases"]], preset=first["preset"],
-                    size=first["size"], plot_path=plot_path,
-                    camera_cases=[c for r in results for c in r.get("camera_cases", [])])
+            raise SpecError("--merge", f"results differ in {key}: {sorted(vals)}")
+    try:
+        out = summarise([c for r in results for c in r["cases"]], preset=first["preset"],
+                        size=first["size"], plot_path=plot_path,
+                        camera_cases=[c for r in results for c in r.get("camera_cases", [])])
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+        raise SpecError("--merge", "a case is not a quality benchmark's row (written by "
+                        f"eyelab bench quality): {type(e).__name__} {e}") from None
     out["omitted"] = sorted({o for r in results for o in r.get("omitted", [])})
     return out
+
+
+def _check_partial(r, name) -> None:
+    """``r`` has the shape of ``eyelab bench quality``'s JSON, else SpecError naming
+    ``name``."""
+    def bad(what):
+        raise SpecError("--merge", f"{name} is not eyelab bench quality's JSON: {what}")
+
+    if not isinstance(r, dict):
+        bad(f"a JSON {type(r).__name__}, not an object")
+    if r.get("benchmark") != "quality":
+        bad(f"benchmark is {r.get('benchmark')!r}, not 'quality'")
+    size = r.get("size")
+    if not (isinstance(size, list) and len(size) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in size)):
+        bad(f"size must be [width, height], got {size!r}")
+    for key in ("cases", "camera_cases", "omitted"):
+        v = r.get(key, [])
+        if not isinstance(v, list) or (key != "omitted" and not all(
+                isinstance(c, dict) for c in v)):
+            bad(f"{key} must be a list of {'names' if key == 'omitted' else 'objects'}")
+    if not isinstance(r.get("preset"), str) or not isinstance(r.get("reference_spp"), list):
+        bad("needs preset (a name) and reference_spp (a list)")
+    if not r.get("cases") and not r.get("camera_cases"):
+        bad("no cases")

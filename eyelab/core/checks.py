@@ -23,6 +23,19 @@ def check_int(field_name: str, value, lo: int, hi: int) -> int:
     return int(value)
 
 
+def check_argument(name: str, value, lo: float, hi: float, *, integer: bool = False):
+    """A Python argument (the API's): ``value`` as an int (``integer``) or a float in
+    [lo, hi]; a ``TypeError`` naming ``name`` for another type (a string, a bool, None, a
+    float where an integer is wanted), a :class:`SpecError` naming it out of range."""
+    kinds = (int, np.integer) if integer else (int, float, np.integer, np.floating)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, kinds):
+        raise TypeError(f"{name} must be {'an integer' if integer else 'a number'} in "
+                        f"[{lo:g}, {hi:g}], got {type(value).__name__} {_short(value)}")
+    if integer:
+        return check_int(name, value, lo, hi)
+    return check_range(name, value, lo, hi)
+
+
 def check_rgb(field_name: str, value) -> tuple:
     """An sRGB colour [r, g, b] of integers 0-255 as a tuple, or a :class:`SpecError`
     naming the field (or the element)."""

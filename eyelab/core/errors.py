@@ -4,6 +4,8 @@ Every error names the offending field and the allowed range, so that the apps
 can print it and exit with status 2 instead of showing a traceback.
 """
 
+import contextlib
+
 
 class SpecError(ValueError):
     """Invalid user input: a spec field, a prescription string, a CLI argument.
@@ -20,3 +22,15 @@ class SpecError(ValueError):
         self.field = field
         self.message = message
         super().__init__(f"{field}: {message}")
+
+
+@contextlib.contextmanager
+def renamed(names: dict | None):
+    """Within the block, a :class:`SpecError` of a field in ``names`` (the engine's field
+    -> what the caller typed: a CLI flag, an argument) is raised again under that name."""
+    try:
+        yield
+    except SpecError as e:
+        if names and e.field in names:
+            raise SpecError(names[e.field], e.message) from None
+        raise

@@ -10,6 +10,7 @@ temporaries first and renamed last, back to back (:func:`atomic_group`).
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from contextlib import contextmanager
@@ -255,8 +256,25 @@ def png_writer(image: np.ndarray):
 
 
 def json_text(obj) -> str:
-    """``obj`` as indented JSON text, ending in a new line (numpy values converted)."""
-    return json.dumps(obj, indent=2, default=json_default) + "\n"
+    """``obj`` as indented JSON text, ending in a new line (numpy values converted; NaN and
+    infinities written as null: JSON has no such numbers, RFC 8259 §6, and strict readers
+    refuse Python's ``NaN``)."""
+    return json.dumps(strict_json(obj), indent=2, default=json_default,
+                      allow_nan=False) + "\n"
+
+
+def strict_json(obj):
+    """``obj`` with numpy values as Python ones and non-finite floats as None (dicts,
+    lists and tuples walked)."""
+    if isinstance(obj, dict):
+        return {k: strict_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict_json(v) for v in obj]
+    if isinstance(obj, (np.ndarray, np.generic)):
+        return strict_json(obj.tolist())
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
 
 
 def json_writer(obj):

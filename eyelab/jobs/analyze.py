@@ -31,7 +31,7 @@ from eyelab.optics.chain.analysis import (
     status_text,
 )
 from eyelab.optics.eye.aberrations import point_power_matrix
-from eyelab.optics.eye.prescription import tabo_axis
+from eyelab.optics.eye.prescription import power_row, tabo_axis
 from eyelab.optics.eye.thin import Eye
 from eyelab.optics.rays.trace import Status
 from eyelab.spec import Spec, no_camera
@@ -124,11 +124,9 @@ def _eye_report(eye, lens, res, points, spec) -> dict:
                                                              res.eye_x, i, lens)
             entry["prism"] = prism_row(prism[i], deviation[i], lens)
             if err is not None:
-                entry["power_error"] = {
-                    "sphere_d": float(err["sphere_d"][i]),
-                    "cylinder_d": float(err["cylinder_d"][i]),
-                    "axis_tabo_deg": tabo_axis(float(err["axis_wearer_deg"][i])),
-                    "mean_d": float(err["mean_d"][i])}
+                entry["power_error"] = power_row(
+                    err["sphere_d"][i], err["cylinder_d"][i],
+                    tabo_axis(float(err["axis_wearer_deg"][i])), err["mean_d"][i])
         entry["accommodation_d"] = float(res.accommodation[i])
         entry["blur"] = {
             "major_um": float(maj[i] * 1e6), "minor_um": float(mnr[i] * 1e6),
@@ -303,8 +301,9 @@ def _format_eye(rep: dict) -> list:
                          f"(right {pr['base_right_d']:+.3f}, up {pr['base_up_d']:+.3f} Δ)")
         if "power_error" in p:
             pe = p["power_error"]
-            lines.append(f"  power error vs the Rx: {pe['sphere_d']:+.3f} / "
-                         f"{pe['cylinder_d']:+.3f} x {pe['axis_tabo_deg']:.0f} "
+            cyl = (f" / {pe['cylinder_d']:+.3f} x {pe['axis_tabo_deg']:.0f}"
+                   if pe["axis_tabo_deg"] is not None else " DS")
+            lines.append(f"  power error vs the Rx: {pe['sphere_d']:+.3f}{cyl} "
                          f"(mean {pe['mean_d']:+.3f} D)")
         b = p["blur"]
         lines.append(f"  accommodation {p['accommodation_d']:.3f} D; retinal blur ellipse "

@@ -71,11 +71,23 @@ def psf(spec=None, *, point: int = 0, no_lens: bool = False,
                                            pitch_arcmin=pitch_arcmin, size=size, eye=eye)
 
 
+#: The built-in scenes' distance and contrast arguments and the spec key whose range they
+#: take (:data:`eyelab.spec.scenekeys.SCENE_LIMITS`).
+SCENE_ARGUMENTS = {"distance_m": "render.scene.distance_m", "near_m": "render.scene.distance_m",
+                   "far_m": "render.scene.distance_m", "contrast": "render.scene.contrast"}
+
+
 def builtin_scene(name: str = "room", **params):
     """A built-in scene by name (:data:`eyelab.scene.library.SCENE_NAMES`), with its
-    parameters (e.g. ``builtin_scene("chart", distance_m=6.0)``)."""
-    from eyelab.core.checks import check_choice
+    parameters (e.g. ``builtin_scene("chart", distance_m=6.0)``); distances and contrast
+    are checked against the spec's ranges (:data:`SCENE_ARGUMENTS`), naming the
+    argument."""
+    from eyelab.core.checks import check_argument, check_choice
     from eyelab.scene.library import SCENE_NAMES, SCENES
+    from eyelab.spec.scenekeys import SCENE_LIMITS
 
-    check_choice("scene", name, SCENE_NAMES)
+    check_choice("name", name, SCENE_NAMES)
+    for key, value in params.items():
+        if key in SCENE_ARGUMENTS:
+            check_argument(key, value, *SCENE_LIMITS[SCENE_ARGUMENTS[key]])
     return SCENES[name](**params)

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from eyelab.core.errors import SpecError
+from eyelab.core.errors import renamed
 from eyelab.optics.lens.asworn import AsWornMaps
 
 #: ``eyelab maps``'s flags, by the argument field :func:`~eyelab.optics.lens.asworn.as_worn_maps`
@@ -64,13 +64,16 @@ def named_maps(eye, lens, names: dict | None = None, **kw) -> tuple:
     ``--half-angle (maps.half_angle_deg)``)."""
     from eyelab.optics.lens import mapcache
 
-    try:
+    with named_as(names):
         maps, status = mapcache.maps(eye, lens, **kw)
-    except SpecError as e:
-        if names and e.field in names:
-            raise SpecError(f"{names[e.field]} ({e.field})", e.message) from None
-        raise
     return maps, status.to_json()
+
+
+def named_as(names: dict | None):
+    """A context in which a SpecError of a field in ``names`` (engine field -> what the
+    user typed, e.g. :data:`MAPS_FLAGS`) is raised again naming both
+    (``--points (maps.n)``)."""
+    return renamed({k: f"{v} ({k})" for k, v in (names or {}).items()})
 
 
 def lens_wearer(eye):
@@ -160,7 +163,13 @@ def design_summary(origin: dict | None) -> list:
                 f"({origin['path']}; {took} saved)"]
     where = (f"cached in {origin['path']}" if origin["path"] and not origin["note"] else
              f"not cached: {origin['note']}" if origin["note"] else "not cached")
-    return [f"design: optimised as worn ({origin['preset']}) in this run, {took}; {where}"]
+    return [f"design: optimised as worn ({origin['preset']}) in this run, {took}; {where}"
+            + _replaced(origin)]
+
+
+def _replaced(origin) -> str:
+    """What a recomputation replaced in the cache (a damaged entry), or ""."""
+    return f" (replacing a bad entry: {origin['replaced']})" if origin.get("replaced") else ""
 
 
 def maps_summary(maps: AsWornMaps) -> list:
@@ -221,7 +230,7 @@ def origin_summary(what: str, origin: dict) -> list:
     where = (f"cached in {origin['path']}" if origin["path"] and not origin["note"] else
              origin["note"] if (origin["note"] or "").startswith("not cached") else
              f"not cached: {origin['note']}" if origin["note"] else "not cached")
-    return [f"{what}: computed in this run; {where}"]
+    return [f"{what}: computed in this run; {where}{_replaced(origin)}"]
 
 
 def json_ready(obj):

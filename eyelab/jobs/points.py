@@ -9,17 +9,25 @@ import numpy as np
 
 from eyelab.optics.rays.trace import Status
 
+#: Decimals of an object's echoed angles (deg): 1e-9 deg, far below any field a spec
+#: names, far above the 1e-14 deg a direction's round trip through sines leaves
+#: (29.999999999999996 is 30).
+ANGLE_DECIMALS = 9
+
 
 def object_row(points, i) -> dict:
     """Point ``i`` of ``points`` as a report writes its object: distance (m or "inf"),
     field angles and polar field angles (deg)."""
     dist = float(points.distance[i])
     d = points.direction[i]
+
+    def deg(v):                 # the angle as the spec gave it, without the trig's noise
+        return round(float(np.degrees(v)), ANGLE_DECIMALS) + 0.0
+
     return {"distance_m": dist if math.isfinite(dist) else "inf",
-            "field_deg": [float(np.degrees(math.atan2(d[0], -d[2]))),
-                          float(np.degrees(math.atan2(d[1], -d[2])))],
-            "field_polar_deg": [float(np.degrees(math.acos(np.clip(-d[2], -1, 1)))),
-                                float(np.degrees(math.atan2(d[1], d[0])) % 360.0)]}
+            "field_deg": [deg(math.atan2(d[0], -d[2])), deg(math.atan2(d[1], -d[2]))],
+            "field_polar_deg": [deg(math.acos(np.clip(-d[2], -1, 1))),
+                                deg(math.atan2(d[1], d[0])) % 360.0]}
 
 
 def no_path_reason(st) -> str:

@@ -14,8 +14,28 @@ from eyelab.core.errors import SpecError
 #: Default sampling: arcmin per pixel and pixels a side.
 PITCH_ARCMIN = 0.25
 SIZE = 129
+#: The ranges of psf's arguments (pitch_arcmin: arcmin per pixel; size: pixels a side,
+#: odd).
+PSF_LIMITS = {"pitch_arcmin": (0.01, 10.0), "size": (3, 1025)}
+#: ``eyelab psf``'s flag of each argument.
+PSF_FLAGS = {"point": "--point", "pitch_arcmin": "--pitch-arcmin", "size": "--size"}
 #: Modulation reported at these spatial frequencies (cycles / degree).
 MTF_FREQUENCIES_CPD = (5, 10, 15, 20, 30, 45, 60)
+
+
+def check_psf_arguments(point, pitch_arcmin, size) -> None:
+    """The arguments' types (``TypeError`` naming the argument) and ranges
+    (:data:`PSF_LIMITS`; SpecError naming it), before any work."""
+    from eyelab.core.checks import check_argument
+
+    if isinstance(point, (bool, np.bool_)) or not isinstance(point, (int, np.integer)):
+        raise TypeError(f"point must be an integer (an index of the spec's [[points]]), got "
+                        f"{type(point).__name__} {point!r}"[:200])
+    check_argument("pitch_arcmin", pitch_arcmin, *PSF_LIMITS["pitch_arcmin"])
+    check_argument("size", size, *PSF_LIMITS["size"], integer=True)
+    if size % 2 != 1:
+        lo, hi = PSF_LIMITS["size"]
+        raise SpecError("size", f"must be odd, in [{lo}, {hi}], got {size}")
 
 
 def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: float = PITCH_ARCMIN,
@@ -31,14 +51,11 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     from eyelab.optics.rays.paths import ObjectPoints
     from eyelab.spec.load import no_camera, pick_eye
 
+    check_psf_arguments(point, pitch_arcmin, size)
     spec = pick_eye(no_camera(spec, "psf"), side, "eyelab psf", point=point, no_lens=no_lens)
     n = len(spec.points)
     if not 0 <= point < n:
-        raise SpecError("--point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")
-    if not 0.01 <= pitch_arcmin <= 10:
-        raise SpecError("--pitch-arcmin", f"must be in [0.01, 10], got {pitch_arcmin:g}")
-    if not (3 <= size <= 1025 and size % 2 == 1):
-        raise SpecError("--size", f"must be odd, in [3, 1025], got {size}")
+        raise SpecError("point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")
     eye, lens = spec.eye, None if no_lens else spec.lens
     lenslets = lens is not None and lens.has_lenslets
     focus = share = None
@@ -54,7 +71,7 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         green = wl == wavelengths[1]                     # the e line: the lenslets' figures
         c, extra, info = waves(wl, share=lenslets and green)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
-                  field="--pitch-arcmin", integrate=True, extra=extra)
+                  field="pitch_arcmin", integrate=True, extra=extra)
         images.append(out["psf"])
         if lenslets and green:
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
@@ -124,7 +141,7 @@ def thin_waves(spec, lens, one, point):
                              fixation=spec.fixation, accommodation=spec.accommodation,
                              vertex_sphere=spec.vertex_sphere)
         if res.status[0] & np.uint8(FATAL):
-            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
+            raise SpecError("point", f"point {point} has no light path at {wl:g} nm")
         c = point_wave(eye, res, 0, wl)
         extra = None if lens is None else pupil_wave(lens, res, 0, wl)
         info = {"rms_um": zk.rms(c, from_order=2), "rms_higher_orders_um": zk.rms(c, from_order=3),
@@ -152,7 +169,7 @@ def schematic_waves(spec, lens, one, point):
         r = trace_objects(eye, traced, one, fixation=spec.fixation, accommodation=acc,
                           wavelength_nm=wl)
         if not r.ok[0]:
-            raise SpecError("--point", f"point {point} has no light path at {wl:g} nm")
+            raise SpecError("point", f"point {point} has no light path at {wl:g} nm")
         return r
 
     acc = float(trace(EYE_REFERENCE_NM, spec.accommodation).accommodation[0])
@@ -165,7 +182,7 @@ def schematic_waves(spec, lens, one, point):
         except ValueError as e:         # the chief ray does not reach the retina
             if "does not reach" not in str(e):
                 raise
-            raise SpecError("--point", f"point {point}: {e} at {wl:g} nm") from None
+            raise SpecError("point", f"point {point}: {e} at {wl:g} nm") from None
         info = {**wave_rms(wave), "accommodation_d": acc,
                 "m_d": float(r.m[0]), "j0_d": float(r.j0[0]), "j45_d": float(r.j45[0])}
         if share:

@@ -67,6 +67,8 @@ from eyelab.spec import Spec, load_spec, parse_spec
 #: about 0.5-1 GiB at 1024 x 768) and built scenes.
 MAX_RENDERERS = 2
 MAX_SCENES = 4
+#: The ranges of a session's bounds (the renderers' memory is bounded apart).
+SESSION_LIMITS = {"max_renderers": (1, 64), "max_scenes": (1, 1024)}
 
 
 class SessionClosedError(RuntimeError):
@@ -144,8 +146,12 @@ class Session:
 
     def __init__(self, *, max_renderers: int = MAX_RENDERERS, max_scenes: int = MAX_SCENES,
                  max_memory_gb: float | None = None, make_renderer=None, build_scene=None):
-        if max_renderers < 1:
-            raise ValueError(f"max_renderers must be >= 1, got {max_renderers}")
+        from eyelab.core.checks import check_argument
+
+        max_renderers = check_argument("max_renderers", max_renderers, *SESSION_LIMITS[
+            "max_renderers"], integer=True)
+        max_scenes = check_argument("max_scenes", max_scenes, *SESSION_LIMITS["max_scenes"],
+                                    integer=True)
         if max_memory_gb is not None:
             from eyelab.imaging.memory import memory_limit
 

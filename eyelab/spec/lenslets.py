@@ -57,7 +57,9 @@ def _honeycomb(t, d, lens_d) -> tuple:
     if clear >= zone:
         raise SpecError(f"{WHERE}.clear_zone_mm", f"{clear * 1e3:g} mm leaves no annulus "
                         f"inside zone_mm = {zone * 1e3:g}")
-    return ll.honeycomb(pitch, d, clear, zone), f"{WHERE}.zone_mm"
+    centres = ll.honeycomb(pitch, d, clear, zone)     # a lattice of <= 0.3 M points: cheap
+    ll.check_count(len(centres), f"{WHERE}.pitch_mm", "a larger pitch or a smaller zone")
+    return centres, f"{WHERE}.zone_mm"
 
 
 def _rings(t, d, lens_d) -> tuple:
@@ -69,6 +71,8 @@ def _rings(t, d, lens_d) -> tuple:
             raise SpecError(f"{WHERE}.per_ring", f"{len(counts)} counts for {len(diam)} "
                                                  "rings")
     key = f"{WHERE}.per_ring" if counts is not None else f"{WHERE}.ring_diameters_mm"
+    ll.check_count(sum(ll.ring_counts([v * 1e-3 for v in diam], d, counts)), key,
+                   "fewer rings or fewer lenslets on each")
     return ll.rings([v * 1e-3 for v in diam], d, counts), key
 
 
@@ -96,6 +100,7 @@ def _centres(t, d=None, lens_d=None) -> tuple:
     v = t.get("centres_mm")
     if not isinstance(v, list) or not v:
         raise SpecError(name, f"required with layout = \"list\": a list of [x, y], got {v!r}")
+    ll.check_count(len(v), name, "fewer centres")
     out = []
     for p in v:
         if not (isinstance(p, list) and len(p) == 2 and all(

@@ -50,6 +50,7 @@ class RenderSpec:
                             f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not "
                             f"{t.get('renderer')!r} (render.camera = {t['camera']!r})")
         if "renderer" in changes and changes["renderer"] is not None:
+            check_choice("render.renderer", changes["renderer"], RENDERERS)
             other = set(renderer_keys(self.renderer)) - set(renderer_keys(t["renderer"]))
             for k in other:
                 t.pop(k, None)
@@ -87,10 +88,7 @@ def parse_render(t: dict, base: Path | None = None) -> RenderSpec:
     takes is refused with the renderer it belongs to)."""
     if not isinstance(t, dict):
         raise SpecError("render", f"must be a table, got {t!r}")
-    renderer = t.get("renderer", "raster")
-    if renderer not in RENDERERS:
-        raise SpecError("render.renderer", f"must be one of {', '.join(map(repr, RENDERERS))}, "
-                                           f"got {renderer!r}")
+    renderer = check_choice("render.renderer", t.get("renderer", "raster"), RENDERERS)
     allowed = set(renderer_keys(renderer))
     every = {k for r in RENDERERS for k in renderer_keys(r)}
     for key in t:

@@ -217,6 +217,26 @@ def tabo_axis(wearer_deg):
     return float(a) if a.ndim == 0 else a
 
 
+#: Decimals a report gives a power row in: 0.001 D (sphere, cylinder, mean) and 0.1 deg
+#: (axis) — finer than any prescription is written or a lensmeter reads (0.01 D, 1 deg).
+POWER_DECIMALS, AXIS_DECIMALS = 3, 1
+
+
+def power_row(sphere_d: float, cylinder_d: float, axis_tabo_deg: float, mean_d: float) -> dict:
+    """A sphere / cylinder x axis (TABO) and mean as a report writes them: rounded to
+    :data:`POWER_DECIMALS` / :data:`AXIS_DECIMALS` (no float noise: 8.9e-16 D is 0), the
+    axis None where the cylinder rounds to zero (it has no axis); NaN (no light path)
+    stays NaN, written as null."""
+    def d(v):
+        return float(v) if not math.isfinite(v) else round(float(v), POWER_DECIMALS) + 0.0
+
+    cyl = d(cylinder_d)
+    axis = None if cyl == 0 or not math.isfinite(axis_tabo_deg) else \
+        round(float(axis_tabo_deg), AXIS_DECIMALS) or 180.0
+    return {"sphere_d": d(sphere_d), "cylinder_d": cyl, "axis_tabo_deg": axis,
+            "mean_d": d(mean_d)}
+
+
 @dataclass(frozen=True)
 class Prescription:
     """A spectacle prescription.

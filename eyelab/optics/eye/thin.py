@@ -217,6 +217,9 @@ class Eye:
             raise SpecError("eye.kind", f"must be 'refractive' or 'axial', got {kind!r}")
         if isinstance(rx, str):
             rx = Prescription.parse(rx)
+        if not isinstance(rx, Prescription):
+            raise TypeError(f"rx must be a Prescription or a prescription string such as "
+                            f"'-3.00 / -1.00 x 180', got {type(rx).__name__} {rx!r}"[:200])
         d = vertex_distance
         (f_a, dir_a), (f_b, _) = rx.principal_meridians()
         k_a, k_b = f_a / (1 - d * f_a), f_b / (1 - d * f_b)

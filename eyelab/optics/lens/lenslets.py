@@ -42,6 +42,11 @@ LIMITS = {"lens.lenslets.add_d": (-10.0, 10.0), "lens.lenslets.diameter_mm": (0.
           "lens.lenslets.zone_mm": (1.0, 90.0), "lens.lenslets.conic": (-50.0, 50.0),
           "lens.lenslets.ring_diameters_mm": (1.0, 90.0),
           "lens.lenslets.per_ring": (1, 2000), "lens.lenslets.centres_mm": (-45.0, 45.0)}
+#: The most lenslets a lens may hold: 5 x the 1,021 of the densest design in production
+#: (HALT, docs/SCIENCE.md §12b). Each lenslet is designed, meshed and traced on its own
+#: (``eyelab analyze`` of a default-zone honeycomb: ~2,000 lenslets 10 s, ~6,500 21 s,
+#: ~17,000 73 s on 2 cores), so a layout beyond it is refused before it is laid out.
+MAX_LENSLETS = 5000
 #: Gap (m) two lenslets' circles must keep: touching circles (contiguous rings) are allowed
 #: up to this rounding.
 TOUCH_TOL = 1e-9
@@ -191,18 +196,31 @@ def honeycomb(pitch: float, diameter: float, clear_zone: float, zone: float) -> 
     return np.stack([x[keep], y[keep]], -1)
 
 
+def ring_counts(ring_diameters, diameter: float, per_ring=None) -> list:
+    """Lenslets on each ring of :func:`rings` (``per_ring``, or as many as fit
+    contiguously: chord >= ``diameter``)."""
+    if per_ring is not None:
+        return [int(n) for n in per_ring]
+    return [int(math.floor(math.pi / math.asin(min(1.0, diameter / dr)) + 1e-9))
+            if dr / 2 > diameter / 2 else 1 for dr in ring_diameters]
+
+
+def check_count(n: int, key: str, advice: str) -> None:
+    """Refuse, naming ``key``, a layout of more than :data:`MAX_LENSLETS` lenslets
+    (``advice``: what to change)."""
+    if n > MAX_LENSLETS:
+        raise SpecError(key, f"lays {n:,} lenslets; at most {MAX_LENSLETS:,} (5 x the 1,021 "
+                        f"of the densest design in production): {advice}")
+
+
 def rings(ring_diameters, diameter: float, per_ring=None) -> np.ndarray:
     """(n, 2) centres (m) on concentric rings of ``ring_diameters`` (m), each ring's
     lenslets evenly spaced from the +x axis (alternate rings turned by half a step):
     ``per_ring`` counts, or as many as fit contiguously (chord >= ``diameter``)."""
     out = []
-    for k, dr in enumerate(ring_diameters):
+    counts = ring_counts(ring_diameters, diameter, per_ring)
+    for k, (dr, n) in enumerate(zip(ring_diameters, counts, strict=True)):
         r = dr / 2
-        if per_ring is None:
-            n = int(math.floor(math.pi / math.asin(min(1.0, diameter / (2 * r)))
-                               + 1e-9)) if r > diameter / 2 else 1
-        else:
-            n = int(per_ring[k])
         phase = 0.5 * (k % 2)
         t = 2 * math.pi * (np.arange(n) + phase) / n
         out.append(np.stack([r * np.cos(t), r * np.sin(t)], -1))
