@@ -12,7 +12,7 @@ beyond the lens, or hold none is refused naming the key that places them.
 
 from __future__ import annotations
 
-from eyelab.optics.lens.lenslets import LAYOUTS
+from eyelab.optics.lens.lenslets import LAYOUTS, MAX_LENSLETS
 from eyelab.optics.lens.lenslets import LIMITS as LENSLET_LIMITS
 
 WHERE = "lens.lenslets"
@@ -48,7 +48,8 @@ LENSLET_KEYS = (
     ((WHERE, "layout", "choice", "", "required", "honeycomb: a hexagonal lattice in an "
       "annulus, its rows along x (the wearer's horizontal) and one lattice point on the "
       "lens's centre; rings: concentric rings about the centre, each ring's first lenslet "
-      "on +x, alternate rings turned by half a step; list: centres one by one"),
+      "on +x, alternate rings turned by half a step; list: centres one by one; at most "
+      f"{MAX_LENSLETS:,} lenslets (5 × the densest design in production)"),
      {"choices": LAYOUTS, "base": BASE,
       "choice_base": {"rings": RINGS_BASE, "list": LIST_BASE}}),
     ((WHERE, "add_d", "number", "D", "required", "each lenslet's add as worn: the mean "
