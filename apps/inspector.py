@@ -104,12 +104,13 @@ def run(args) -> int:
         from eyelab.spec import load_spec
 
         load_spec(args.spec)
-    from eyelab.render import has_display, use_offscreen
+    from eyelab.render import display_error, use_offscreen
 
-    offscreen = args.offscreen or (args.screenshot is not None and not has_display())
-    if not offscreen and not has_display():
-        raise SpecError("inspect", "no display to open a window on (DISPLAY is not set); "
-                        "use --screenshot FILE or --offscreen, or run under xvfb-run")
+    why = None if args.offscreen else display_error()
+    offscreen = args.offscreen or (args.screenshot is not None and why is not None)
+    if not offscreen and why is not None:
+        raise SpecError("inspect", f"{why}; use --screenshot FILE or --offscreen, or run "
+                        "under xvfb-run")
     if offscreen:
         use_offscreen()
     from eyelab.apps.common import apply_max_memory

@@ -242,3 +242,17 @@ def test_every_json_eyelab_writes_reads_with_a_strict_parser(tmp_path, capsys, m
     assert {p.name for p in written} >= {"a.json", "m.json", "pm.json", "p.json", "r.json"}
     for p in written:
         _strict(p.read_text())
+
+
+def test_an_unreachable_display_is_one_line(tmp_path, capsys, monkeypatch):
+    """DISPLAY set with no X server behind it: eyelab's line, exit 2, before VTK opens
+    anything (it would print its own warnings and exit 0)."""
+    from eyelab.render import display_error
+
+    monkeypatch.setenv("DISPLAY", ":55")
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert display_error() == "cannot open display :55"
+    rc, err, _ = _run(["inspect"], tmp_path, capsys)
+    assert rc == 2 and err.splitlines() == [
+        "eyelab: error: inspect: cannot open display :55; use --screenshot FILE or "
+        "--offscreen, or run under xvfb-run"], err

@@ -31,5 +31,42 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+def display_error() -> str | None:
+    """Why no window can be shown here, or None when one can: no DISPLAY / WAYLAND_DISPLAY
+    set, or an X server that does not answer (``XOpenDisplay`` through libX11, which VTK's
+    X window uses too; without libX11 the variable is trusted), or a Wayland socket that
+    is not there."""
+    if sys.platform in ("darwin", "win32"):
+        return None
+    x, wayland = os.environ.get("DISPLAY"), os.environ.get("WAYLAND_DISPLAY")
+    if not (x or wayland):
+        return "no display to open a window on (DISPLAY is not set)"
+    if x:
+        return None if _x_answers(x) else f"cannot open display {x}"
+    runtime = os.environ.get("XDG_RUNTIME_DIR", "")
+    sock = wayland if os.path.isabs(wayland) else os.path.join(runtime, wayland)
+    return None if os.path.exists(sock) else f"cannot open Wayland display {wayland}"
+
+
+def _x_answers(name: str) -> bool:
+    """Whether the X server ``name`` accepts a connection (libX11's XOpenDisplay)."""
+    import ctypes
+    import ctypes.util
+
+    path = ctypes.util.find_library("X11") or "libX11.so.6"
+    try:
+        x11 = ctypes.CDLL(path)
+    except OSError:
+        return True                        # no libX11 to ask: trust the variable
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = x11.XOpenDisplay(name.encode())
+    if not handle:
+        return False
+    x11.XCloseDisplay(handle)
+    return True
+
+
 if not has_display():
     use_offscreen()
