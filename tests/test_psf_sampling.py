@@ -1,14 +1,18 @@
 """The PSF's sampling against a converged PSF computed another way: the Fraunhofer integral
-evaluated directly at every point of the output window (a matrix Fourier transform: no
-periodic field to fold light back, whatever the wavefront's slope), on a 512-sample pupil
-with a 4 x 4 supersampled edge, each output pixel integrated from 7 x 7 points. At `eyelab
-psf`'s defaults (0.25' pixels, 129 a side), eyelab's PSF (its FFT field 64 lambda/D wider
-than the geometric spread, each pixel integrated exactly) is within 0.5 % L1 for every
-case at 486 and 546 nm: the keratoconus-like example 0.22-0.23 %, 0.15 um SA + 0.10 um
-coma 0.35-0.38 %, 1 D of defocus with 0.3 um SA 0.30-0.31 %. With a field 16 lambda/D
-wider, the Airy tails beyond it (about 1 / (pi^2 rho) of the light beyond rho lambda/D)
-folded back into it: 0.52 % and 1.0-1.07 % for the last two (1-2.7 % with 3 x 3 point
-samples per pixel and a field of just the geometric spread)."""
+evaluated directly at 8 x 8 Gauss-Legendre points of every output pixel (a matrix Fourier
+transform: no periodic field to fold light back, whatever the wavefront's slope), on a
+512-sample pupil with a 4 x 4 supersampled edge, each pixel's light over the disc's whole
+light (pi D^2 / 4: eyelab's pixel rule, :mod:`eyelab.optics.eye.psf`). At `eyelab psf`'s
+defaults (0.25' pixels, 129 a side), eyelab's PSF (its FFT field 64 lambda/D wider than the
+geometric spread, each pixel integrated exactly) is within 0.5 % L1 for every case at 486
+and 546 nm: the keratoconus-like example 0.10 %, 0.15 um SA + 0.10 um coma 0.16-0.18 %,
+1 D of defocus with 0.3 um SA 0.29 % (0.16-0.17 %, 0.38-0.42 % and 0.32-0.34 % while
+eyelab divided by the FFT field's light, the grey-edged pupil's, not the disc's). An
+earlier truth here (7 x 7 midpoints a pixel, over the grey-edged pupil's light) was
+itself 0.1-0.3 % from this one; against it, a field only 16 lambda/D wider, the Airy
+tails beyond it (about 1 / (pi^2 rho) of the light beyond rho lambda/D) folded back into
+it, was 0.52 % and 1.0-1.07 % for the last two (1-2.7 % with 3 x 3 point samples per
+pixel and a field of just the geometric spread)."""
 
 import numpy as np
 import pytest
@@ -24,7 +28,9 @@ CASES = {"keratoconus-like": {(3, -1): -1.2, (3, -3): 0.4, (4, 0): -0.3},
 L1_BOUND = {"keratoconus-like": 0.005, "SA + coma": 0.005, "defocus + SA": 0.005}
 
 
-def _converged(coefficients, pupil_mm, wavelength_nm, pitch, size, n_pupil=512, sub=7):
+def _converged(coefficients, pupil_mm, wavelength_nm, pitch, size, n_pupil=512, q=8):
+    """(size, size) light per pixel (rows theta_y up) of 1 in all: the Fraunhofer sum at
+    ``q`` x ``q`` Gauss-Legendre points of each pixel, over the disc's area."""
     lam, r = wavelength_nm * 1e-9, pupil_mm * 1e-3 / 2
     dx = 2 * r / n_pupil
     x = (np.arange(n_pupil) - n_pupil / 2 + 0.5) * dx
@@ -32,13 +38,14 @@ def _converged(coefficients, pupil_mm, wavelength_nm, pitch, size, n_pupil=512, 
     o = ((np.arange(4) + 0.5) / 4 - 0.5) * dx               # the edge supersampled 4 x 4
     amp = np.mean([np.hypot(xx + a, yy + b) <= r for a in o for b in o], axis=0)
     w = zk.wavefront(coefficients, xx / r, yy / r) * 1e-6
-    f = amp * np.exp(2j * np.pi * w / lam)
-    t = (np.arange(size * sub) - (size * sub) // 2) * pitch / sub      # window points, rad
+    f = amp * np.exp(2j * np.pi * w / lam) * dx**2
+    u, wt = np.polynomial.legendre.leggauss(q)
+    t = ((np.arange(size) - size // 2)[:, None] * pitch + u[None, :] * pitch / 2).ravel()
     m = np.exp(-2j * np.pi * np.outer(t, x) / lam)                    # (points, pupil)
     e = m @ f @ m.T                                                    # E(theta_y, theta_x)
-    inten = np.abs(e) ** 2 * (pitch / sub) ** 2
-    total = np.sum(np.abs(f) ** 2) * lam**2 / dx**2                   # Parseval: all light
-    return inten.reshape(size, sub, size, sub).sum(axis=(1, 3)) / total
+    wt = np.tile(wt / 2, size)
+    inten = np.abs(e) ** 2 / lam**2 * wt[:, None] * wt[None, :] * pitch**2   # per point
+    return inten.reshape(size, q, size, q).sum(axis=(1, 3)) / (np.pi * r * r)
 
 
 @pytest.mark.parametrize("label", list(CASES))

@@ -37,6 +37,11 @@ CASES = [
      "lens.lenslets.ring_diameters_mm"),
     ("41,689 listed centres", _toml(LISTED), ["analyze"], "lens.lenslets.centres_mm"),
     ("200,000 centres at the origin", _toml(ZEROS), ["render"], "lens.lenslets.centres_mm"),
+    ("psf through +10 D lenslets 5 mm across before an 8 mm pupil",
+     '[eye]\npupil_diameter_mm = 8\n' + _toml('layout = "list"\ndiameter_mm = 5\n'
+                                           'centres_mm = [[0, 0]]').replace("add_d = 3.5",
+                                                                             "add_d = 10"),
+     ["psf"], "lens.lenslets.add_d"),
     ("maps --points 0", '[eye]\nmodel = "navarro"\n',
      ["maps", "--kind", "peripheral", "--points", "0"], "--points"),
     ("maps --half-angle 90", '[eye]\nmodel = "navarro"\n',

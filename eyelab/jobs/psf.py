@@ -46,7 +46,7 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     accommodation both eyes share there."""
     from eyelab.core.fileio import with_units
     from eyelab.imaging.eyepsf import channel_wavelengths
-    from eyelab.optics.eye.psf import ARCMIN, mtf, psf
+    from eyelab.optics.eye.psf import ARCMIN, psf
     from eyelab.optics.eye.thin import Eye
     from eyelab.optics.rays.paths import ObjectPoints
     from eyelab.spec.load import no_camera, pick_eye
@@ -58,6 +58,7 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         raise SpecError("point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")
     eye, lens = spec.eye, None if no_lens else spec.lens
     lenslets = lens is not None and lens.has_lenslets
+    _check_grids(eye.pupil_diameter * 1e3, pitch_arcmin * ARCMIN, lens if lenslets else None)
     focus = share = None
     pts = spec.points
     one = ObjectPoints(pts.direction[point:point + 1], pts.distance[point:point + 1])
@@ -71,7 +72,8 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
         green = wl == wavelengths[1]                     # the e line: the lenslets' figures
         c, extra, info = waves(wl, share=lenslets and green)
         out = psf(c, pupil, wl, pitch_arcmin * ARCMIN, size, stiles_crawford=sc,
-                  field="pitch_arcmin", integrate=True, extra=extra)
+                  field="pitch_arcmin", integrate=True, extra=extra,
+                  mtf_cpd=MTF_FREQUENCIES_CPD)
         images.append(out["psf"])
         if lenslets and green:
             focus = lenslet_focus(lens, c, pupil, wl, extra, sc)
@@ -80,10 +82,9 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
             "wavelength_nm": wl, "strehl": out["strehl"], **info,
             "energy_inside": float(out["psf"].sum()),
             "outside_window": out["outside_window"],
-            "mtf": {str(f): (float(v) if np.isfinite(v) else None) for f, v in zip(
-                MTF_FREQUENCIES_CPD, mtf(out["psf"], out["pitch_rad"], MTF_FREQUENCIES_CPD,
-                                         integrated=True),
-                strict=True)},    # None: beyond the sampling's Nyquist frequency
+            # from the PSF's fine grid (no window, no pixel, no aliasing)
+            "mtf": {str(f): (float(v) if np.isfinite(v) else None)
+                    for f, v in zip(MTF_FREQUENCIES_CPD, out["mtf"], strict=True)},
             "fft": out["fft"], "pupil_samples": out["pupil_samples"]})
     rep = {"point": point, "eye_model": getattr(eye, "model", "thin"), "side": side,
            "through_lens": lens is not None, "pupil_mm": pupil,
@@ -196,16 +197,38 @@ def schematic_waves(spec, lens, one, point):
     return schematic
 
 
+def focus_range(lens) -> tuple:
+    """(lowest, highest) vergence (D) of a lenslet lens's through-focus curve: from the
+    carrier's image to the lenslets' add, each with a margin."""
+    from eyelab.jobs.retinal import FOCUS_MARGIN_D
+
+    add = lens.front.add_d
+    return min(0.0, add) - FOCUS_MARGIN_D, max(0.0, add) + FOCUS_MARGIN_D
+
+
+def _check_grids(pupil_mm, pitch_rad, lens) -> None:
+    """Refuse before any ray is traced a PSF (every channel) or a lenslet lens's
+    through-focus curve whose FFT exceeds the bound even for a wave without slope: the
+    grids only grow with the wave's slope (:func:`eyelab.optics.eye.psf.psf_grid`)."""
+    from eyelab.imaging.eyepsf import channel_wavelengths
+    from eyelab.optics.eye.psf import focus_grid, psf_grid
+
+    for wl in channel_wavelengths():
+        psf_grid(0.0, pupil_mm, wl, pitch_rad, "pitch_arcmin")
+    if lens is not None:
+        reach = max(abs(v) for v in focus_range(lens))
+        focus_grid(0.0, pupil_mm, channel_wavelengths()[1], reach, "lens.lenslets.add_d")
+
+
 def lenslet_focus(lens, coefficients_um, pupil_mm, wavelength_nm, extra, sc) -> dict:
     """The image through focus behind a lenslet lens (:func:`eyelab.optics.eye.psf.
     through_focus`) from -1.5 D to the add + 1.5 D in 0.05 D steps (as ``analyze`` of a
     schematic eye), with the peaks of both curves (the carrier's image, the lenslets')."""
-    from eyelab.jobs.retinal import FOCUS_MARGIN_D, FOCUS_STEP_D
+    from eyelab.jobs.retinal import FOCUS_STEP_D
     from eyelab.optics.chain.forward_wave import focus_peaks
     from eyelab.optics.eye.psf import through_focus
 
-    add = lens.front.add_d
-    lo, hi = min(0.0, add) - FOCUS_MARGIN_D, max(0.0, add) + FOCUS_MARGIN_D
+    lo, hi = focus_range(lens)
     vs = np.round(np.arange(lo, hi + FOCUS_STEP_D / 2, FOCUS_STEP_D), 10)
     tf = through_focus(coefficients_um, pupil_mm, wavelength_nm, vs, extra=extra,
                        stiles_crawford=sc)
