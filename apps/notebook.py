@@ -110,6 +110,13 @@ class NotebookInspector:
         state = "done" if m.done else "rendering"
         self.status.value = (f"<code data-passes='{done}' data-target='{m.samples}' "
                              f"data-state='{state}'>{_escape(m.status())}</code>")
+        for c in m.controls:         # a value that is not the slider's number says so
+            text = m.value_text(c.name)
+            plain = text == c.fmt % float(m.value(c.name))
+            self.sliders[c.name].description = c.label if plain else f"{c.label}: {text}"
+        for name, t in self.toggles.items():       # the model's state, however it changed
+            if t.value != bool(m.value(name)):
+                t.value = bool(m.value(name))
 
     def spec_data(self) -> dict:
         """The spec the view shows, as the tables a spec file holds (``eyelab.render`` of

@@ -37,13 +37,15 @@ CONTROLS = (
     Control("axis", "eye axis (deg)", 1.0, 180.0, 1.0, "%.0f"),
     Control("pupil_mm", "pupil (mm)", 1.0, 8.0, 0.1, "%.1f"),
     Control("age", "age (years)", 10.0, 70.0, 1.0, "%.0f"),
-    Control("focus_d", "focus (D, <0 auto)", -0.5, 10.0, 0.25, "%.2f"),
+    Control("focus_d", "focus (D; leftmost: auto)", -0.5, 10.0, 0.25, "%.2f"),
     Control("samples", "samples S", 1.0, 64.0, 1.0, "%.0f"),
     Control("cvd_severity", "CVD severity", 0.0, 1.0, 0.05, "%.2f"),
 )
 
 
 CONTROL_NAMES = tuple(c.name for c in CONTROLS)
+#: Each slider by name.
+CONTROL = {c.name: c for c in CONTROLS}
 #: Each slider's step (the unit its value is snapped to).
 STEP = {c.name: c.step for c in CONTROLS}
 

@@ -25,6 +25,7 @@ import numpy as np
 from eyelab.core.color import CVD_KINDS, cvd_linear, encode_srgb
 from eyelab.core.errors import SpecError
 from eyelab.jobs.controls import (
+    CONTROL,
     CONTROLS,
     CVD_CYCLE,
     PREVIEW_AFTER,
@@ -153,8 +154,9 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
             return {"sphere": rx.sphere, "cylinder": rx.cylinder, "axis": rx.axis}[name]
         if name == "pupil_mm":
             return self.eye.pupil_diameter * 1e3
-        if name == "age":
-            return float(eye.get("age", 45.0))
+        if name == "age":      # without an age: the age whose mean amplitude is the eye's
+            return float(eye["age"]) if "age" in eye else min(max(
+                (18.5 - self.eye.accommodation_max) / 0.3, CONTROL["age"].lo), CONTROL["age"].hi)
         if name == "focus_d":
             f = self.spec.render.view.focus_d
             return -0.5 if f is None else f
@@ -173,6 +175,16 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         if name == "maps":
             return self.maps_on
         raise KeyError(name)
+
+    def value_text(self, name: str) -> str:
+        """A slider's value as the window writes it: its number, except an age the spec
+        does not give (its amplitude instead: what the eye accommodates) and a focus left
+        to the eye ("auto": each point's own, Kakimoto Eq. 13)."""
+        if name == "age" and "age" not in self._eye_table():
+            return f"amplitude {self.eye.accommodation_max:.2f} D"
+        if name == "focus_d" and self.spec.render.view.focus_d is None:
+            return "auto"
+        return CONTROL[name].fmt % float(self.value(name))
 
     def request(self, name: str, value) -> None:
         """Queue a change; :meth:`tick` applies every queued change at once (the last value
@@ -344,11 +356,14 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
 
             self.gaze_distance_m = fixation_distance(self.result)
             return readout(self.result)
+        from eyelab.jobs.points import line_of_sight_lens
+
         cam = self.view.camera(self.spec.eye.rotation_centre)
         o = np.asarray(cam.position, float)[None]
         d = np.asarray(cam.basis[2], float)[None]
-        if self.lens is not None:
-            res = self.lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
+        lens = line_of_sight_lens(self.lens)    # a lenslet lens: its carrier, as analyze
+        if lens is not None:
+            res = lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
             if (res["status"][0] & np.uint8(FATAL)) == 0:
                 o, d = res["out_points"], res["out_dirs"]
         hit = EmbreeIntersector(self.scene()).intersect(o + 1e-7 * d, d)
@@ -356,15 +371,27 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         if not hit.hit[0]:
             return "gaze point: nothing on the line of sight"
         p = o[0] + hit.t[0] * d[0]
+        self.gaze_point = p                     # m, the world frame (analyze's [[points]])
         self.gaze_distance_m = float(np.linalg.norm(p - np.asarray(cam.position)))
-        pa = analyze_points(self.spec.eye, self.lens, ObjectPoints.from_positions(p[None]),
-                            fixation="rotating", accommodation=self.view.focus_d)
+        points = ObjectPoints.from_positions(p[None])
+        pa = analyze_points(self.spec.eye, lens, points, fixation="rotating",
+                            accommodation=self.view.focus_d)
         if not pa.ok[0]:
             return "gaze point: no light path through the lens"
         maj, mnr, _ = pa.blur_axes()
-        return (f"gaze point {np.linalg.norm(p):.2f} m: accommodation "
+        text = (f"gaze point {np.linalg.norm(p):.2f} m: accommodation "
                 f"{pa.accommodation[0]:.2f} D, blur {pa.to_arcmin(maj)[0]:.2f}' x "
                 f"{pa.to_arcmin(mnr)[0]:.2f}' (semi-axes, d line)")
+        if lens is not self.lens:                 # the lenslets' light, as analyze says it
+            from eyelab.jobs.points import lenslet_row
+
+            row = lenslet_row(self.lens, points, 0, pa.pupil[0], pa.chief.dir_out[0],
+                              self.spec.eye.pupil_diameter / 2, EYE_REFERENCE_NM,
+                              entry=pa.chief.entry[0])
+            text += (f"; {100 * row['fraction']:.1f} % of the light through "
+                     f"{row['count']} lenslets of {row['add_d']:+.2f} D (the carrier's image "
+                     "above)" if row["count"] else "; the pupil's light misses the lenslets")
+        return text
 
     def save(self, image_path, *, image=None) -> tuple:
         """Write the displayed view and the spec that reproduces it (:func:`write_state`)."""

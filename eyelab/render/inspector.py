@@ -181,10 +181,8 @@ class InspectorWindow:
         """The side column's right edge: before the map column, or at the window's edge
         when the maps are hidden (their renderers are not drawn)."""
         right = self._columns[1] if maps_shown else 1.0
-        for cell in ((0, 1), (1, 1)):
-            ren = self.plotter.renderers[self.plotter.renderers.loc_to_index(cell)]
-            x0, y0, _, y1 = ren.GetViewport()
-            ren.SetViewport(x0, y0, right, y1)
+        for band in self._top_texts.values():      # each side panel with its title band
+            band.set_right(right)
 
     def _fit_view_camera(self):
         """Parallel scale that shows the image whole: one texel per pixel when the viewport
@@ -396,8 +394,9 @@ class InspectorWindow:
                 text_r = f"gaze point: {e}"
             self._readout = text_r
             self._draw_side()
-        for name, (actor, fmt, _, _) in self._values.items():
-            actor.SetInput(fmt % float(self.model.value(name)))
+        for name, (actor, _, _, _) in self._values.items():
+            actor.SetInput(self.model.value_text(name))
+        self._sync_widgets(sliders=False)
         room = self.window_size[0] - 16
         lines = self._status_text().split("\n")
         if len(lines) > STATUS_LINES:           # the rest in the help
@@ -414,11 +413,16 @@ class InspectorWindow:
         draw_side(self)
 
     # ----------------------------------------------------------------- output
-    def _sync_widgets(self):
-        for name, w in self._sliders.items():
+    def _sync_widgets(self, sliders: bool = True):
+        """Every widget mirrors the model, whichever way its value changed (mouse, key,
+        reset): the check boxes always, the sliders unless ``sliders`` is false (a slider
+        being dragged is ahead of the model by a tick)."""
+        for name, w in (self._sliders.items() if sliders else ()):
             w.GetRepresentation().SetValue(float(self.model.value(name)))
         for name, w in self._checks.items():
-            w.GetRepresentation().SetState(int(bool(self.model.value(name))))
+            state = int(bool(self.model.value(name)))
+            if w.GetRepresentation().GetState() != state:
+                w.GetRepresentation().SetState(state)
 
     def grab_view(self) -> np.ndarray:
         """(h, w, 3) uint8: the simulated view as the window shows it, read back from the

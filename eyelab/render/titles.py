@@ -31,6 +31,13 @@ class TitleBand:
         self.text = text
         self.place()
 
+    def set_right(self, x1: float) -> None:
+        """The cell's right edge moved to ``x1`` (a fraction of the window: the panel
+        widened or narrowed), band and panel placed again."""
+        x0, y0, _, y1 = self.cell
+        self.cell = (x0, y0, float(x1), y1)
+        self.place()
+
     def place(self) -> None:
         """The title wrapped to the cell's width; the band as tall as it (at most half the
         cell), the panel below it."""
