@@ -167,7 +167,8 @@ def _bench_render(args):
 
 
 def _bench_quality(args):
-    from eyelab.bench.quality import merge_results, run_quality_bench
+    from eyelab.bench.quality import run_quality_bench
+    from eyelab.bench.qualitymerge import merge_results
 
     if args.merge:
         return merge_results([_read_json("--merge", p) for p in args.merge],

@@ -64,7 +64,7 @@ def test_quick_stability_all_clear():
 def test_partial_runs_merge_into_the_same_checks(quality, tmp_path):
     """Full-size runs are done one configuration at a time and merged: the merge of the
     halves reproduces the whole run's checks; mismatched ladders are refused by name."""
-    from eyelab.bench.quality import merge_results
+    from eyelab.bench.qualitymerge import merge_results
     from eyelab.core.errors import SpecError
 
     cases = quality["cases"]
@@ -93,7 +93,7 @@ def test_quick_quality_has_image_based_rows_and_a_camera_case(quality):
 def test_a_camera_case_runs_alone_and_rows_can_be_omitted(tmp_path):
     """``--configs camera_doublet_room`` runs only the camera case (partial runs of the full
     preset); ``--omit`` leaves optional rows out and says so; a typo is refused by name."""
-    from eyelab.bench.quality import merge_results
+    from eyelab.bench.qualitymerge import merge_results
     from eyelab.core.errors import SpecError
 
     res = run_quality_bench(quick=True, size=(32, 24), truth_spp=4, ref_spp=[1, 4],

@@ -100,3 +100,36 @@ def test_the_gaze_readout_is_analyze_at_the_gaze_point(path):
             assert p["blur"]["major_arcmin"] < 0.05          # the carrier's image: sharp
     finally:
         m.close()
+
+
+def test_an_aberrometer_eye_is_moved_by_the_rx_sliders():
+    """examples/aberrometer.toml's refraction is its second order: the inspector shows it
+    (not plano), draws the same eye, and its sphere slider moves it (it used to write
+    eye.rx beside the second order and refuse its own spec)."""
+    from eyelab.spec import load_spec
+
+    path = "examples/aberrometer.toml"
+    want = load_spec(path).eye
+    m = InspectorModel(path, size=(32, 24), samples=1)
+    try:
+        got = m.spec.eye
+        for k in ("power_min_d", "astigmatism_d"):
+            assert got.spec_keys()[k] == pytest.approx(want.spec_keys()[k], abs=1e-6)
+        assert np.allclose(got.aberrations.coefficients_um, want.aberrations.coefficients_um)
+        assert "plano" not in m.status().splitlines()[0]
+        assert m.apply({"sphere": -1.5}) is None
+        assert m.status().splitlines()[0].startswith("eye -1.50 /")
+    finally:
+        m.close()
+
+
+def test_a_camera_spec_is_refused_naming_the_camera(tmp_path):
+    """A camera lens has no eye for the sliders to move: one line naming render.camera
+    (it used to be replaced by the default eye without a word)."""
+    from eyelab.core.errors import SpecError
+
+    spec = tmp_path / "cam.toml"
+    spec.write_text('[render]\nrenderer = "reference"\ncamera = "doublet"\n')
+    with pytest.raises(SpecError) as e:
+        InspectorModel(spec, samples=1)
+    assert e.value.field == "render.camera" and "no eye" in e.value.message

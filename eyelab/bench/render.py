@@ -62,7 +62,8 @@ def equal_error_table(quality: dict) -> dict:
     """From a quality benchmark's result: per case the default-quality raster row's SSIM,
     time and equal-error speed-up over the reference (recomputed from the rows), their
     median and minimum."""
-    from eyelab.bench.quality import _default_row, merge_results
+    from eyelab.bench.quality import _default_row
+    from eyelab.bench.qualitymerge import merge_results
     from eyelab.core.errors import SpecError
 
     if not isinstance(quality, dict) or quality.get("benchmark") != "quality" or not \

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 from eyelab.core.color import CVD_KINDS
 from eyelab.core.errors import SpecError
@@ -119,3 +120,30 @@ def edit_spec_data(data: dict, name: str, v, sides=None) -> None:
     else:
         raise SpecError("inspector", f"unknown control {name!r}; controls: "
                                      f"{', '.join(CONTROL_NAMES + TOGGLES)}")
+
+
+def rx_beside_aberrations(t: dict, base, shared: dict | None = None) -> dict:
+    """Keys that make an ``[eye]`` table ``t`` whose aberrations carry its refraction (their
+    second order) the same eye with that refraction in ``eye.rx`` — what the Rx sliders
+    edit — and the higher orders alone, inline ({} when there is nothing to move).
+    ``base``: the spec's folder (a coefficient file's path is relative to it);
+    ``shared``: a two-eye spec's common ``[eye]`` table (its vertex distance, chromatic)."""
+    a = t.get("aberrations") if isinstance(t, dict) else None
+    if not isinstance(a, dict) or "rx" in t:
+        return {}
+    from eyelab.spec.aberrationparse import eye_aberrations
+    from eyelab.spec.schema import EYE_VERTEX_MM
+
+    a = dict(a)
+    if isinstance(a.get("file"), str) and not Path(a["file"]).is_absolute():
+        a["file"] = str(Path(base or ".") / a["file"])
+    both = {**(shared or {}), **t}
+    made, ab = eye_aberrations({**both, "aberrations": a},
+                               float(both.get("vertex_distance_mm", EYE_VERTEX_MM)))
+    if "rx" not in made:
+        return {}
+    rx = made["rx"]
+    return {"rx": f"{rx.sphere:+.6f} / {rx.cylinder:+.6f} x {rx.axis:.6f}",
+            "aberrations": {"coefficients_um": list(ab.coefficients_um),
+                            "pupil_mm": ab.pupil_mm, "wavelength_nm": ab.wavelength_nm,
+                            "stiles_crawford": ab.stiles_crawford}}

@@ -31,6 +31,7 @@ from eyelab.jobs.controls import (
     PREVIEW_AFTER,
     STEP,
     TOGGLES,
+    rx_beside_aberrations,
     snap,
 )
 from eyelab.jobs.frameloop import FrameLoopMixin
@@ -84,6 +85,10 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         data, source, base = read_spec_data(self.path)
         data = copy.deepcopy(data)
         r = data.setdefault("render", {})
+        if r.get("camera") is not None:    # a camera has no eye for the controls to move
+            from eyelab.spec import no_camera
+
+            no_camera(parse_spec(data, source, base), "the inspector")
         if r.get("renderer", "raster") != "raster":
             # the inspector is the raster renderer's; the reference's own keys are dropped
             from eyelab.spec import renderer_keys
@@ -110,8 +115,13 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
         self.source, self.base = source, base
         if spec.binocular is not None:      # each eye's keys in its own table
             data = sided_data(data)
-        elif "lens" in data and "rx" not in data["lens"] and "front" not in data["lens"] \
-                and "rx" in data.get("eye", {}):
+        eye = data.get("eye", {})
+        for side in (("right", "left") if spec.binocular is not None else (None,)):
+            t = eye if side is None else eye.get(side, {})
+            t.update(rx_beside_aberrations(t, base, eye if side is not None else None))
+        lens = data.get("lens", {})
+        if spec.binocular is None and "lens" in data and "rx" not in lens \
+                and "front" not in lens and "rx" in data.get("eye", {}):
             # the lens keeps its own prescription while the eye's controls move
             data["lens"]["rx"] = data["eye"]["rx"]
         self.spec = parse_spec(data, self.source, self.base)
