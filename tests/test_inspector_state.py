@@ -133,3 +133,33 @@ def test_a_camera_spec_is_refused_naming_the_camera(tmp_path):
     with pytest.raises(SpecError) as e:
         InspectorModel(spec, samples=1)
     assert e.value.field == "render.camera" and "no eye" in e.value.message
+
+
+def test_a_schematic_eye_is_inspected_at_fixation_as_render_draws_it():
+    """examples/myope.toml (a Navarro eye behind its lens): the inspector opens it, its
+    frame is eyelab.render's (the eye accommodated for the fixated point, not for the
+    view's near plane), and its readout is analyze's at the gaze point."""
+    import eyelab
+    from eyelab.spec import read_spec_data
+
+    path = "examples/myope.toml"
+    m = InspectorModel(path, size=(64, 48), samples=2)
+    try:
+        m.run_to_target()
+        got = m.result.linear
+        data, _, _ = read_spec_data(path)
+        data = copy.deepcopy(data)
+        data["render"] = {"width": 64, "height": 48, "samples": 2}
+        want = eyelab.render(data).linear
+        assert np.abs(got - want).mean() < 2e-3 * float(want.mean())
+        text = m.readout()
+        data["points"] = [{"position_m": [float(v) for v in m.gaze_point]}]
+        data["analysis"] = {"fixation": "rotating"}
+        p = eyelab.analyze(data)["points"][0]
+        assert f"accommodation {p['accommodation_d']:.2f} D" in text, text
+        assert f"M {p['m_d']:+.2f} D" in text, text
+        assert m.apply({"sphere": -2.0}) is None and m.apply({"lens": False}) is None
+        m.run_to_target()
+        assert "M -" in m.readout()                 # naked, the myope is left myopic
+    finally:
+        m.close()

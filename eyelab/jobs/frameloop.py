@@ -12,6 +12,20 @@ import time
 from eyelab.jobs.controls import PREVIEW_FIELD
 
 
+def fixated(scene, eye, lens, view) -> tuple:
+    """A render's inputs as ``eyelab render`` draws them: a schematic eye (its retinal
+    image at fixation) takes one accommodation, the view's focus or else the fixation's
+    on the line of sight (:func:`~eyelab.imaging.retinal.view_accommodation`, as
+    :meth:`~eyelab.imaging.contract.Renderer.render` does before its frames)."""
+    from eyelab.optics.eye.thin import Eye
+
+    if isinstance(eye, Eye) or view.focus_d is not None:
+        return scene, eye, lens, view
+    from eyelab.imaging.retinal import view_accommodation
+
+    return scene, eye, lens, view.replace(focus_d=view_accommodation(scene, eye, lens, view))
+
+
 class FrameLoopMixin:
     """Needs of its model: ``spec``, ``renderers()``, ``scene()``, ``lens``, ``lens_on``,
     ``view``, ``two_eyes``, ``samples``, ``every``, ``apply``, ``_pending`` and the
@@ -34,12 +48,12 @@ class FrameLoopMixin:
         posed as ``eyelab render`` poses them (then kept as ``self.pose``, a
         :class:`~eyelab.imaging.stereo.BinocularPose`)."""
         if not self.two_eyes:
-            return [(self.scene(), self.spec.eye, self.lens, self.view)]
+            return [fixated(self.scene(), self.spec.eye, self.lens, self.view)]
         from eyelab.imaging.stereo import pose_binocular
 
         self.pose = pose_binocular(self.scene(), self.spec.binocular, self.view,
                                     no_lens=not self.lens_on)
-        return [self.pose.inputs[s] for s in ("right", "left")]
+        return [fixated(*self.pose.inputs[s]) for s in ("right", "left")]
 
     def _result(self, results):
         """One step's RenderResults (one per eye) as the model's result."""

@@ -165,13 +165,20 @@ class GazeMapsMixin:
         if self.lens is None:
             return None
         if self._maps_key is None:
-            self._maps_key = maps_key(self.eye, self.lens, self.spec.wavelength_nm)
+            self._maps_key = maps_key(self._wearer(), self.lens, self.spec.wavelength_nm)
         return self._maps_key
 
     def _want_maps(self) -> None:
         if self.maps_wanted:
-            self.gaze_maps.want(self.maps_key(), self.eye, self.lens,
+            self.gaze_maps.want(self.maps_key(), self._wearer(), self.lens,
                                 self.spec.wavelength_nm)
+
+    def _wearer(self):
+        """The eye the maps are measured for (a schematic eye's centre of rotation and
+        pupil on a thin eye: :func:`eyelab.jobs.maps.lens_wearer`)."""
+        from eyelab.jobs.maps import lens_wearer
+
+        return lens_wearer(self.eye)
 
     def maps(self):
         """The lens's as-worn maps (:class:`~eyelab.optics.lens.asworn.AsWornMaps` on

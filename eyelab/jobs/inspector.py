@@ -36,12 +36,12 @@ from eyelab.jobs.controls import (
 )
 from eyelab.jobs.frameloop import FrameLoopMixin
 from eyelab.jobs.gazemaps import GazeMaps, GazeMapsMixin
+from eyelab.jobs.readout import ReadoutMixin
 from eyelab.jobs.twoeyes import TwoEyesMixin, sided_data
-from eyelab.optics.eye.thin import EYE_REFERENCE_NM
-from eyelab.spec import dump_spec, parse_spec, read_spec_data, thin_eye
+from eyelab.spec import dump_spec, parse_spec, read_spec_data
 
 
-class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
+class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin, ReadoutMixin):
     """The inspected spec and its frames.
 
     Parameters
@@ -107,7 +107,7 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
             data["render"]["scene"] = {**scene, "path": str(Path(scene["path"]).resolve())}
         elif scene is not None:
             data["render"]["scene"] = str(Path(scene).resolve())
-        spec = thin_eye(parse_spec(data, source, base), "the inspector")
+        spec = parse_spec(data, source, base)
         if hasattr(self, "spec") and (spec.binocular is not None) != self.two_eyes:
             now = "two eyes" if spec.binocular is not None else "one eye"
             raise SpecError("binocular", f"the spec now has {now}: open the inspector on it "
@@ -351,57 +351,6 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin):
                 f" -> recomputed: {self.recomputed()}{t}"
                 + (f"\n{self.message}" if self.message else "")
                 + "".join(f"\nwarning: {w}" for w in self.warnings()))
-
-    def readout(self) -> str:
-        """``analyze`` at the gaze point: the scene point on the line of sight, its
-        accommodation and blur (arcmin) for the eye turning about its centre of
-        rotation (the as-worn model)."""
-        from eyelab.optics.chain.analysis import analyze_points
-        from eyelab.optics.rays.paths import ObjectPoints
-        from eyelab.optics.rays.trace import FATAL
-        from eyelab.scene.raycast import EmbreeIntersector
-
-        if self.two_eyes:
-            from eyelab.jobs.twoeyes import fixation_distance, readout
-
-            self.gaze_distance_m = fixation_distance(self.result)
-            return readout(self.result)
-        from eyelab.jobs.points import line_of_sight_lens
-
-        cam = self.view.camera(self.spec.eye.rotation_centre)
-        o = np.asarray(cam.position, float)[None]
-        d = np.asarray(cam.basis[2], float)[None]
-        lens = line_of_sight_lens(self.lens)    # a lenslet lens: its carrier, as analyze
-        if lens is not None:
-            res = lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
-            if (res["status"][0] & np.uint8(FATAL)) == 0:
-                o, d = res["out_points"], res["out_dirs"]
-        hit = EmbreeIntersector(self.scene()).intersect(o + 1e-7 * d, d)
-        self.gaze_distance_m = None
-        if not hit.hit[0]:
-            return "gaze point: nothing on the line of sight"
-        p = o[0] + hit.t[0] * d[0]
-        self.gaze_point = p                     # m, the world frame (analyze's [[points]])
-        self.gaze_distance_m = float(np.linalg.norm(p - np.asarray(cam.position)))
-        points = ObjectPoints.from_positions(p[None])
-        pa = analyze_points(self.spec.eye, lens, points, fixation="rotating",
-                            accommodation=self.view.focus_d)
-        if not pa.ok[0]:
-            return "gaze point: no light path through the lens"
-        maj, mnr, _ = pa.blur_axes()
-        text = (f"gaze point {np.linalg.norm(p):.2f} m: accommodation "
-                f"{pa.accommodation[0]:.2f} D, blur {pa.to_arcmin(maj)[0]:.2f}' x "
-                f"{pa.to_arcmin(mnr)[0]:.2f}' (semi-axes, d line)")
-        if lens is not self.lens:                 # the lenslets' light, as analyze says it
-            from eyelab.jobs.points import lenslet_row
-
-            row = lenslet_row(self.lens, points, 0, pa.pupil[0], pa.chief.dir_out[0],
-                              self.spec.eye.pupil_diameter / 2, EYE_REFERENCE_NM,
-                              entry=pa.chief.entry[0])
-            text += (f"; {100 * row['fraction']:.1f} % of the light through "
-                     f"{row['count']} lenslets of {row['add_d']:+.2f} D (the carrier's image "
-                     "above)" if row["count"] else "; the pupil's light misses the lenslets")
-        return text
 
     def save(self, image_path, *, image=None) -> tuple:
         """Write the displayed view and the spec that reproduces it (:func:`write_state`)."""
