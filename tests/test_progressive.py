@@ -220,8 +220,7 @@ def test_the_raster_blur_field_follows_the_gaze_through_the_pal():
     with RasterRenderer(q) as r:
         for gaze in ((0.0, 5.0), (-5.0, -28.0), (25.0, -28.0)):
             view = spec.render.with_changes(gaze_deg=list(gaze), width=320, height=240).view
-            geo = r._geometry(scene, spec.eye, spec.lens, view, q, new_report("raster", view, q),
-                              refine=False)
+            geo = r._geometry(scene, spec.eye, spec.lens, view, q, new_report("raster", view, q))
             f = geo[4][0]
             blur[gaze] = {name: float(f.sample(f.major_arcmin[..., None], p[None])[0, 0])
                           for name, p in (("page", page), ("chart", chart))}

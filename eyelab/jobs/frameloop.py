@@ -26,6 +26,32 @@ def fixated(scene, eye, lens, view) -> tuple:
     return scene, eye, lens, view.replace(focus_d=view_accommodation(scene, eye, lens, view))
 
 
+def on_worker(fn):
+    """Run ``fn()`` on a worker thread, yielding None while it runs (a window's ticks go
+    on); its value is the generator's return value, its exception raised here."""
+    import threading
+
+    out, failed = [], []
+
+    def work():
+        try:
+            out.append(fn())
+        except Exception as e:          # re-raised on the GL thread below
+            failed.append(e)
+
+    worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(timeout=0.02)
+            yield None
+    finally:
+        worker.join()
+    if failed:
+        raise failed[0]
+    return out[0]
+
+
 class FrameLoopMixin:
     """Needs of its model: ``spec``, ``renderers()``, ``scene()``, ``lens``, ``lens_on``,
     ``view``, ``two_eyes``, ``samples``, ``every``, ``apply``, ``_pending`` and the
@@ -64,45 +90,30 @@ class FrameLoopMixin:
         return binocular_frame(self.pose, *results)
 
     def _sequence(self, preview: bool):
-        """The preview frame (if asked); the full set-up on a worker thread (fields and
-        refinement need no GL: the window stays responsive, showing the preview); then the
-        full progressive frames, both eyes' in step for two. Yields the model's results,
-        or None while waiting or between shown images."""
-        import threading
-
+        """The preview frame (if asked: its coarse field computed on a worker thread,
+        then one pass), the full set-up on a worker thread (fields, the filter's
+        compensation, the rays through the lens: numpy and embree, no GL — the window
+        stays responsive, showing the last frame), then the full progressive frames (the
+        meshes refined one a step), both eyes' in step for two. Yields the model's
+        results, or None while waiting or between shown images."""
         self._prepared = None
         q = self.spec.render.quality
         inputs = self._inputs()
+        pairs = list(zip(self.renderers(), inputs, strict=True))
         if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
             coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
                                          field_shape=PREVIEW_FIELD)
-            shots = [list(r.frames(*args, coarse))[-1]
-                     for r, args in zip(self.renderers(), inputs, strict=True)]
+            yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in pairs])
+            shots = [list(r.frames(*args, coarse))[-1] for r, args in pairs]
             for res in shots:
                 res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
             yield self._result(shots)
-            failed = []
-
-            def work():
-                try:
-                    reports = [r.prepare(*args, q)
-                               for r, args in zip(self.renderers(), inputs, strict=True)]
-                    self._prepared = {"cache": {"misses": [
-                        m for r in reports for m in r["cache"]["misses"]]}}
-                except Exception as e:          # re-raised on the GL thread below
-                    failed.append(e)
-
-            worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
-            worker.start()
-            try:
-                while worker.is_alive():
-                    worker.join(timeout=0.02)
-                    yield None
-            finally:
-                worker.join()
-            if failed:
-                raise failed[0]
-        gens = [r.frames(*args, q, every=self.every, images="doubling")
+        reports = yield from on_worker(lambda: [r.prepare(*args, q) for r, args in pairs])
+        self._prepared = {"cache": {"misses": [m for r in reports
+                                               for m in r["cache"]["misses"]]}}
+        # one eye: its set-up in steps too (two eyes' steps would not pair up)
+        gens = [r.frames(*args, q, every=self.every, images="doubling",
+                         setup_steps=not self.two_eyes)
                 for r, args in zip(self.renderers(), inputs, strict=True)]
         try:
             for step in zip(*gens, strict=True):

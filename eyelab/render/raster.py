@@ -49,7 +49,6 @@ from eyelab.imaging.options import RasterQuality
 from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 from eyelab.optics.lens.lenslets import carrier
 from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
-from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import PassAccumulator
 from eyelab.render.channels import (
     channel_spread,
@@ -62,9 +61,8 @@ from eyelab.render.lensletview import lenslet_lens_view
 from eyelab.render.stages import (
     env_width,
     field_details,
+    lens_coords,
     lens_details,
-    lens_geometry,
-    lenslet_geometry,
     passes_for,
     progressive_checkpoints,
     scene_items,
@@ -133,21 +131,23 @@ class RasterRenderer(Renderer):
     def _render(self, scene, eye, lens, view: View, q: RasterQuality, progressive: bool
                 ) -> RenderResult:
         checkpoints = progressive_checkpoints(q.samples) if progressive else [q.samples]
-        results = list(self._run(scene, eye, lens, view, q, checkpoints))
+        results = [r for r in self._run(scene, eye, lens, view, q, checkpoints) if r]
         final = results[-1]
         if progressive:
             final.progressive = [(r.report["samples"]["done_passes"], r.srgb) for r in results]
         return final
 
     def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
-               every: int = 1, images: str = "every"):
+               every: int = 1, images: str = "every", setup_steps: bool = False):
         """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
         :class:`RenderResult` — the complete image of the passes so far, its report's
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
         image only after passes 1, 2, 4, 8, ... and S and None after the others (building
         an image composites the lens view: ~0.1 s at 800 x 600). Set-up (fields,
-        refinement, lens coordinates) happens before the first yield; between two yields
-        only ``every`` passes run, so an interactive viewer stays responsive. The last
+        refinement, lens coordinates) happens before the first image — with
+        ``setup_steps`` and "doubling" in steps, None after each (a mesh refined, a stage
+        set up) — and between two yields only ``every`` passes run, so an interactive
+        viewer stays responsive. The last
         image equals :meth:`render`'s. Closing the generator early stops the work."""
         view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
@@ -156,11 +156,16 @@ class RasterRenderer(Renderer):
         steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
         shown = set(steps) if images == "every" else set(progressive_checkpoints(quality.samples))
         if getattr(eye, "aberrations", None) is None:
-            yield from self._run(scene, eye, lens, view, quality, steps, shown)
+            gen = self._run(scene, eye, lens, view, quality, steps, shown)
         else:                                           # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import aberrated_frames
 
-            yield from aberrated_frames(self, scene, eye, lens, view, quality, steps, shown)
+            gen = aberrated_frames(self, scene, eye, lens, view, quality, steps, shown)
+        started = False                  # the Nones before the first image are set-up's
+        for res in gen:
+            started = started or res is not None
+            if res is not None or (images == "doubling" and (started or setup_steps)):
+                yield res
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
              shown=None):
@@ -170,13 +175,18 @@ class RasterRenderer(Renderer):
         details = report["details"]
         details.update(fields={}, refinement=[])
         timings = report["timings_s"]
-        cam, lens_in_view, f_naked, vcam, f_lens, meshes = self._geometry(
-            scene, eye, lens, view, q, report)
+        cam, lens_in_view, f_naked, vcam, f_lens = self._geometry(scene, eye, lens, view, q,
+                                                                  report)
+        t = time.perf_counter()          # a mesh a step: a viewer's window keeps answering
+        meshes = yield from self._refining(scene, f_naked or [], f_lens or [], view, q,
+                                           report)
+        timings["refine"] = time.perf_counter() - t
         t = time.perf_counter()
         naked = self._naked_stage(scene, meshes, cam, f_naked, view, q, report)
         timings["setup_naked"] = time.perf_counter() - t
         env = None
         if lens_in_view:
+            yield None
             t = time.perf_counter()
             env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report,
                                   eye)
@@ -206,13 +216,22 @@ class RasterRenderer(Renderer):
         render on this renderer. Returns the report of what it computed."""
         view, quality = self._checked(view, quality, scene)
         report = new_report(self.name, view, quality)
-        self._geometry(scene, eye, lens, view, quality, report, refine=False)
+        cam, lens_in_view, f_naked, vcam, f_lens = self._geometry(scene, eye, lens, view,
+                                                                  quality, report)
+        # the stages' GL-free set-up too: each stage's compensated fields (numpy), and
+        # the rays through the lens that give its texture coordinates (embree)
+        for fields, size, label in ((f_naked, (view.width, view.height), "naked view"),
+                                    (f_lens, vcam and vcam[1], "environment")):
+            if fields is not None:
+                passes, seeds, _ = passes_for(fields, quality, report, label)
+                self._reconstruction(fields, passes, size, quality, report, seeds)
+        if lens_in_view:
+            lens_coords(self._cached, scene, lens, vcam[0], cam, view, quality, report, eye)
         return report
 
-    def _geometry(self, scene, eye, lens, view, q, report, *, refine=True) -> tuple:
+    def _geometry(self, scene, eye, lens, view, q, report) -> tuple:
         """The GL-free part of a frame: (eye camera, lens in view, naked fields or None,
-        virtual camera, lens fields or None, meshes refined for them (unless not
-        ``refine``: None))."""
+        virtual camera, lens fields or None)."""
         report["details"].setdefault("fields", {})
         report["details"].setdefault("refinement", [])
         timings = report["timings_s"]
@@ -233,12 +252,7 @@ class RasterRenderer(Renderer):
             f_lens = self._fields(eye, lens, vcam[0], bounds, view, q, report, "through_lens",
                                   pupil=cam.position)
         timings["fields"] = time.perf_counter() - t
-        meshes = None
-        if refine:
-            t = time.perf_counter()
-            meshes = self._refined(scene, f_naked or [], f_lens or [], view, q, report)
-            timings["refine"] = time.perf_counter() - t
-        return cam, lens_in_view, f_naked, vcam, f_lens, meshes
+        return cam, lens_in_view, f_naked, vcam, f_lens
 
     def _lens_covers(self, lens, cam, report) -> bool:
         """Whether every pixel sees through the lens (then the naked view is not drawn)."""
@@ -303,8 +317,10 @@ class RasterRenderer(Renderer):
         report["details"]["fields"][label] = field_details(f, hit)
         return f
 
-    def _refined(self, scene, f_naked, f_lens, view, q, report) -> list:
-        """The scene's meshes refined for every field of both stages (lists)."""
+    def _refining(self, scene, f_naked, f_lens, view, q, report):
+        """The scene's meshes refined for every field of both stages (lists), as a
+        generator: None after each mesh refined anew (pymeshlab runs on this thread only),
+        the meshes as its return value."""
         if not q.refine:
             report["skipped"].append("refinement: disabled")
             return list(scene.meshes)
@@ -312,10 +328,12 @@ class RasterRenderer(Renderer):
         fields = list(f_naked) + list(f_lens)
         for m in scene.meshes:
             key = (m.content_key, tuple(f.key for f in fields), view.width)
-            (rm, info), _ = self._cached("refined", key, lambda m=m: refine_for_fields(
+            (rm, info), hit = self._cached("refined", key, lambda m=m: refine_for_fields(
                 m, fields, px_scale=view.width / 2), report, f"refined_{m.name}")
             meshes.append(rm)
             report["details"]["refinement"].append(info)
+            if not hit:
+                yield None
         return meshes
 
     def _scene_items(self, meshes, fields, route, passes, cam, height, report) -> list:
@@ -381,27 +399,10 @@ class RasterRenderer(Renderer):
         fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,
                                                      report, seeds)
         items = self._scene_items(meshes, fields, route, passes, vcam, h_env, report)
-        lenslets, lens = (lens, carrier(lens)) if lens.has_lenslets else (None, lens)
-        disperses = q.chromatic and lens.material.dispersive
-        wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
-        if not disperses:
-            report["skipped"].append("lens dispersion: " + (
-                "disabled" if not q.chromatic else "the lens material does not disperse")
-                + ": one texture-coordinate set")
-        tkey = content_key(scene=scene.content_key, lens=lens, camera=vcam, wls=wls,
-                           rings=q.lens_rings, segments=q.lens_segments, grid=q.lens_grid_px,
-                           eye=cam, size=(view.width, view.height))
-        geo, _ = self._cached("texcoords", tkey, lambda: lens_geometry(
-            scene, lens, vcam, cam, view, q, wls), report, "lens_texcoords")
-        report["details"]["lens"] = dict(lens_details(geo, len(wls), vcam),
+        geo, tkey, offsets, n_wls = lens_coords(self._cached, scene, lens, vcam, cam, view,
+                                                q, report, eye)
+        report["details"]["lens"] = dict(lens_details(geo, n_wls, vcam),
                                          environment_px=[w_env, h_env])
-        offsets = None
-        if lenslets is not None:
-            okey = content_key(texcoords=tkey, lens=lenslets, eye=eye, view=view,
-                               samples=q.lenslet_samples)
-            offsets, _ = self._cached("texcoords", okey, lambda: lenslet_geometry(
-                scene, lenslets, geo, vcam, cam, eye, view, q, wls), report,
-                "lenslet_offsets")
         return {"win": win, "cam": vcam, "fields": fields, "recon": recon, "spread": spread,
                 "items": items, "route": route,
                 "key": ("env", scene.content_key) + tuple(f.key for f in fields),

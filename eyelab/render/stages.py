@@ -223,3 +223,34 @@ def stage_mean(st: dict, cached, report) -> np.ndarray:
     tm = report["timings_s"]
     tm["reconstruct"] = tm.get("reconstruct", 0.0) + time.perf_counter() - t
     return rgba
+
+
+def lens_coords(cached, scene, lens, vcam, cam, view, q, report, eye) -> tuple:
+    """(lens geometry, its key, a lenslet lens's offsets or None, the wavelengths' count):
+    the rays through the lens that give the environment's texture coordinates (GL-free:
+    a viewer computes them on a worker thread), through ``cached`` (a renderer's
+    ``_cached(cache, key, factory, report, label)``)."""
+    from eyelab.core.cache import content_key
+    from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+    from eyelab.optics.lens.lenslets import carrier
+    from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
+
+    lenslets, lens = (lens, carrier(lens)) if lens.has_lenslets else (None, lens)
+    disperses = q.chromatic and lens.material.dispersive
+    wls = RGB_WAVELENGTHS_NM if disperses else (EYE_REFERENCE_NM,)
+    if not disperses:
+        report["skipped"].append("lens dispersion: " + (
+            "disabled" if not q.chromatic else "the lens material does not disperse")
+            + ": one texture-coordinate set")
+    tkey = content_key(scene=scene.content_key, lens=lens, camera=vcam, wls=wls,
+                       rings=q.lens_rings, segments=q.lens_segments, grid=q.lens_grid_px,
+                       eye=cam, size=(view.width, view.height))
+    geo, _ = cached("texcoords", tkey, lambda: lens_geometry(
+        scene, lens, vcam, cam, view, q, wls), report, "lens_texcoords")
+    offsets = None
+    if lenslets is not None:
+        okey = content_key(texcoords=tkey, lens=lenslets, eye=eye, view=view,
+                           samples=q.lenslet_samples)
+        offsets, _ = cached("texcoords", okey, lambda: lenslet_geometry(
+            scene, lenslets, geo, vcam, cam, eye, view, q, wls), report, "lenslet_offsets")
+    return geo, tkey, offsets, len(wls)
