@@ -200,7 +200,7 @@ def test_cli_screenshot_and_errors(spec_file, tmp_path, capsys):
 def test_bench_inspect_small():
     from eyelab.bench.inspector import run_inspect_bench
 
-    res = run_inspect_bench(160, 120, 2)
+    res = run_inspect_bench(160, 120, 2, examples=False)
     kinds = {r["kind"] for r in res["rows"]}
     assert {"eye, no lens in view", "eye, through the lens", "samples"} <= kinds
     for r in res["rows"]:

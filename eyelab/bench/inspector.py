@@ -13,6 +13,8 @@ without a window (the window adds one texture upload per frame).
 from __future__ import annotations
 
 import time
+import tomllib
+from pathlib import Path
 
 from eyelab.imaging.options import DEFAULT_SAMPLES
 
@@ -43,8 +45,49 @@ def _measure(model, changes: dict) -> dict:
             "recomputed": model.recomputed(), "stages_s": stages}
 
 
-def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAULT_SAMPLES
-                      ) -> dict:
+#: The example specs measured beside the default (a lenslet lens, a schematic eye): the
+#: repository's examples/ folder (left out where it is not there: an installed wheel).
+EXAMPLES = ("dims.toml", "myope.toml")
+
+
+def _render_warm(before: str, after: str) -> float:
+    """Seconds ``eyelab.render`` of the spec ``after`` (TOML) takes in a session warm from
+    rendering ``before``: what the inspector's frames to the target S after that change
+    compare with (the same renderer open, the change's own work not done yet)."""
+    from eyelab.jobs.session import Session
+
+    with Session() as s:
+        s.render(tomllib.loads(before))
+        t = time.perf_counter()
+        s.render(tomllib.loads(after))
+        return time.perf_counter() - t
+
+
+def _example_rows(width, height, samples) -> list:
+    """Per example spec: an Rx change and a gaze change, each beside a warm render."""
+    from eyelab.jobs.inspector import InspectorModel
+
+    folder = Path(__file__).resolve().parents[2] / "examples"
+    rows = []
+    for name in EXAMPLES:
+        if not (folder / name).is_file():
+            continue
+        model = InspectorModel(folder / name, size=(width, height), samples=samples)
+        try:
+            model.run_to_target()
+            for change in ({"sphere": -2.5}, {"gaze": (0.0, -15.0)}):
+                before = model.dump()
+                row = _measure(model, change)
+                row["kind"] = name
+                row["render_warm_s"] = _render_warm(before, model.dump())
+                rows.append(row)
+        finally:
+            model.close()
+    return rows
+
+
+def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAULT_SAMPLES,
+                      examples: bool = True) -> dict:
     from eyelab.jobs.inspector import InspectorModel
 
     model = InspectorModel(None, size=(width, height), samples=samples)
@@ -71,12 +114,15 @@ def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAUL
             rows.append(row)
     finally:
         model.close()
+    if examples:
+        rows += _example_rows(width, height, samples)
     summary = [f"inspect bench, {width}x{height}, target S = {samples}, default spec "
                f"(cold start to S = {samples}: {cold:.2f} s)"]
     for r in rows:
         summary.append(f"  {r['kind']:<24} {r['change']:<22} first frame "
                        f"{r['first_frame_s']:6.3f} s, to S={r['passes_done']} "
                        f"{r['to_target_s']:6.3f} s, longest tick {r['longest_tick_s']:.3f} s "
-                       f"({r['recomputed']})")
+                       + (f"(eyelab.render warm {r['render_warm_s']:.3f} s) "
+                          if "render_warm_s" in r else "") + f"({r['recomputed']})")
     return {"benchmark": "inspect", "size": [width, height], "samples": samples,
             "cold_start_s": cold, "rows": rows, "summary": summary}
