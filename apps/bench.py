@@ -39,7 +39,7 @@ BENCHES = {
                   "against forward rays on small dots across the field",
                   ("repeats", "quick")),
     "lenslets": ("myopia-control lenses in the raster: frame cost against the "
-                 "single-vision lens, raster against the reference", ("repeats",)),
+                 "single-vision lens, raster against the reference", ("repeats", "quick")),
 }
 
 
@@ -245,7 +245,7 @@ def _bench_schematic(args):
 def _bench_lenslets(args):
     from eyelab.bench.lenslets import run_lenslets_bench
 
-    return run_lenslets_bench(repeats=args.repeats)
+    return run_lenslets_bench(repeats=args.repeats, quick=args.quick)
 
 
 def _bench_design(args):

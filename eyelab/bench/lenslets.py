@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 
-from eyelab.core.progress import bar as progress_bar
+from eyelab.bench.schematic import Steps
 
 #: The gazes (deg down) of the frames and the error rows.
 GAZES = (0.0, 20.0, 30.0)
@@ -33,7 +33,7 @@ def designs() -> dict:
             "halt_like": {"rx": "-3.00", "lenslets": HALT_LIKE}}
 
 
-def _frames(repeats: int, bar) -> dict:
+def _frames(repeats: int, bar, gazes=GAZES) -> dict:
     from eyelab.imaging.registry import make_renderer
     from eyelab.jobs.api import as_spec
     from eyelab.jobs.render import build_scene
@@ -42,7 +42,7 @@ def _frames(repeats: int, bar) -> dict:
     rs = as_spec(None).render
     scene = build_scene(rs.scene)
     out = {}
-    for gaze in GAZES:
+    for gaze in gazes:
         view = rs.view.replace(gaze_deg=(0.0, -gaze))
         renderers = {k: make_renderer("raster", rs.quality) for k in specs}
         try:
@@ -52,13 +52,14 @@ def _frames(repeats: int, bar) -> dict:
                 res = renderers[k].render(scene, s.eye, s.lens, view)
                 cold[k] = time.perf_counter() - t
                 details[k] = res.report["details"].get("lenslets")
-                bar.update(1)
-            for _ in range(repeats):
+                bar.update(1, f"frame {gaze:g} deg down, {k}, cold: {cold[k]:.2f} s")
+            for i in range(repeats):
                 for k, s in specs.items():
                     t = time.perf_counter()
                     renderers[k].render(scene, s.eye, s.lens, view)
                     warm[k].append(time.perf_counter() - t)
-                bar.update(1)
+                bar.update(1, f"frames {gaze:g} deg down, repeat {i + 1}: " + ", ".join(
+                    f"{k} {w[-1]:.2f} s" for k, w in warm.items()))
         finally:
             for r in renderers.values():
                 r.close()
@@ -72,7 +73,7 @@ def _frames(repeats: int, bar) -> dict:
     return out
 
 
-def _errors(truth_spp: int, bar) -> list:
+def _errors(truth_spp: int, bar, gazes=GAZES) -> list:
     from eyelab.imaging.contract import View
     from eyelab.imaging.options import RasterQuality, ReferenceQuality
     from eyelab.jobs.api import as_spec
@@ -84,7 +85,7 @@ def _errors(truth_spp: int, bar) -> list:
     specs = {k: as_spec({"eye": EYE, "lens": lens}) for k, lens in designs().items()}
     sv = specs.pop("single_vision")
     rows = []
-    for gaze in GAZES:
+    for gaze in gazes:
         view = View(width=160, height=120, fov_y_deg=5.0, gaze_deg=(0.0, -gaze))
         scene = page_scene(distance_m=0.4, below_deg=gaze)
         with RasterRenderer(RasterQuality()) as r:
@@ -105,31 +106,43 @@ def _errors(truth_spp: int, bar) -> list:
                              "raster_vs_truth": compare_images(raster.srgb, truth.srgb),
                              "single_vision_vs_truth": compare_images(single.srgb,
                                                                       truth.srgb)})
-                bar.update(1)
+                bar.update(1, f"error {gaze:g} deg down, {name}: raster {t_raster:.1f} s, "
+                              f"reference at {truth_spp} spp {t_truth:.1f} s")
     return rows
 
 
-def run_lenslets_bench(repeats: int = 3, truth_spp: int = 512) -> dict:
-    """The benchmark's JSON (module doc): ``frames``, ``errors`` and ``summary``."""
-    bar = progress_bar(len(GAZES) * (3 + repeats) + 2 * len(GAZES), "lenslets bench",
-                       "step")
+#: The quick preset (``--quick``): one repeat, the gaze through the treatment zone only
+#: and the reference at fewer rays a pixel (a check that everything runs and roughly
+#: agrees, in under two minutes; the numbers the guide quotes come from the default run).
+QUICK = {"repeats": 1, "truth_spp": 64, "gazes": (20.0,)}
+
+
+def run_lenslets_bench(repeats: int = 3, truth_spp: int = 512, *,
+                       quick: bool = False) -> dict:
+    """The benchmark's JSON (module doc): ``frames``, ``errors`` and ``summary``;
+    ``quick``: :data:`QUICK`'s settings instead."""
+    gazes = GAZES
+    if quick:
+        repeats, truth_spp, gazes = (QUICK[k] for k in ("repeats", "truth_spp", "gazes"))
+    bar = Steps(len(gazes) * (3 + repeats) + 2 * len(gazes), "lenslets bench")
     try:
-        frames = _frames(repeats, bar)
-        errors = _errors(truth_spp, bar)
+        frames = _frames(repeats, bar, gazes)
+        errors = _errors(truth_spp, bar, gazes)
     finally:
         bar.close()
     w, h, fov = frames["view"]
     summary = []
     for name in ("dims_like", "halt_like"):
-        warm = [frames[f"{g:g}"][name]["ratio_warm"] for g in GAZES]
-        cold = [frames[f"{g:g}"][name]["ratio_cold"] for g in GAZES]
+        warm = [frames[f"{g:g}"][name]["ratio_warm"] for g in gazes]
+        cold = [frames[f"{g:g}"][name]["ratio_cold"] for g in gazes]
         rows = [r for r in errors if r["design"] == name]
         ssim = [r["raster_vs_truth"]["ssim"] for r in rows]
         ssim_sv = [r["single_vision_vs_truth"]["ssim"] for r in rows]
         psnr = [r["raster_vs_truth"]["psnr_db"] for r in rows]
         psnr_sv = [r["single_vision_vs_truth"]["psnr_db"] for r in rows]
         summary += [
-            f"{name} frame {w}x{h} ({fov:g} deg), gazes 0/20/30 deg down: "
+            f"{name} frame {w}x{h} ({fov:g} deg), gazes {'/'.join(f'{g:g}' for g in gazes)} "
+            f"deg down: "
             f"{'/'.join(f'{v:.2f}' for v in warm)}x the single-vision frame warm, "
             f"{'/'.join(f'{v:.2f}' for v in cold)}x cold",
             f"{name} page at 40 cm, 160x120 over 5 deg, vs the reference at {truth_spp} spp: "
@@ -137,4 +150,4 @@ def run_lenslets_bench(repeats: int = 3, truth_spp: int = 512) -> dict:
             f"{max(psnr):.1f} dB; the single-vision lens {min(ssim_sv):.3f}-"
             f"{max(ssim_sv):.3f}, {min(psnr_sv):.1f}-{max(psnr_sv):.1f} dB"]
     return {"benchmark": "lenslets", "frames": frames, "errors": errors,
-            "truth_spp": truth_spp, "summary": summary}
+            "truth_spp": truth_spp, "quick": quick, "summary": summary}
