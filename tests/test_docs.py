@@ -371,7 +371,7 @@ GALLERY_TOLERANCE = 0.005
 def gallery_commands() -> list:
     """(command, picture) for every command the README and the guide show that draws a
     picture of the gallery: ``eyelab demo`` or ``render`` writing ``-o NAME.png`` into the
-    current folder, where the same page shows ``docs/gallery/NAME.png``."""
+    current folder, where the same page shows the gallery picture of that name."""
     found = []
     for page, cmd in shown_commands():
         m = re.fullmatch(r"eyelab (?:demo|render)\s.*-o\s+([\w-]+\.png)(\s.*)?", cmd)
