@@ -45,3 +45,16 @@ def test_the_whole_matrix_has_no_broken_cell_and_is_the_page():
     assert len(results) == len(EYES) * len(LENSES) * len(COMMANDS)
     _check(results)
     assert (ROOT / "docs" / "guide" / "matrix.md").read_text() == table(results)
+
+
+def test_a_schematic_eye_in_the_inspector_and_a_cameras_row():
+    """The inspector takes a schematic eye; a camera spec's row: eye-only commands refuse
+    naming render.camera (a camera has no eye), surface has no spectacle lens to write."""
+    got = matrix(eyes=["Navarro"], lenses=["points file", "camera"],
+                 commands=["inspect", "surface", "analyze"])
+    _check(got)
+    assert got["Navarro", "points file", "inspect"] == ("works", "")
+    assert got["Navarro", "points file", "surface"] == ("works", "")
+    for cn in ("inspect", "surface", "analyze"):
+        outcome, line = got["Navarro", "camera", cn]
+        assert outcome == "refuses" and line.startswith("render.camera: "), line
