@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import json
 import tempfile
 from pathlib import Path
 
@@ -36,6 +37,10 @@ LENSES = {
     "lenslets": {"rx": "-2.00", "lenslets": {"layout": "honeycomb", "add_d": 3.5,
                                              "diameter_mm": 1.03, "pitch_mm": 1.43,
                                              "clear_zone_mm": 9.4, "zone_mm": 33}},
+    "points file": {"front": {"type": "points", "file": "{sample}", "spacing_mm": 2.0},
+                    "back": {"type": "plane"}, "center_thickness_mm": 2.0},
+    # not a spectacle lens: a camera lens system in place of the eye ([render] keys)
+    "camera": {"render": {"renderer": "reference", "camera": "doublet"}},
 }
 TINY = ["--width", "32", "--height", "24", "--samples", "2"]
 #: The commands: name -> the arguments after the spec path (``{out}``: a folder).
@@ -50,6 +55,9 @@ COMMANDS = {
     "maps (peripheral)": ["maps", "--kind", "peripheral", "--points", "3",
                           "-o", "{out}/m.png"],
     "psf": ["psf", "--size", "33", "-o", "{out}/p.npy"],
+    "surface": ["surface", "--side", "front", "-o", "{out}/f.csv"],
+    "inspect": ["inspect", "--screenshot", "{out}/i.png", "--size", "32x24", "--samples",
+                "1"],
 }
 
 
@@ -65,7 +73,8 @@ def _toml(value) -> str:
 
 def spec_text(eye: dict, lens: dict | None) -> str:
     """A spec file's text for one cell: the eye's tables, the lens's (each side's when the
-    eye has two), a distant point straight ahead and one 20 deg down at 0.5 m."""
+    eye has two; a points file's path filled in) or a camera's ``[render]`` keys in the
+    eye's place, a distant point straight ahead and one 20 deg down at 0.5 m."""
     lines = []
 
     def table(name, t):
@@ -75,9 +84,16 @@ def spec_text(eye: dict, lens: dict | None) -> str:
         for k, v in subs.items():
             table(f"{name}.{k}", v)
 
-    table("eye", eye["eye"])
-    if lens is not None:
-        table("lens", lens)
+    lens = dict(lens or {})
+    render = lens.pop("render", None)
+    if render is None or "camera" not in render:      # a camera takes the eye's place
+        table("eye", eye["eye"])
+    if lens:
+        from eyelab.spec.surfacefile import SAMPLE
+
+        table("lens", json.loads(json.dumps(lens).replace('"{sample}"', json.dumps(SAMPLE))))
+    if render is not None:
+        table("render", render)
     lines.append("[[points]]\nfield_deg = [0, 0]\n[[points]]\nfield_deg = [0, -20]\n"
                  "distance_m = 0.5")
     return "\n".join(lines) + "\n"
