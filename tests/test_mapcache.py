@@ -127,7 +127,8 @@ def test_a_damaged_figures_entry_is_computed_again(folder, lens, how, why):
         signal.signal(signal.SIGALRM, signal.SIG_DFL)
     assert origin2 == dict(origin, replaced=f"bad entry removed: {why}"), origin2
     assert origin_summary("figures of merit", origin2) == [
-        f"figures of merit: computed in this run; cached in {path}"]
+        f"figures of merit: computed in this run; cached in {path} (replacing a bad entry: "
+        f"bad entry removed: {why})"]
     assert again == figures and path.is_file() and not path.is_symlink()
     third, origin3 = figures_and_origin(Eye(), lens, **GRID)   # written again, whole
     assert origin3 == dict(origin, source="disk") and third == figures
