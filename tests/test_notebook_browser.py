@@ -135,10 +135,12 @@ def test_moving_a_slider_in_the_browser_shows_eyelab_renders_image(tmp_path):
     finally:
         _stop(proc)
     shown = np.asarray(Image.open(io.BytesIO(after)).convert("RGB"))
-    data = {"eye": {"rx": "-2.25 / -0.75 x 090", "age": 30, "pupil_diameter_mm": 4.0},
-            "lens": {"material": "polycarbonate", "rx": "-2.50 -0.75 x 90"},
-            "render": {"scene": "chart", "width": SIZE[0], "height": SIZE[1],
-                       "fov_y_deg": 6.0, "samples": SAMPLES}}
+    import tomllib
+
+    data = tomllib.loads(spec.read_text())          # the spec as the inspector holds it
+    data["eye"]["rx"] = "-2.25 / -0.75 x 090"
+    data["lens"]["rx"] = "-2.50 -0.75 x 90"
+    data["render"].update(width=SIZE[0], height=SIZE[1], samples=SAMPLES)
     want = eyelab.render(data).srgb
     assert after != before
     assert ssim(shown / 255.0, want / 255.0) >= 0.99
