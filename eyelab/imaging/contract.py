@@ -309,11 +309,11 @@ class Renderer(abc.ABC):
         schematic eyes draw it with their eye-side machinery, whose blur fields take the
         schematic eye's optics (:mod:`eyelab.blur.schematic`) and whose camera is
         :func:`eye_view_camera`."""
-        from eyelab.imaging.retinal import view_accommodation
+        from eyelab.imaging.retinal import fixation_view
 
-        acc = view_accommodation(scene, eye, lens, view)
-        result = self._render(scene, eye, lens, view.replace(focus_d=acc), quality,
-                              progressive)
+        fixed = fixation_view(scene, eye, lens, view)
+        acc = fixed.focus_d
+        result = self._render(scene, eye, lens, fixed, quality, progressive)
         result.report["details"]["schematic_eye"] = {
             "model": eye.model, "accommodation_d": acc,
             "fixation": "fixed (the view's line of sight)"}

@@ -18,6 +18,14 @@ from eyelab.optics.rays.trace import FATAL
 _FOUND = LRUCache(64, "fixation accommodation")
 
 
+def fixation_view(scene, eye, lens, view):
+    """``view`` with the schematic eye's one accommodation as its focus
+    (:func:`view_accommodation`): how every renderer's frames draw a schematic eye's
+    retinal image at fixation (:meth:`~eyelab.imaging.contract.Renderer.render`, the
+    inspector's frames)."""
+    return view.replace(focus_d=view_accommodation(scene, eye, lens, view))
+
+
 def view_accommodation(scene, eye, lens, view, inter=None) -> float:
     """The schematic eye's accommodation (D, the model's) for ``view``: ``view.focus_d``
     clipped to the eye's range, else the one that focuses the scene point it fixates (the

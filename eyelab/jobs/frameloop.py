@@ -21,9 +21,9 @@ def fixated(scene, eye, lens, view) -> tuple:
 
     if isinstance(eye, Eye) or view.focus_d is not None:
         return scene, eye, lens, view
-    from eyelab.imaging.retinal import view_accommodation
+    from eyelab.imaging.retinal import fixation_view
 
-    return scene, eye, lens, view.replace(focus_d=view_accommodation(scene, eye, lens, view))
+    return scene, eye, lens, fixation_view(scene, eye, lens, view)
 
 
 def on_worker(fn):
