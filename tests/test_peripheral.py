@@ -104,20 +104,6 @@ def test_bad_schematic_eyes_are_refused_by_name(eye, field, words):
     assert e.value.field == field and words in str(e.value)
 
 
-@pytest.mark.parametrize("command", [["render", "--renderer", "imagebased"]])
-def test_what_takes_the_thin_eye_refuses_a_schematic_one(tmp_path, capsys, command):
-    spec = tmp_path / "s.toml"
-    spec.write_text(MYOPE.format(extra=""))
-    out = tmp_path / "out.png"
-    args = [command[0], str(spec), *command[1:]]
-    if "-o" not in command:
-        args += ["-o", str(out)]
-    assert main(args) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "eye.model" in err[0], err
-    assert not out.exists() and not (tmp_path / "x.npy").exists()
-
-
 def test_a_peripheral_map_needs_a_schematic_eye(tmp_path, capsys):
     assert main(["maps", "--kind", "peripheral", "-o", str(tmp_path / "m.png")]) == 2
     assert "eye.model" in capsys.readouterr().err

@@ -45,11 +45,18 @@ REGISTRY = {e.name: e for e in (
                   True, sees_schematic_eyes=True, sees_lenslets=True),
     RendererEntry("imagebased", ImageBasedQuality,
                   "eyelab.render.imagebased:ImageBasedRenderer", True,
-                  thin_eye_why="its eye rays are the thin eye's (a thin lens focused on one "
-                  "plane, eyelab.render.imagebased.rays): a schematic eye's surfaces and "
-                  "their aberrations are not traced there"),
+                  sees_schematic_eyes=True),
 )}
-#: Renderer names, the default first.
+#: Renderer names, the default first, which ``[render] renderer`` and
+#: :func:`make_renderer` take. "raster": the real-time renderer (Kakimoto et al. 2007, on
+#: VTK); "reference": per-pixel distribution ray tracing; "imagebased": the image-based
+#: lens model of Heidrich, Slusallek & Seidel (1997).
+#:
+#: Examples
+#: --------
+#: >>> import eyelab
+#: >>> eyelab.RENDERERS
+#: ('raster', 'reference', 'imagebased')
 RENDERERS = tuple(REGISTRY)
 #: Options class of each renderer.
 QUALITIES = {name: e.quality for name, e in REGISTRY.items()}
@@ -70,7 +77,25 @@ def make_renderer(name: str, quality=None, **options):
     """A new renderer by name (one of :data:`RENDERERS`) with its quality options: an
     options object, or the options by keyword (``make_renderer("raster", samples=16)``),
     or neither (the defaults). Use it as a context manager, or :meth:`close` it, to
-    release its GL contexts and caches."""
+    release its GL contexts and caches.
+
+    The renderer draws what an eye sees of a scene through a lens:
+    ``renderer.render(scene, eye, lens, view)`` (lens None: the naked eye) returns a
+    :class:`~eyelab.imaging.contract.RenderResult`. :func:`eyelab.render` does this for a
+    spec; a renderer of your own renders the scenes, eyes and lenses you build in Python.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> scene = eyelab.builtin_scene("chart")
+    >>> eye = eyelab.Eye.from_rx("-2.00 DS")
+    >>> lens = eyelab.SpectacleLens.from_rx(eyelab.Prescription.parse("-2.00 DS"))
+    >>> view = eyelab.View(width=64, height=48, fov_y_deg=8.0)
+    >>> with eyelab.make_renderer("raster", samples=2) as renderer:
+    ...     result = renderer.render(scene, eye, lens, view)
+    >>> result.shape, result.report["renderer"], result.report["samples"]["target"]
+    ((48, 64, 3), 'raster', 2)
+    """
     check_choice("render.renderer", name, RENDERERS)
     if options:
         if quality is not None:

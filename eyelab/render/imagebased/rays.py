@@ -1,5 +1,7 @@
-"""Rays of the thin toric eye (with or without a spectacle lens) for the image-based lens
-model: the eye's pupil is the image-sided surface, the eye camera's image the film."""
+"""Rays of the eye (with or without a spectacle lens) for the image-based lens model: the
+eye's pupil is the image-sided surface, the eye camera's image the film. The thin toric
+eye's rays in closed form (:class:`EyeRays`); a schematic eye's traced exactly from its
+retina through its surfaces (:class:`SchematicEyeRays`, the reference renderer's rays)."""
 
 from __future__ import annotations
 
@@ -8,6 +10,19 @@ import numpy as np
 from eyelab.core.vecmath import unit
 from eyelab.optics.cameralens.film import RaySet
 from eyelab.optics.rays.trace import FATAL
+
+
+def through_lens(lens, o, d, wavelength_nm) -> tuple:
+    """(origins (n, 3), directions (n, 3), transmittance (n,)) of eye rays ``o``, ``d``
+    after the spectacle ``lens`` (None: unchanged, transmittance 1), traced exactly from
+    the eye side; a ray that misses the lens goes on straight with all its light."""
+    if lens is None:
+        return o, d, np.ones(len(o))
+    r = lens.trace(o, d, wavelength_nm, reverse=True)
+    through = (r["status"] & np.uint8(FATAL)) == 0
+    return (np.where(through[:, None], r["out_points"], o),
+            np.where(through[:, None], r["out_dirs"], d),
+            np.where(through, r["transmittance"], 1.0))
 
 
 class EyeRays:
@@ -78,15 +93,78 @@ class EyeRays:
         o = np.broadcast_to(np.asarray(self.cam.position, float) + rho[0] * b[0]
                             + rho[1] * b[1], d.shape).copy()
         ok = np.ones(len(px), bool)
-        trans = np.ones(len(px))
-        if self.lens is not None:
-            r = self.lens.trace(o, d, wavelength_nm, reverse=True)
-            through = (r["status"] & np.uint8(FATAL)) == 0
-            o = np.where(through[:, None], r["out_points"], o)
-            d = np.where(through[:, None], r["out_dirs"], d)
-            trans = np.where(through, r["transmittance"], 1.0)
+        o, d, trans = through_lens(self.lens, o, d, wavelength_nm)
         zr, n2 = eye.retina_distance, eye.n_vitreous
         r_ret = -zr * t / n2
         dist2 = zr ** 2 + (r_ret[:, 0] - rho[0]) ** 2 + (r_ret[:, 1] - rho[1]) ** 2
         w = zr ** 2 / dist2 ** 2
         return RaySet(px, o, d, ok, w, trans)
+
+
+class SchematicEyeRays:
+    """Rays of a schematic eye at fixation (and a spectacle lens), traced as the reference
+    renderer traces them (:mod:`eyelab.reference.retinal`): a film point is a line of
+    sight (the eye camera's pixel direction entering the eye), its retinal point where that
+    chief ray lands at the eye's reference wavelength
+    (:func:`~eyelab.optics.chain.retinal_rays.retina_points`); a sample is a point of the
+    iris (unit disc times the stop's radius, in the eye's x, y), and the ray from the
+    retinal point through it is found by Newton's method and traced exactly through the
+    crystalline lens, the cornea and the spectacle lens (a ray missing the lens goes on
+    straight), each colour at its own wavelength. Every ray that leaves the eye weighs 1:
+    the image is the mean radiance over the pupil, as the reference's (the retinal
+    illuminance's obliquity fall-off is not applied there either).
+
+    ``accommodation``: the eye's one accommodation at fixation (D, the model's;
+    :func:`~eyelab.imaging.retinal.view_accommodation`)."""
+
+    kind = "eye"
+
+    def __init__(self, eye, lens, view, accommodation: float):
+        from eyelab.optics.chain.retinal_rays import camera_frame
+        from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+
+        self.eye, self.lens, self.view = eye, lens, view
+        self.cam = view.camera(eye.rotation_centre)
+        self.rot, self.vertex = camera_frame(self.cam)
+        self.acc = float(accommodation)
+        self.radius = eye.stop_radius(self.acc, EYE_REFERENCE_NM)
+        self.width, self.height = view.width, view.height
+        self.near = view.near
+        self._landing = {}
+
+    def _retina(self, px):
+        """(retinal points (n, 3), chief directions in the vitreous (n, 3), on the retina
+        (n,)) of film points ``px`` (n, 2), kept for the last few grids (the planner asks
+        for one grid per sample and wavelength)."""
+        from eyelab.core.cache import array_digest
+        from eyelab.optics.chain.retinal_rays import retina_points
+        from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+
+        key = array_digest(px)
+        if key not in self._landing:
+            x = 2 * px[:, 0] / self.width - 1
+            y = 1 - 2 * px[:, 1] / self.height
+            dirs = -self.cam.ray_directions(x, y)
+            r, v, st = retina_points(self.eye, self.rot, self.vertex, dirs, self.acc,
+                                     EYE_REFERENCE_NM)
+            if len(self._landing) >= 64:
+                self._landing.pop(next(iter(self._landing)))
+            self._landing[key] = (r, v, (st & np.uint8(FATAL)) == 0)
+        return self._landing[key]
+
+    def rays(self, film_px, sample, wavelength_nm) -> RaySet:
+        from eyelab.optics.chain.retinal_rays import rays_from_retina, stop_jacobians
+
+        px = np.asarray(film_px, float).reshape(-1, 2)
+        n = len(px)
+        retina, v0, landed = self._retina(px)
+        v0 = v0 / np.linalg.norm(v0, axis=1, keepdims=True)
+        targets = np.broadcast_to(np.asarray(sample, float)[:2] * self.radius, (n, 2))
+        jac = stop_jacobians(self.eye, self.rot, self.vertex, retina, v0, self.acc,
+                             wavelength_nm)
+        o, d, ok = rays_from_retina(self.eye, self.rot, self.vertex, retina, v0,
+                                    np.ascontiguousarray(targets), (np.arange(n), jac),
+                                    self.acc, wavelength_nm)
+        ok = ok & landed
+        o, d, trans = through_lens(self.lens, o, d, wavelength_nm)
+        return RaySet(px, o, d, ok, ok.astype(float), trans)

@@ -22,12 +22,12 @@ import numpy as np
 from eyelab.imaging.contract import Renderer, channel_wavelengths, finish, new_report
 from eyelab.imaging.options import ImageBasedQuality
 from eyelab.optics.cameralens.film import CameraRays
-from eyelab.optics.eye.thin import EYE_REFERENCE_NM
+from eyelab.optics.eye.thin import EYE_REFERENCE_NM, Eye
 from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import DECODE16
 from eyelab.render.imagebased.morph import bilinear, morph_pixels
 from eyelab.render.imagebased.plan import plan_projections
-from eyelab.render.imagebased.rays import EyeRays
+from eyelab.render.imagebased.rays import EyeRays, SchematicEyeRays
 
 
 class ImageBasedRenderer(Renderer):
@@ -75,7 +75,10 @@ class ImageBasedRenderer(Renderer):
     def _render(self, scene, eye, lens, view, q, progressive):
         t0 = time.perf_counter()
         report = new_report(self.name, view, q)
-        maker = EyeRays(eye, lens, view, view.focus_d, scene)
+        if isinstance(eye, Eye):
+            maker = EyeRays(eye, lens, view, view.focus_d, scene)
+        else:           # a schematic eye at fixation: view.focus_d is its accommodation
+            maker = SchematicEyeRays(eye, lens, view, view.focus_d)
         wls = channel_wavelengths(eye, lens, q.chromatic, report)
         radiometry = "radiance" if q.radiometry == "auto" else q.radiometry
         return self._project(scene, eye, lens, maker, wls, radiometry, view, q, report, t0)
