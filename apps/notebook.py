@@ -27,11 +27,28 @@ class NotebookInspector:
     """The live view and its controls, as one ipywidgets ``VBox`` (:attr:`widget`;
     displaying the inspector displays it).
 
+    A slider or toggle moved, or :meth:`set` called, edits the spec; :meth:`spec_data` is
+    the spec the view shows. :meth:`close` releases its renderer. Needs ipywidgets (the
+    ``notebook`` extra).
+
     Parameters
     ----------
-    spec : a spec file's path, or None for the built-in default
-    size : (width, height) px of the simulated view (default the spec's)
-    samples : the target S (default the spec's)
+    spec : str, Path or None
+        A spec file's path, or None for the built-in default.
+    size : (width, height) or None
+        Pixels of the simulated view (default the spec's).
+    samples : int or None
+        The target number of samples S (default the spec's).
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> inspector = eyelab.NotebookInspector("examples/first.toml", size=(64, 48), samples=2)
+    >>> type(inspector.widget).__name__, inspector.spec_data()["eye"]["rx"]
+    ('VBox', '-2.50 -0.75 x 90')
+    >>> inspector.set("pupil_mm", 30.0)           # refused: the view stays as it was
+    'eye.pupil_diameter_mm: must be in [0.5, 10], got 30.0'
+    >>> inspector.close()
     """
 
     def __init__(self, spec=None, *, size=None, samples=None):

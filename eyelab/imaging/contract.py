@@ -44,19 +44,48 @@ REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", 
 class View:
     """What the eye looks at and how it focuses; the same for every renderer.
 
-    width, height : image size, pixels (16-4096); fov_y_deg : vertical field of view, deg
-    (1-150); near, far : clipping depths from the pupil, m (near 0.001-10, far up to 1e5 and
-    > near; scene content outside is not drawn); focus_d : None (each point gets the eye's
-    best accommodation for it, Kakimoto Eq. 13) or a fixed accommodation in D (0-25,
-    clamped to the eye's amplitude);
-    cvd, cvd_severity : colour-vision deficiency of the observer (Machado 2009; None,
-    "protan", "deutan", "tritan" or "achromat"; severity 0-1), applied in linear RGB;
-    gaze_deg : (right, up) degrees (each within +-60): the eye turns about its centre of
-    rotation behind the head-fixed lens (:func:`eyelab.optics.rays.camera.gaze_camera`), as
-    ``eyelab analyze --fixation rotating`` turns it toward each point.
-
     In primary gaze the eye's pupil centre is the origin and it looks along -z (eyelab's
     world frame).
+
+    In a spec these are ``[render]`` keys (``near_m``, ``far_m`` for near, far) and
+    ``eye.accommodation_d`` (focus_d); a bad value raises
+    :class:`~eyelab.core.errors.SpecError` naming that key. :meth:`replace` gives a
+    changed copy.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size, pixels (16-4096).
+    fov_y_deg : float
+        Vertical field of view, deg (1-150).
+    near, far : float
+        Clipping depths from the pupil, m (near 0.001-10, far up to 1e5 and > near; scene
+        content outside is not drawn).
+    focus_d : float or None
+        None (each point gets the eye's best accommodation for it, Kakimoto Eq. 13) or a
+        fixed accommodation in D (0-25, clamped to the eye's amplitude).
+    cvd : str or None
+        Colour-vision deficiency of the observer (Machado 2009): None, "protan",
+        "deutan", "tritan" or "achromat", applied in linear RGB.
+    cvd_severity : float
+        Its severity, 0-1.
+    gaze_deg : (right, up)
+        Degrees (each within +-60): the eye turns about its centre of rotation behind the
+        head-fixed lens (:func:`eyelab.optics.rays.camera.gaze_camera`), as ``eyelab
+        analyze --fixation rotating`` turns it toward each point.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> view = eyelab.View(width=64, height=48, fov_y_deg=8.0, gaze_deg=(10, -20))
+    >>> view.shape, view.gaze_deg
+    ((48, 64), (10.0, -20.0))
+    >>> view.replace(cvd="deutan").cvd
+    'deutan'
+    >>> eyelab.View(width=0)
+    Traceback (most recent call last):
+    ...
+    eyelab.core.errors.SpecError: render.width: must be an integer in [16, 4096], got 0
     """
 
     width: int = 640
@@ -138,16 +167,40 @@ class View:
 class RenderResult:
     """A rendered image and how it was made.
 
-    linear : (h, w, 3) float32 linear values (relative; 1 = white), row 0 at the top;
-    srgb : (h, w, 3) uint8, the sRGB encoding of ``linear`` (what a PNG holds);
-    report : dict with the keys :data:`REPORT_KEYS` (same schema for every renderer);
-    layers : optional (h, w[, 3]) arrays by name: "lens_mask" (bool: seen through the
-    lens), "naked" / "environment" (uint8 intermediate images of the raster renderer);
-    progressive : [(samples done, srgb image)] when asked for.
+    :func:`eyelab.render` and the renderers return one; :meth:`save` writes it, and
+    Jupyter shows it as its image. A renderer gives ``linear`` or ``srgb`` (or both); the
+    other is derived on first use (exactly: every uint8 code decodes and re-encodes to
+    itself), so a frame pays for the conversion only when someone reads it.
 
-    A renderer gives ``linear`` or ``srgb`` (or both); the other is derived on first use
-    (exactly: every uint8 code decodes and re-encodes to itself), so a frame pays for the
-    conversion only when someone reads it.
+    Parameters
+    ----------
+    report : dict
+        The keys :data:`REPORT_KEYS` (same schema for every renderer).
+    linear : (h, w, 3) float32
+        Linear values (relative; 1 = white), row 0 at the top.
+    srgb : (h, w, 3) uint8
+        The sRGB encoding of ``linear`` (what a PNG holds).
+    layers : dict
+        Optional (h, w[, 3]) arrays by name: "lens_mask" (bool: seen through the lens),
+        "naked" / "environment" (uint8 intermediate images of the raster renderer).
+    progressive : list
+        [(samples done, srgb image)] when asked for.
+
+    Examples
+    --------
+    >>> import os
+    >>> import tempfile
+    >>> import eyelab
+    >>> result = eyelab.render(None, width=64, height=48, samples=2)
+    >>> result.shape, result.linear.dtype.name, result.srgb.dtype.name
+    ((48, 64, 3), 'float32', 'uint8')
+    >>> list(result.report)[:4]
+    ['renderer', 'view', 'quality', 'samples']
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     result.save(os.path.join(folder, "view.png"),
+    ...                 report=os.path.join(folder, "view.json"))
+    ...     sorted(os.listdir(folder))
+    ['view.json', 'view.png']
     """
 
     def __init__(self, report: dict, *, linear=None, srgb=None, layers=None,

@@ -39,11 +39,12 @@ def check_psf_arguments(point, pitch_arcmin, size) -> None:
 
 
 def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: float = PITCH_ARCMIN,
-              size: int = SIZE, side: str | None = None) -> tuple:
+              size: int = SIZE, side: str | None = None, side_flag: str = "--eye") -> tuple:
     """(psf (3, size, size) float64, image-oriented rows, each summing to the energy inside
     the square; report dict, its units first: :func:`eyelab.core.fileio.with_units`) for
     ``spec``'s point ``point``; a two-eye spec's ``side`` ("right" or "left") eye, at the
-    accommodation both eyes share there."""
+    accommodation both eyes share there (``side_flag``: what the caller calls the side,
+    the CLI's ``--eye`` or Python's ``eye``)."""
     from eyelab.core.fileio import with_units
     from eyelab.imaging.eyepsf import channel_wavelengths
     from eyelab.optics.eye.psf import ARCMIN, psf
@@ -52,7 +53,9 @@ def point_psf(spec, *, point: int = 0, no_lens: bool = False, pitch_arcmin: floa
     from eyelab.spec.load import no_camera, pick_eye
 
     check_psf_arguments(point, pitch_arcmin, size)
-    spec = pick_eye(no_camera(spec, "psf"), side, "eyelab psf", point=point, no_lens=no_lens)
+    what = "eyelab psf" if side_flag.startswith("-") else "eyelab.psf"
+    spec = pick_eye(no_camera(spec, "psf"), side, what, point=point, no_lens=no_lens,
+                    flag=side_flag)
     n = len(spec.points)
     if not 0 <= point < n:
         raise SpecError("point", f"must be in [0, {n - 1}] (the spec's [[points]]), got {point}")

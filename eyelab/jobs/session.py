@@ -133,15 +133,44 @@ class _OpenRenderer:
 
 
 class Session:
-    """Open renderers and built scenes kept between calls (see the module's notes).
+    """Open renderers and built scenes, kept between calls.
 
-    max_renderers : open renderers kept (>= 1); max_scenes : built scenes kept (>= 1);
-    max_memory_gb : bound, GiB, on the kept renderers' memory estimates together (None:
-    :func:`eyelab.imaging.memory.memory_limit` at each render); make_renderer(name,
-    quality) / build_scene(source) : how a missing renderer or scene is made (default
-    :func:`eyelab.imaging.registry.make_renderer`, :func:`eyelab.jobs.render.build_scene`).
+    Its :meth:`render`, :meth:`analyze`, :meth:`maps` and :meth:`psf` are
+    :func:`eyelab.render`, :func:`eyelab.analyze`, :func:`eyelab.maps` and
+    :func:`eyelab.psf` with this session's renderers and scenes; those functions use the
+    process's default session unless given ``session=``. Rendering a spec again, or with
+    another eye or lens, reuses the warm renderer and the built scene: the image a new
+    renderer gives, without its start-up. How much it keeps, the memory bound and
+    threads: the notes of :mod:`eyelab.jobs.session`.
 
     Use it as a context manager, or :meth:`close` it, to release its GL contexts.
+
+    Parameters
+    ----------
+    max_renderers : int
+        Open renderers kept (>= 1).
+    max_scenes : int
+        Built scenes kept (>= 1).
+    max_memory_gb : float or None
+        Bound, GiB, on the kept renderers' memory estimates together (None:
+        :func:`eyelab.imaging.memory.memory_limit` at each render).
+    make_renderer : callable or None
+        ``make_renderer(name, quality)``: how a missing renderer is made (default
+        :func:`eyelab.imaging.registry.make_renderer`).
+    build_scene : callable or None
+        ``build_scene(source)``: how a missing scene is made (default
+        :func:`eyelab.jobs.render.build_scene`).
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> with eyelab.Session(max_renderers=1) as session:
+    ...     first = session.render("examples/first.toml", width=64, height=48, samples=2)
+    ...     again = session.render("examples/first.toml", width=64, height=48, samples=2)
+    >>> first.report["cache"]["session"], again.report["cache"]["session"]
+    ({'renderer': 'miss', 'scene': 'miss'}, {'renderer': 'hit', 'scene': 'hit'})
+    >>> bool((first.srgb == again.srgb).all()), session.closed
+    (True, True)
     """
 
     def __init__(self, *, max_renderers: int = MAX_RENDERERS, max_scenes: int = MAX_SCENES,
@@ -209,7 +238,7 @@ class Session:
         from eyelab.spec import no_camera, pick_eye
 
         self._check_open()
-        s = pick_eye(no_camera(as_spec(spec), "maps"), eye, "eyelab.maps")
+        s = pick_eye(no_camera(as_spec(spec), "maps"), eye, "eyelab.maps", flag="eye")
         if s.lens is None:
             raise SpecError("lens", "the spec has no lens to map")
         return as_worn_maps(lens_wearer(s.eye), s.lens, half_angle_deg=half_angle_deg, n=n,
@@ -225,7 +254,7 @@ class Session:
 
         self._check_open()
         return point_psf(as_spec(spec), point=point, no_lens=no_lens,
-                         pitch_arcmin=pitch_arcmin, size=size, side=eye)
+                         pitch_arcmin=pitch_arcmin, size=size, side=eye, side_flag="eye")
 
     # ------------------------------------------------------------- what it keeps
     def scene(self, source) -> tuple:

@@ -275,4 +275,12 @@ def dot_scene(distance_m: float, size_m: float) -> Scene:
 
 SCENES = {"room": room_scene, "chart": chart_scene, "page": page_scene,
           "tilted_page": tilted_page_scene, "depth_ramp": depth_ramp_scene}
+#: The built-in scenes' names, which ``[render] scene`` and :func:`eyelab.builtin_scene`
+#: take.
+#:
+#: Examples
+#: --------
+#: >>> import eyelab
+#: >>> eyelab.SCENE_NAMES
+#: ('room', 'chart', 'page', 'tilted_page', 'depth_ramp')
 SCENE_NAMES = tuple(SCENES)

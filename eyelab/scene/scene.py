@@ -173,7 +173,28 @@ def apply_shading(meshes, shading: str = "auto") -> list:
 
 @dataclass
 class Scene:
-    """A list of meshes plus a background colour (sRGB uint8)."""
+    """A list of meshes plus a background colour (sRGB uint8).
+
+    ``meshes``: :class:`SceneMesh` objects, their vertices in metres in eyelab's frame (the
+    eye's pupil at the origin, looking along -z, y up); ``background``: the (r, g, b) seen
+    where no mesh is; ``name``: what reports call it. :func:`eyelab.builtin_scene` makes
+    the built-in scenes; a spec's ``[render] scene`` names one of them or a mesh file; a
+    renderer made by :func:`eyelab.make_renderer` renders a Scene.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> room = eyelab.builtin_scene("room")
+    >>> room.name, len(room.meshes), room.n_triangles
+    ('room', 21, 2736)
+    >>> lo, hi = room.bounds()                 # (x, y, z) m: all in front of the eye
+    >>> lo.tolist(), hi.tolist()
+    ([-2.0, -1.2, -6.4], [2.0, 1.2, 0.0])
+    >>> boxes = eyelab.Scene([m for m in room.meshes if m.name.startswith("box")],
+    ...                      background=(0, 0, 0), name="boxes")
+    >>> boxes.n_triangles
+    36
+    """
 
     meshes: list = field(default_factory=list)
     background: tuple = (255, 255, 255)

@@ -30,6 +30,55 @@ from eyelab.spec.tables import check_keys, number
 
 @dataclass(frozen=True)
 class Spec:
+    """A whole spec: what a TOML spec file describes, validated, as eyelab's objects.
+
+    Made by :func:`load_spec` (a file, or the built-in default) or, from the tables of a
+    file as a dict, by :func:`parse_spec`; every function of :mod:`eyelab` that takes a
+    spec takes one. It is frozen: ``dataclasses.replace(spec, lens=None)`` is the same spec
+    without its lens.
+
+    Parameters
+    ----------
+    eye : Eye or a schematic eye
+        The ``[eye]`` table: the thin eye (:class:`~eyelab.optics.eye.thin.Eye`) or the
+        schematic eye ``eye.model`` names; of a two-eye spec, the right eye.
+    lens : SpectacleLens or None
+        The ``[lens]`` table, None without one; of a two-eye spec, the right eye's.
+    points : ObjectPoints
+        The ``[[points]]``: the object points ``eyelab.analyze`` and ``eyelab.psf`` look at.
+    wavelength_nm : float
+        ``analysis.wavelength_nm``: the wavelength (nm) ``eyelab.analyze`` traces at.
+    fixation : str
+        ``analysis.fixation``: "rotating" (the eye turns about its centre of rotation
+        toward each point) or "fixed".
+    accommodation : float or None
+        ``eye.accommodation_d``: a fixed accommodation (D), or None for "auto" (the best
+        effort for each point).
+    source : str
+        Where it came from: the file's path, ``"<built-in default>"`` or ``"<dict>"``.
+    render : RenderSpec
+        The ``[render]`` table: the scene, the renderer, the view and the renderer's
+        quality options.
+    vertex_sphere : str
+        ``analysis.vertex_sphere``: where ``eyelab.analyze`` takes the vertex-sphere wave,
+        "rotation_centre" or "pupil".
+    binocular : Binocular or None
+        Two eyes (below).
+    warnings : tuple of str
+        Notes on the input (below).
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> import eyelab
+    >>> spec = eyelab.load_spec("examples/first.toml")
+    >>> spec.lens.rx.format(), spec.render.scene.name, spec.render.view.shape
+    ('-2.50 / -0.75 x 090', 'chart', (240, 320))
+    >>> naked = dataclasses.replace(spec, lens=None)     # the same spec without its lens
+    >>> naked.lens is None, naked.eye == spec.eye
+    (True, True)
+    """
+
     eye: Eye
     lens: SpectacleLens | None
     points: ObjectPoints
@@ -103,22 +152,25 @@ def no_camera(spec: Spec, what: str) -> Spec:
 
 
 def pick_eye(spec: Spec, side: str | None, what: str, *, point: int | None = None,
-             no_lens: bool = False) -> Spec:
+             no_lens: bool = False, flag: str = "--eye") -> Spec:
     """A one-eye spec for ``what``: ``spec`` itself when it has one eye (``side`` None);
     of a two-eye spec the ``side`` eye ("right" or "left") with its lens and the points as
     its frame holds them, at the accommodation both eyes share at ``point`` (the
     less-blurred eye's, :func:`~eyelab.optics.chain.binocular.analyze_binocular`) unless
     the spec fixes one (through the lenses' carriers, or naked with ``no_lens``). A
-    one-line error for a side of a one-eye spec or none of two."""
+    one-line error for a side of a one-eye spec or none of two, naming ``flag``: the
+    CLI's ``--eye`` or the Python argument ``eye``."""
     if spec.binocular is None:
         if side is not None:
-            raise SpecError("--eye", "picks one eye of a two-eye spec ([binocular] or "
-                                     "per-eye tables); this spec has one")
+            raise SpecError(flag, "picks one eye of a two-eye spec ([binocular] or "
+                                  "per-eye tables); this spec has one")
         return spec
     if side is None:
+        how = (f"{flag} right|left" if flag.startswith("-")
+               else f'{flag}="right" or {flag}="left"')
         raise SpecError("binocular", f"{what} shows one eye; this spec has two ([binocular] "
-                                     "or per-eye tables): pick one with --eye right|left")
-    check_choice("--eye", side, SIDES)
+                                     f"or per-eye tables): pick one with {how}")
+    check_choice(flag, side, SIDES)
     b = spec.binocular
     acc = spec.accommodation
     if acc is None and point is not None and 0 <= point < len(spec.points):
@@ -145,7 +197,24 @@ def thin_eye(spec: Spec, what: str) -> Spec:
 
 
 def load_spec(path: str | Path | None = None) -> Spec:
-    """Load a TOML spec; ``None`` loads the built-in default scene."""
+    """Load a TOML spec; ``None`` loads the built-in default scene.
+
+    ``path``: a spec file (str or Path); the files it names (a lens's points files, a
+    mesh as ``[render] scene``) are found relative to its folder. Returns a :class:`Spec`.
+    A file that cannot be read, is not TOML, or holds a bad key or value raises
+    :class:`~eyelab.core.errors.SpecError`: one line naming the field and what is allowed.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> spec = eyelab.load_spec("examples/first.toml")
+    >>> spec.source, spec.lens.material.name
+    ('examples/first.toml', 'polycarbonate')
+    >>> spec.lens.rx, spec.eye.pupil_diameter
+    (Prescription(sphere=-2.5, cylinder=-0.75, axis=90, add=0, eye=None), 0.004)
+    >>> eyelab.load_spec().source
+    '<built-in default>'
+    """
     data, source, base = read_spec_data(path)
     return parse_spec(data, source, base)
 

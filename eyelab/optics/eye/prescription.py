@@ -241,6 +241,9 @@ def power_row(sphere_d: float, cylinder_d: float, axis_tabo_deg: float, mean_d: 
 class Prescription:
     """A spectacle prescription.
 
+    :meth:`parse` reads a prescription as a clinician writes it, :meth:`format` writes
+    it back; ``eye.rx`` and ``lens.rx`` in a spec take the same text.
+
     Parameters
     ----------
     sphere, cylinder : float
@@ -252,6 +255,17 @@ class Prescription:
         Near addition, dioptres, >= 0.
     eye : None, "R", "L" or "OU"
         Which eye the prescription is for, when the text said so (metadata).
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> rx = eyelab.Prescription.parse("-2.50 -0.75 x 90")
+    >>> rx
+    Prescription(sphere=-2.5, cylinder=-0.75, axis=90, add=0, eye=None)
+    >>> rx.format(), rx.format(plus_cylinder=True)
+    ('-2.50 / -0.75 x 090', '-3.25 / +0.75 x 180')
+    >>> eyelab.Prescription(sphere=1.0, add=2.0).format()
+    '+1.00 DS add +2.00'
     """
 
     sphere: float = 0.0
@@ -400,7 +414,8 @@ class Prescription:
 
     @property
     def axis_wearer_deg(self) -> float:
-        """Cylinder axis in the wearer's frame (x right, y up, seen from behind): 180 - A."""
+        """Cylinder axis in the wearer's frame (x right, y up, seen from behind), 180 - A
+        (modulo 180)."""
         return (180.0 - self.axis) % 180.0
 
     def power_matrix(self, add: float = 0.0) -> np.ndarray:

@@ -115,6 +115,10 @@ def watson_yellott_pupil(luminance, age=30.0, field_area_deg2=math.pi * 30.0**2,
 class Eye:
     """Thin toric eye.
 
+    Lengths are in metres and powers in dioptres here; the repr shows the ``[eye]`` spec
+    keys (mm, D, degrees; :meth:`spec_keys`). :meth:`from_rx` makes the eye a spectacle
+    prescription corrects, :meth:`for_age` one with an age's amplitude of accommodation.
+
     Parameters
     ----------
     power_min : float
@@ -145,6 +149,17 @@ class Eye:
         wavelength other than :data:`EYE_REFERENCE_NM` every meridian's power is higher by
         -R(lambda) + R(reference) (about +0.63 D at 486 nm, -0.26 D at 656 nm). Powers,
         refraction and accommodation are defined at the reference wavelength.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> eye = eyelab.Eye.from_rx("-3.00 / -1.00 x 180")        # worn at 12 mm
+    >>> [round(k, 2) for k in eye.refraction()]                # D at the cornea
+    [-3.82, -2.9]
+    >>> round(eye.astigmatism, 3), eye.astigmatism_axis_deg, eye.pupil_diameter
+    (0.921, 90.0, 0.004)
+    >>> eyelab.Eye.for_age(45).accommodation_max
+    5.0
     """
 
     power_min: float = GH_P_MIN
@@ -246,7 +261,7 @@ class Eye:
     # --------------------------------------------------------------- derived
     @property
     def emmetropic_power(self) -> float:
-        """n_2 / z_r (D): the relaxed power that focuses infinity on the retina."""
+        """The relaxed power (D) that focuses infinity on the retina, n_2 / z_r."""
         return self.n_vitreous / self.retina_distance
 
     def power_shift(self, wavelength_nm=EYE_REFERENCE_NM) -> float:

@@ -92,9 +92,28 @@ def check_feasible(front, back, center_thickness, diameter, *, min_edge=0.0,
 class LensPose:
     """Where the lens sits in front of the eye.
 
-    vertex_distance : m, back vertex to corneal vertex, in [0.005, 0.03]
-    pantoscopic_tilt_deg, wrap_deg : in [-30, 30]
-    decentration : (x, y) m, optical centre relative to the pupil centre, at most 0.02 from it
+    The repr shows the ``[lens]`` spec keys (mm, degrees; :meth:`spec_keys`).
+
+    Parameters
+    ----------
+    vertex_distance : float
+        m, back vertex to corneal vertex, in [0.005, 0.03].
+    pantoscopic_tilt_deg : float
+        Degrees, in [-30, 30].
+    wrap_deg : float
+        Degrees, in [-30, 30].
+    decentration : (x, y)
+        m, optical centre relative to the pupil centre, each at most 0.02 from it.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> eyelab.LensPose(vertex_distance=0.014, pantoscopic_tilt_deg=8.0)
+    LensPose(vertex_distance_mm=14, pantoscopic_tilt_deg=8, wrap_deg=0, decentration_mm=(0, 0))
+    >>> eyelab.LensPose(vertex_distance=0.05)
+    Traceback (most recent call last):
+    ...
+    eyelab.core.errors.SpecError: lens.vertex_distance_mm: must be in [5, 30], got 50.0
     """
 
     vertex_distance: float = 0.012
@@ -137,20 +156,48 @@ class LensPose:
 class SpectacleLens:
     """A single spectacle lens.
 
+    :meth:`from_rx` designs the lens for a prescription, as a spec's ``[lens] rx`` does;
+    the repr shows the ``[lens]`` spec keys (mm, D, degrees).
+
     Parameters
     ----------
     front, back : Surface
         In their local frames (sag along +z, toward the eye). For a usual meniscus both
         curvatures are positive (centres of curvature on the eye's side).
-    center_thickness : float, m, in (0.0002, 0.03]
-    material : Material; pose : LensPose
-    diameter : float, m, in [0.01, 0.09]
-    rx : Prescription or None, the prescription the lens was designed for (informational)
-    coating : "none" (Fresnel reflection of the bare surfaces) or "ar" (anti-reflection:
-        :data:`eyelab.optics.rays.fresnel.AR_REFLECTANCE` per surface)
-    outline : :class:`eyelab.optics.lens.frame.Outline` or None, the frame's shape the lens
-        is cut to, in the lens frame (x, y m; the fitting point at the origin), inside the
-        round blank; rays meeting either surface outside it miss. None: the round blank.
+    center_thickness : float
+        m, in (0.0002, 0.03].
+    material : Material
+        The lens material.
+    diameter : float
+        m, in [0.01, 0.09].
+    pose : LensPose
+        Where the lens sits in front of the eye.
+    rx : Prescription or None
+        The prescription the lens was designed for (informational).
+    coating : str
+        "none" (Fresnel reflection of the bare surfaces) or "ar" (anti-reflection:
+        :data:`eyelab.optics.rays.fresnel.AR_REFLECTANCE` per surface).
+    design : object
+        How the lens was designed beyond its surfaces (below).
+    outline : Outline or None
+        The frame's shape the lens is cut to (:class:`eyelab.optics.lens.frame.Outline`),
+        in the lens frame (x, y m; the fitting point at the origin), inside the round
+        blank; rays meeting either surface outside it miss. None: the round blank.
+
+    Examples
+    --------
+    A +3.00 / -1.00 x 090 lens in CR-39 (the default material), tilted 8 degrees: the
+    thinnest that leaves a 1 mm edge, its back vertex powers (D) traced through it.
+
+    >>> import eyelab
+    >>> rx = eyelab.Prescription.parse("+3.00 -1.00 x 90")
+    >>> lens = eyelab.SpectacleLens.from_rx(rx, pose=eyelab.LensPose(pantoscopic_tilt_deg=8.0))
+    >>> lens.material.name, round(lens.center_thickness * 1e3, 2)
+    ('cr39', 3.96)
+    >>> round(lens.edge_thickness()[0] * 1e3, 2)
+    1.0
+    >>> [round(power, 3) for power in lens.back_vertex_powers()[:2]]
+    [3.0, 2.0]
     """
 
     front: Surface
@@ -164,7 +211,7 @@ class SpectacleLens:
     #: How the lens was designed beyond its surfaces (a progressive design's reference
     #: points), metadata for reports and maps.
     design: object = field(default=None, compare=False, repr=False)
-    #: The frame's outline the lens is cut to (lens frame), or None: the round blank.
+    #: The frame's outline the lens is cut to (lens frame), or None for the round blank.
     outline: object = field(default=None, repr=False)
 
     def __repr__(self) -> str:
@@ -256,11 +303,12 @@ class SpectacleLens:
 
         Returns
         -------
-        dict with keys ``hit1``, ``hit2`` (:class:`Hit` at the first/second surface met),
-        ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs`` (n, 3)
-        ``status`` (n,) uint8 and ``transmittance`` (n,): the fraction of unpolarised light
-        the two surfaces pass (Fresnel, s and p tracked, :mod:`eyelab.optics.rays.fresnel`; 0
-        for failed rays).
+        dict
+            The keys ``hit1``, ``hit2`` (:class:`Hit` at the first/second surface met),
+            ``inside`` (n, 3) direction in the glass, ``out_points`` (n, 3), ``out_dirs``
+            (n, 3), ``status`` (n,) uint8 and ``transmittance`` (n,): the fraction of
+            unpolarised light the two surfaces pass (Fresnel, s and p tracked,
+            :mod:`eyelab.optics.rays.fresnel`; 0 for failed rays).
         """
         return self.trace_wavelengths(origins, directions, (wavelength_nm,),
                                       reverse=reverse)[0]

@@ -30,15 +30,29 @@ RGB_WAVELENGTHS_NM = (656.27, 546.07, 486.13)
 class Material:
     """An optical material.
 
+    Its index at other wavelengths, :meth:`n`, is Cauchy's n(lambda) = A + B / lambda^2
+    (lambda in micrometres), fitted so that n(lambda_d) = n_d and (n_d - 1)/(n_F - n_C) =
+    V_d exactly. :func:`get_material` names the catalogue's materials.
+
     Parameters
     ----------
     name : str
+        What reports and reprs call it.
     n_d : float
         Refractive index at the helium d line (587.56 nm), in [1, 2.5].
     v_d : float
         Abbe number; ``inf`` means no dispersion (n(lambda) = n_d).
     source : str
         Where the numbers come from (not part of the material's identity).
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> glass = eyelab.Material("my glass", n_d=1.6, v_d=42.0)
+    >>> round(glass.n(486.13), 4), round(glass.n(587.56), 4), round(glass.n(656.27), 4)
+    (1.61, 1.6, 1.5957)
+    >>> eyelab.Material("water", 1.333).dispersive        # no v_d: no dispersion
+    False
     """
 
     name: str
@@ -127,7 +141,24 @@ ALIASES = {"1.60": "mr8", "1.67": "mr7", "1.74": "mr174", "pc": "polycarbonate",
 
 
 def get_material(spec, *, field: str = "lens.material") -> Material:
-    """A catalogue name (case-insensitive), a ``Material``, or a mapping {n_d, v_d[, name]}."""
+    """A catalogue name (case-insensitive), a ``Material``, or a mapping {n_d, v_d[, name]}.
+
+    The catalogue (:data:`CATALOGUE`): cr39, crown, trivex, polycarbonate and the
+    thiourethanes mr8, mr7 and mr174, also named by their nominal indices 1.60, 1.67 and
+    1.74 (:data:`ALIASES`); the names ``lens.material`` takes. A mapping without a name is
+    called "custom". Anything else raises :class:`~eyelab.core.errors.SpecError`, naming
+    ``field`` and the allowed names.
+
+    Examples
+    --------
+    >>> import eyelab
+    >>> eyelab.get_material("polycarbonate")
+    Material(name='polycarbonate', n_d=1.586, v_d=30.0)
+    >>> eyelab.get_material("1.67").name
+    'mr7'
+    >>> eyelab.get_material({"n_d": 1.6, "v_d": 42})
+    Material(name='custom', n_d=1.6, v_d=42.0)
+    """
     if isinstance(spec, Material):
         return spec
     if isinstance(spec, str):
