@@ -58,3 +58,17 @@ def test_a_schematic_eye_in_the_inspector_and_a_cameras_row():
     for cn in ("inspect", "surface", "analyze"):
         outcome, line = got["Navarro", "camera", cn]
         assert outcome == "refuses" and line.startswith("render.camera: "), line
+
+
+def test_the_api_columns_and_batch_for_two_eyes():
+    """The Python API and batch take a two-eye spec: render and analyze work, maps and psf
+    ask for the ``eye`` argument by its Python name, batch renders both eyes."""
+    got = matrix(eyes=["two thin"], lenses=["sphere"],
+                 commands=["API render", "API analyze", "API maps", "API psf", "batch"])
+    _check(got)
+    for cn in ("API render", "API analyze", "batch"):
+        assert got["two thin", "sphere", cn] == ("works", ""), cn
+    for cn, what in (("API maps", "eyelab.maps"), ("API psf", "eyelab.psf")):
+        outcome, line = got["two thin", "sphere", cn]
+        assert outcome == "refuses" and line.startswith(f"binocular: {what} shows one eye")
+        assert line.endswith('pick one with eye="right" or eye="left"'), line
