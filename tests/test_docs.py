@@ -23,7 +23,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
 PAGES = sorted((ROOT / "docs" / "guide").glob("*.md")) + sorted(
-    (ROOT / "docs" / "reference").glob("*.md"))
+    (ROOT / "docs" / "reference").glob("*.md")) + sorted(
+    (ROOT / "docs" / "checking").glob("*.md")) + [
+    p for p in [ROOT / "docs" / "getting-started.md"] if p.exists()]
 
 #: The README's front-door limits (lines; the line by which a spec has appeared).
 README_MAX_LINES = 250
@@ -45,8 +47,12 @@ def _workdir(tmp_path: Path) -> Path:
     return work
 
 
-#: The pages whose commands a reader runs: the README and the guide.
-SHOWN_IN = [ROOT / "README.md"] + sorted((ROOT / "docs" / "guide").glob("*.md"))
+#: The pages whose commands a reader runs: the README, Getting started, the guide and the
+#: checking pages (their benchmark commands).
+SHOWN_IN = [ROOT / "README.md"] + [
+    p for p in [ROOT / "docs" / "getting-started.md"] if p.exists()] + sorted(
+    (ROOT / "docs" / "guide").glob("*.md")) + sorted(
+    (ROOT / "docs" / "checking").glob("*.md"))
 _FENCE = re.compile(r"^```(\w*)\n(.*?)^```", flags=re.S | re.M)
 #: A placeholder for the reader to fill in (SPEC, FILE, R U), or a choice or an option
 #: of a synopsis ([--json FILE], front|back, ...).
@@ -317,21 +323,24 @@ def test_the_documentation_builds_without_warnings(tmp_path):
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     pages = ["index", "guide/commands", "reference/spec", "reference/cli", "reference/api",
              "_generated/benchmarks", "gallery_examples/index"]
-    pages += [f"gallery_examples/{p.stem}" for p in (ROOT / "examples" / "gallery").glob(
-        "plot_*.py")]
+    examples = sorted((ROOT / "examples" / "gallery").glob("*/plot_*.py"))
+    assert len(examples) >= 15, examples
+    pages += [f"gallery_examples/{p.parent.name}/{p.stem}" for p in examples]
     for page in pages:
         assert (tmp_path / "html" / f"{page}.html").exists(), page
     images = list((tmp_path / "html" / "_images").glob("sphx_glr_plot_*.png"))
     assert len(images) >= len(pages) - 7, images          # every example drew its figure
     api = (tmp_path / "html" / "reference" / "api.html").read_text()
-    assert "eyelab.jobs.api.render" in api and "Session" in api
+    assert "eyelab.render" in api and "eyelab.Session" in api
+    render = (tmp_path / "html" / "reference" / "generated" / "eyelab.render.html").read_text()
+    assert 'id="eyelab.render"' in render and "eyelab.jobs.api.render" not in render
 
 
 def test_the_corpus_size_the_guide_quotes_is_the_generators():
     sys.path.insert(0, str(ROOT / "tests"))
     import badspecs
 
-    text = (ROOT / "docs" / "guide" / "commands.md").read_text()
+    text = (ROOT / "docs" / "checking" / "refusals.md").read_text()
     quoted = re.search(r"generated corpus of ([\d,]+)\s+bad specs", text).group(1)
     assert int(quoted.replace(",", "")) == len(badspecs.corpus())
 

@@ -203,8 +203,8 @@ def test_analyze_reports_the_beams_fraction_through_lenslets(tmp_path):
 
 
 def test_the_reversed_wave_understates_a_lenslets_vergence():
-    """The limit docs/guide/lenslets.md states, measured: a lone lenslet of +3 D add on a
-    plano carrier before a naked schematic emmetrope (2 mm pupil). The reversed wave
+    """The limit docs/checking/optics-lenslets.md states, measured: a lone lenslet of +3 D
+    add on a plano carrier before a naked schematic emmetrope (2 mm pupil). The reversed wave
     (a point source on the retina; eyelab.optics.chain.retinal_wave) has, over the
     lenslet's zone of the entrance pupil, a quadratic term of 2.94-2.99 D (as the zone and
     the terms fitted vary); the forward wave's vergence there (Coddington along the axis,

@@ -1,6 +1,6 @@
 """The README and the guide stay true: the renderers' interface example runs, CI runs
 exactly the README's test command, the lenslet guide's PSF figures are what its command
-prints, and the long benchmarks do what the testing guide says (the README's commands and
+prints, and the long benchmarks do what the checking pages say (the README's commands and
 the guide's pictures: tests/test_docs.py; its spec reference: tests/test_specdoc.py)."""
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ README = (ROOT / "README.md").read_text()
 
 
 def test_the_interface_example_runs():
-    section = (ROOT / "docs" / "guide" / "renderers.md").read_text()
-    section = section[section.index("## Renderers: one interface"):]
+    section = (ROOT / "docs" / "guide" / "performance.md").read_text()
+    section = section[section.index("## Drive a renderer yourself"):]
     code = section[section.index("```python") + len("```python"): section.index("```\n", 10)]
     scope = {}
     exec(compile(code, "README.md", "exec"), scope)
@@ -88,7 +88,7 @@ def test_the_lenslet_guide_quotes_its_psf_command(tmp_path):
 
 
 def test_the_long_benchmarks_print_a_line_per_step_off_a_terminal(capsys):
-    """docs/guide/testing.md: ``eyelab bench schematic`` and ``lenslets`` print a line per
+    """docs/checking/index.md: ``eyelab bench schematic`` and ``lenslets`` print a line per
     step on stderr when it is not a terminal (pytest's is not), ``--quiet`` silences them,
     and both take ``--quick``."""
     from eyelab.bench.schematic import Steps

@@ -189,7 +189,7 @@ def test_raster_agrees_with_rays_from_the_retina(lens):
 
 
 def test_the_guides_numbers_are_the_benchmarks():
-    """docs/guide/schematic-eye.md quotes docs/bench/schematic.json as it stands: the
+    """docs/checking/optics-schematic-eye.md quotes docs/bench/schematic.json as it stands: the
     frame's cost, the quick scenes' SSIM, and the dots' table and the reference's
     agreement with forward rays (eyelab.bench.dots)."""
     import json
@@ -198,7 +198,8 @@ def test_the_guides_numbers_are_the_benchmarks():
     from eyelab.bench.dots import dots_table, reference_agreement
 
     root = Path(__file__).resolve().parents[1]
-    guide = " ".join((root / "docs" / "guide" / "schematic-eye.md").read_text().split())
+    guide = " ".join((root / "docs" / "checking" / "optics-schematic-eye.md").read_text()
+                     .split())
     bench = json.loads((root / "docs" / "bench" / "schematic.json").read_text())
     assert not bench["quick"]
     f = bench["frames"]

@@ -14,7 +14,7 @@ def page(bench: Path) -> str:
     out = ["# Benchmark results", "",
            "Each section is one JSON file of `docs/bench/`, written by `eyelab bench ... -o`; "
            "the lines are its `summary`, as the benchmark printed them. How each is run is "
-           "in the [tests and benchmarks guide](../guide/testing.md).", ""]
+           "in [How eyelab is checked](../checking/index.md).", ""]
     for f in sorted(bench.glob("*.json")):
         data = json.loads(f.read_text())
         title = data.get("benchmark") or f.stem

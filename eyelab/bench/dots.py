@@ -228,9 +228,9 @@ def dots_summary(rows) -> list:
 
 
 def dots_table(rows) -> list:
-    """The guide's table rows (markdown), one per view: for the widths, centroids and
-    encircled energies, how many dots x channels are within the tolerance of the
-    reference, and the worst difference."""
+    """docs/checking/optics-schematic-eye.md's table rows (markdown), one per view: for the
+    widths, centroids and encircled energies, how many dots x channels are within the
+    tolerance of the reference, and the worst difference."""
     out = []
     for name, sel, (dw, dc, de) in _views(rows):
         n = len(sel)

@@ -113,7 +113,7 @@ def _errors(truth_spp: int, bar, gazes=GAZES) -> list:
 
 #: The quick preset (``--quick``): one repeat, the gaze through the treatment zone only
 #: and the reference at fewer rays a pixel (a check that everything runs and roughly
-#: agrees, in under two minutes; the numbers the guide quotes come from the default run).
+#: agrees, in under two minutes; the numbers the docs quote come from the default run).
 QUICK = {"repeats": 1, "truth_spp": 64, "gazes": (20.0,)}
 
 

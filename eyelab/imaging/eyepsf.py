@@ -23,7 +23,7 @@ channel at its own wavelength.
   reference bends each pupil ray by grad W (geometric) and convolves with the
   diffraction-limited PSF. The true PSF of low + high orders is not the convolution of
   the two (their ray errors add pupil point by pupil point): the error of this product
-  against the full-wave PSF is stated in docs/guide/patient-eye.md.
+  against the full-wave PSF is stated in docs/checking/optics-patient-eye.md.
 
 Kernels are sampled at the view's angular pitch at its centre (2 tan(fov_y / 2) / height
 rad per pixel; off axis a pixel subtends less, by up to cos^2 of the field angle, so the
