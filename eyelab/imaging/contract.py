@@ -436,14 +436,14 @@ def channel_wavelengths(eye, lens, chromatic: bool, report=None) -> tuple:
 
 
 def _check_lenslets(name: str, lens) -> None:
-    """Refuse, naming ``lens.lenslets``, a lenslet lens for a renderer that draws one image
-    per scene point (its blur fields would sample the lenslets as if they were smooth)."""
+    """Refuse, naming ``lens.lenslets``, a lenslet lens for a renderer whose method would
+    sample the lenslets as if the lens were smooth (the registry's ``lenslets_why``)."""
     if lens is None or not lens.has_lenslets:
         return
-    from eyelab.imaging.registry import LENSLET_RENDERERS
+    from eyelab.imaging.registry import LENSLET_RENDERERS, REGISTRY
 
     if name not in LENSLET_RENDERERS:
         raise SpecError("lens.lenslets", f"a lenslet lens's simultaneous images (through the "
                         f"carrier and through the lenslets) render with "
-                        f"{' or '.join(map(repr, LENSLET_RENDERERS))}; {name!r} draws one "
-                        "image per point")
+                        f"{' or '.join(map(repr, LENSLET_RENDERERS))}; not {name!r}: "
+                        f"{REGISTRY[name].lenslets_why}")
