@@ -182,3 +182,43 @@ def test_a_shown_output_is_what_its_command_prints(page, cmd, shown, tmp_path):
     printed = {ln.rstrip() for ln in r.stdout.splitlines()}
     missing = [ln for ln in shown.splitlines() if ln.rstrip() not in printed]
     assert not missing, f"{page.name}: {cmd} no longer prints:\n" + "\n".join(missing)
+
+
+#: Outputs a page quotes in its prose, away from the command that prints them: (page, the
+#: command as a reader runs it, the quoted texts). Each text must be on the page and in
+#: what the command prints (its stdout).
+QUOTED = [
+    ("schematic-eye.md", "eyelab analyze examples/myope.toml", [
+        "refraction M +1.061 D, J0 -0.817, J45 +0.000; tangential +0.244, sagittal +1.878 D;"
+        " focal lines +0.083 / +0.699 mm behind the retina",
+        "wave RMS 1.333 um (0.347 um above second order), Strehl ratio 0.008"]),
+    ("lenslets.md", "eyelab analyze examples/dims.toml", [
+        "lenslets: 47.0 % of the pupil's light through 12 lenslets of +3.50 D add (a second "
+        "image, myopically defocused +3.50 D, a lenslet's pencil blurred over 12.4'); the "
+        "rest of this point's report is the carrier's image, 53.0 % of the light"]),
+    ("lenslets.md", "eyelab maps examples/dims_periphery.toml -o dims-periphery.png", [
+        "lenslets (+3.50 D add): up to 50 % of the pupil's light through them (88 % of the "
+        "field's points); their image's myopic defocus +1.67 to +3.32 D"]),
+    ("patient-eye.md", "eyelab psf examples/aberrometer.toml -o patient-psf.npy", [
+        "656.27 nm: Strehl 0.013, RMS 1.061 um (higher orders 0.750 um), MTF at 30 c/deg 0.023",
+        "546.07 nm: Strehl 0.007, RMS 1.381 um (higher orders 0.750 um), MTF at 30 c/deg 0.020",
+        "486.13 nm: Strehl 0.004, RMS 1.704 um (higher orders 0.750 um), MTF at 30 c/deg 0.021",
+    ]),
+]
+
+
+@pytest.mark.parametrize("name, cmd, quoted", QUOTED, ids=[f"{n}: {c}" for n, c, _ in QUOTED])
+def test_an_output_quoted_in_prose_is_what_its_command_prints(name, cmd, quoted, tmp_path):
+    """The figures a page quotes from a command's output (its prose, not a block under the
+    command) are what that command prints now (the page's minus signs as the terminal's)."""
+    from test_docs import _run_shown, _workdir
+
+    page = " ".join((GUIDE / name).read_text().replace("−", "-").split())
+    work, home = _workdir(tmp_path), tmp_path / "home"
+    home.mkdir()
+    r = _run_shown(cmd, work, home)
+    assert r.returncode == 0, r.stderr[-800:]
+    printed = " ".join(r.stdout.split())
+    for text in quoted:
+        assert text in page, f"{name} no longer quotes: {text}"
+        assert text in printed, f"{cmd} no longer prints: {text}"
