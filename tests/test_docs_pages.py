@@ -199,6 +199,10 @@ QUOTED = [
     ("lenslets.md", "eyelab maps examples/dims_periphery.toml -o dims-periphery.png", [
         "lenslets (+3.50 D add): up to 50 % of the pupil's light through them (88 % of the "
         "field's points); their image's myopic defocus +1.67 to +3.32 D"]),
+    ("own-lens.md", "eyelab analyze own-lens.toml", [
+        "traced back vertex powers -2.4686 / -3.3019 D"]),
+    ("two-eyes.md", "eyelab render docs/gallery/binocular.toml --binocular anaglyph -o "
+     "binocular_anaglyph.png", ["0.98 Δ base out"]),
     ("patient-eye.md", "eyelab psf examples/aberrometer.toml -o patient-psf.npy", [
         "656.27 nm: Strehl 0.013, RMS 1.061 um (higher orders 0.750 um), MTF at 30 c/deg 0.023",
         "546.07 nm: Strehl 0.007, RMS 1.381 um (higher orders 0.750 um), MTF at 30 c/deg 0.020",
@@ -210,12 +214,17 @@ QUOTED = [
 @pytest.mark.parametrize("name, cmd, quoted", QUOTED, ids=[f"{n}: {c}" for n, c, _ in QUOTED])
 def test_an_output_quoted_in_prose_is_what_its_command_prints(name, cmd, quoted, tmp_path):
     """The figures a page quotes from a command's output (its prose, not a block under the
-    command) are what that command prints now (the page's minus signs as the terminal's)."""
-    from test_docs import _run_shown, _workdir
+    command) are what that command prints now (the page's minus signs as the terminal's);
+    ``own-lens.toml`` is the page's own spec of a lens given by its surfaces."""
+    from test_docs import _blocks, _run_shown, _workdir
 
-    page = " ".join((GUIDE / name).read_text().replace("−", "-").split())
+    text = (GUIDE / name).read_text()
+    page = " ".join(text.replace("−", "-").split())
     work, home = _workdir(tmp_path), tmp_path / "home"
     home.mkdir()
+    if "own-lens.toml" in cmd:
+        (spec,) = [b for b in _blocks(text, "toml") if 'type = "toric"' in b]
+        (work / "own-lens.toml").write_text(spec)
     r = _run_shown(cmd, work, home)
     assert r.returncode == 0, r.stderr[-800:]
     printed = " ".join(r.stdout.split())
