@@ -23,6 +23,7 @@ import numpy as np
 from eyelab.core.checks import check_in
 from eyelab.core.errors import SpecError
 from eyelab.optics.eye.prescription import Prescription
+from eyelab.optics.lens.pose import LIMITS, LensPose
 from eyelab.optics.rays.fresnel import COATINGS, PolarisedTransmission
 from eyelab.optics.rays.materials import Material, get_material
 from eyelab.optics.rays.surfaces import REVOLVE_AXES, Asphere, Surface, Toric
@@ -33,12 +34,6 @@ from eyelab.optics.rays.trace import FATAL, PlacedSurface, Status, intersect, re
 MIN_CENTER_THICKNESS = {"cr39": 2.0e-3, "crown": 2.0e-3, "trivex": 1.2e-3,
                         "polycarbonate": 1.5e-3, "mr8": 1.4e-3, "mr7": 1.2e-3,
                         "mr174": 1.5e-3}
-#: The lens's ranges, by spec field, in the spec's units (mm, deg, D): what the engine
-#: accepts, and what the spec's schema documents and checks.
-LIMITS = {"lens.vertex_distance_mm": (5.0, 30.0), "lens.pantoscopic_tilt_deg": (-30.0, 30.0),
-          "lens.wrap_deg": (-30.0, 30.0), "lens.decentration_mm": (-20.0, 20.0),
-          "lens.center_thickness_mm": (0.2, 30.0), "lens.diameter_mm": (10.0, 90.0),
-          "lens.base_curve_d": (-20.0, 30.0)}
 #: Minimum edge thickness of plus lenses (m) (docs/SCIENCE.md §7: 0.5-1.0 mm).
 MIN_EDGE_THICKNESS = 1.0e-3
 #: Lowest n_d of a lens made from a prescription (the lowest spectacle material is
@@ -86,70 +81,6 @@ def check_feasible(front, back, center_thickness, diameter, *, min_edge=0.0,
     what = "the surfaces cross" if thick.min() < 0 else "the edge is too thin"
     raise SpecError(field, f"{what}: thickness {thick[k] * 1e3:.2f} mm at {r[k] * 1e3:.1f} mm "
                            f"from the centre (at least {need[k] * 1e3:.2f} mm needed); {fix}")
-
-
-@dataclass(frozen=True)
-class LensPose:
-    """Where the lens sits in front of the eye.
-
-    The repr shows the ``[lens]`` spec keys (mm, degrees; :meth:`spec_keys`).
-
-    Parameters
-    ----------
-    vertex_distance : float
-        m, back vertex to corneal vertex, in [0.005, 0.03].
-    pantoscopic_tilt_deg : float
-        Degrees, in [-30, 30].
-    wrap_deg : float
-        Degrees, in [-30, 30].
-    decentration : (x, y)
-        m, optical centre relative to the pupil centre, each at most 0.02 from it.
-
-    Examples
-    --------
-    >>> import eyelab
-    >>> eyelab.LensPose(vertex_distance=0.014, pantoscopic_tilt_deg=8.0)
-    LensPose(vertex_distance_mm=14, pantoscopic_tilt_deg=8, wrap_deg=0, decentration_mm=(0, 0))
-    >>> eyelab.LensPose(vertex_distance=0.05)
-    Traceback (most recent call last):
-    ...
-    eyelab.core.errors.SpecError: lens.vertex_distance_mm: must be in [5, 30], got 50.0
-    """
-
-    vertex_distance: float = 0.012
-    pantoscopic_tilt_deg: float = 0.0
-    wrap_deg: float = 0.0
-    decentration: tuple = (0.0, 0.0)
-
-    def spec_keys(self) -> dict:
-        """The ``[lens]`` pose keys that place the lens so, in the spec's units (mm, deg)."""
-        return {"vertex_distance_mm": self.vertex_distance * 1e3,
-                "pantoscopic_tilt_deg": self.pantoscopic_tilt_deg, "wrap_deg": self.wrap_deg,
-                "decentration_mm": tuple(v * 1e3 for v in self.decentration)}
-
-    def __repr__(self) -> str:
-        from eyelab.core.reprs import spec_repr
-
-        return spec_repr("LensPose", self.spec_keys())
-
-    def __post_init__(self):
-        check_in("lens.vertex_distance_mm", self.vertex_distance * 1e3, LIMITS)
-        check_in("lens.pantoscopic_tilt_deg", self.pantoscopic_tilt_deg, LIMITS)
-        check_in("lens.wrap_deg", self.wrap_deg, LIMITS)
-        for i, v in enumerate(self.decentration):
-            check_in(f"lens.decentration_mm[{i}]", v * 1e3, LIMITS)
-
-    @property
-    def rotation(self) -> np.ndarray:
-        a = -math.radians(self.pantoscopic_tilt_deg)
-        b = -math.radians(self.wrap_deg)
-        rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
-        ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
-        return ry @ rx
-
-    @property
-    def translation(self) -> np.ndarray:
-        return np.array([self.decentration[0], self.decentration[1], -self.vertex_distance])
 
 
 @dataclass(frozen=True)
