@@ -130,38 +130,42 @@ class SchematicEyeRays:
         self.radius = eye.stop_radius(self.acc, EYE_REFERENCE_NM)
         self.width, self.height = view.width, view.height
         self.near = view.near
-        self._landing = {}
+        from eyelab.core.cache import LRUCache
 
-    def _retina(self, px):
-        """(retinal points (n, 3), chief directions in the vitreous (n, 3), on the retina
-        (n,)) of film points ``px`` (n, 2), kept for the last few grids (the planner asks
-        for one grid per sample and wavelength)."""
+        # the planner asks for the same grids for every sample: their landing (one per
+        # grid) and stop Jacobians (per grid and wavelength) are traced once
+        self._landing = LRUCache(64, "retinal landing")
+        self._jacobians = LRUCache(64, "stop Jacobians")
+
+    def _retina(self, px, wavelength_nm):
+        """(retinal points (n, 3), unit chief directions in the vitreous (n, 3), on the
+        retina (n,), the stop Jacobians at ``wavelength_nm``) of film points ``px`` (n, 2),
+        kept for the last grids asked for."""
         from eyelab.core.cache import array_digest
-        from eyelab.optics.chain.retinal_rays import retina_points
+        from eyelab.optics.chain.retinal_rays import retina_points, stop_jacobians
         from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 
-        key = array_digest(px)
-        if key not in self._landing:
+        def land():
             x = 2 * px[:, 0] / self.width - 1
             y = 1 - 2 * px[:, 1] / self.height
             dirs = -self.cam.ray_directions(x, y)
             r, v, st = retina_points(self.eye, self.rot, self.vertex, dirs, self.acc,
                                      EYE_REFERENCE_NM)
-            if len(self._landing) >= 64:
-                self._landing.pop(next(iter(self._landing)))
-            self._landing[key] = (r, v, (st & np.uint8(FATAL)) == 0)
-        return self._landing[key]
+            return r, v / np.linalg.norm(v, axis=1, keepdims=True), (st & np.uint8(FATAL)) == 0
+
+        key = array_digest(px)
+        (retina, v0, landed), _ = self._landing.get_or_create(key, land)
+        jac, _ = self._jacobians.get_or_create(f"{key}-{wavelength_nm}", lambda: stop_jacobians(
+            self.eye, self.rot, self.vertex, retina, v0, self.acc, wavelength_nm))
+        return retina, v0, landed, jac
 
     def rays(self, film_px, sample, wavelength_nm) -> RaySet:
-        from eyelab.optics.chain.retinal_rays import rays_from_retina, stop_jacobians
+        from eyelab.optics.chain.retinal_rays import rays_from_retina
 
         px = np.asarray(film_px, float).reshape(-1, 2)
         n = len(px)
-        retina, v0, landed = self._retina(px)
-        v0 = v0 / np.linalg.norm(v0, axis=1, keepdims=True)
+        retina, v0, landed, jac = self._retina(px, wavelength_nm)
         targets = np.broadcast_to(np.asarray(sample, float)[:2] * self.radius, (n, 2))
-        jac = stop_jacobians(self.eye, self.rot, self.vertex, retina, v0, self.acc,
-                             wavelength_nm)
         o, d, ok = rays_from_retina(self.eye, self.rot, self.vertex, retina, v0,
                                     np.ascontiguousarray(targets), (np.arange(n), jac),
                                     self.acc, wavelength_nm)
