@@ -338,7 +338,6 @@ class Renderer(abc.ABC):
                 raise SpecError("render.camera", f"a camera lens renders with "
                                 f"{' or '.join(map(repr, CAMERA_RENDERERS))}, not {self.name!r}")
             return self._render_camera(scene, eye, view, quality, progressive)
-        _check_lenslets(self.name, lens)
         if not isinstance(eye, Eye):            # a schematic eye: its retinal image
             from eyelab.imaging.registry import REGISTRY, SCHEMATIC_RENDERERS
 
@@ -433,17 +432,3 @@ def channel_wavelengths(eye, lens, chromatic: bool, report=None) -> tuple:
     if report is not None:
         report["skipped"].append(f"chromatic: {why}: one wavelength")
     return (EYE_REFERENCE_NM,)
-
-
-def _check_lenslets(name: str, lens) -> None:
-    """Refuse, naming ``lens.lenslets``, a lenslet lens for a renderer whose method would
-    sample the lenslets as if the lens were smooth (the registry's ``lenslets_why``)."""
-    if lens is None or not lens.has_lenslets:
-        return
-    from eyelab.imaging.registry import LENSLET_RENDERERS, REGISTRY
-
-    if name not in LENSLET_RENDERERS:
-        raise SpecError("lens.lenslets", f"a lenslet lens's simultaneous images (through the "
-                        f"carrier and through the lenslets) render with "
-                        f"{' or '.join(map(repr, LENSLET_RENDERERS))}; not {name!r}: "
-                        f"{REGISTRY[name].lenslets_why}")

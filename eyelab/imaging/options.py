@@ -165,7 +165,8 @@ class ImageBasedQuality:
     renderer = "imagebased").
 
     samples : lens (pupil) sample points p_i, each one set of perspective renders (1-256;
-    the pass sample set of the raster renderer: mean 0, the disc's covariance);
+    the pass sample set of the raster renderer: mean 0, the disc's covariance; through a
+    lenslet lens equal-area seeds with the same moments);
     grid : film grid quads per side of each quad-tree cell (2-64; the paper's 10);
     angle_threshold_deg : a cell is split while the largest angle between a traced ray
     and its projection's ray exceeds it (the paper's 0.05°; 0.001-10);

@@ -19,20 +19,17 @@ from eyelab.imaging.options import ImageBasedQuality, RasterQuality, ReferenceQu
 @dataclass(frozen=True)
 class RendererEntry:
     """One renderer: ``name`` (``render.renderer``), its options class ``quality``, its
-    implementation ``"module:Class"``, whether it renders camera lens systems, whether it
-    renders a schematic eye's retinal image (if not, ``thin_eye_why``: the physical reason)
-    and whether it renders the simultaneous images of a lenslet lens
-    (:mod:`eyelab.optics.lens.lenslets`; if not, ``lenslets_why``: what its method
-    misses)."""
+    implementation ``"module:Class"``, whether it renders camera lens systems and whether
+    it renders a schematic eye's retinal image (if not, ``thin_eye_why``: the physical
+    reason). Every renderer draws a lenslet lens's simultaneous images
+    (:mod:`eyelab.optics.lens.lenslets`)."""
 
     name: str
     quality: type
     implementation: str
     sees_cameras: bool
     sees_schematic_eyes: bool = False
-    sees_lenslets: bool = False
     thin_eye_why: str = ""
-    lenslets_why: str = ""
 
     def load(self) -> type:
         """The renderer class (imports its module)."""
@@ -42,18 +39,12 @@ class RendererEntry:
 
 REGISTRY = {e.name: e for e in (
     RendererEntry("raster", RasterQuality, "eyelab.render.raster:RasterRenderer", False,
-                  sees_schematic_eyes=True, sees_lenslets=True),
+                  sees_schematic_eyes=True),
     RendererEntry("reference", ReferenceQuality, "eyelab.reference.tracer:ReferenceRenderer",
-                  True, sees_schematic_eyes=True, sees_lenslets=True),
+                  True, sees_schematic_eyes=True),
     RendererEntry("imagebased", ImageBasedQuality,
                   "eyelab.render.imagebased:ImageBasedRenderer", True,
-                  sees_schematic_eyes=True,
-                  # measured: a -3 D eye through a DIMS-like lens 20 deg down at the room's
-                  # page, 160x120: the lenslets lower the image's contrast by 1.5 % here,
-                  # by 4.7 % in the reference renderer (128 rays per pixel)
-                  lenslets_why="it interpolates each pupil sample's rays between the "
-                  "corners of its quad-tree cells (Heidrich 1997, section 3.3), which step "
-                  "over lenslets a millimetre across: their veil would be drawn too weak"),
+                  sees_schematic_eyes=True),
 )}
 #: Renderer names, the default first, which ``[render] renderer`` and
 #: :func:`make_renderer` take. "raster": the real-time renderer (Kakimoto et al. 2007, on
@@ -72,8 +63,6 @@ QUALITIES = {name: e.quality for name, e in REGISTRY.items()}
 CAMERA_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_cameras)
 #: Renderers that render a schematic eye's retinal image at fixation.
 SCHEMATIC_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_schematic_eyes)
-#: Renderers that render a lenslet lens's simultaneous images.
-LENSLET_RENDERERS = tuple(name for name, e in REGISTRY.items() if e.sees_lenslets)
 
 
 def quality_keys(renderer: str) -> tuple:

@@ -61,7 +61,9 @@ class RaySet:
     into the scene); ok : (m,) the ray passed the system; weight : (m,) W_i(x') in 1/m^2
     (0 where not ok; a camera's is scaled by its sample domain's area over the film
     centre's disc, :class:`CameraRays`); transmittance : (m,) the fraction of the light
-    the system passes (Fresnel).
+    the system passes (Fresnel); site : (m, 2) or None, where each ray crosses a spectacle
+    lens's front surface (lens frame x, y, m; the lenslets' membership), None without a
+    lens.
     """
 
     film: np.ndarray
@@ -70,6 +72,7 @@ class RaySet:
     ok: np.ndarray
     weight: np.ndarray
     transmittance: np.ndarray
+    site: np.ndarray | None = None
 
 
 # ----------------------------------------------------------------------- the bundles

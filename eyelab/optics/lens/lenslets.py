@@ -24,6 +24,7 @@ as many as fit contiguously unless counted), or a list of centres.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 
@@ -113,6 +114,20 @@ class LensletSurface(Surface):
         out.ravel()[inside] = idx[inside]
         return out
 
+    def near(self, points, reach) -> tuple:
+        """(point indices (k,), lenslet indices (k,)): every pair whose centres lie within
+        ``reach`` (m; (m,) or one) of ``points`` (m, 2; m, lens frame)."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        if self._tree is None or not len(points):
+            return np.zeros(0, int), np.zeros(0, int)
+        reach = np.broadcast_to(np.asarray(reach, float), (len(points),))
+        lists = self._tree.query_ball_point(points, reach)
+        counts = np.fromiter(map(len, lists), int, len(lists))
+        if not counts.sum():
+            return np.zeros(0, int), np.zeros(0, int)
+        return (np.repeat(np.arange(len(points)), counts),
+                np.concatenate([np.asarray(v, int) for v in lists if v]))
+
     def added_sag(self, x, y) -> np.ndarray:
         """(n,) the lenslets' added sag s(rho) - s(a) at lens points (x, y) (m; 0 outside
         them)."""
@@ -170,6 +185,51 @@ def _bump(u, v, dc, k, a):
     inv = np.where(r2 > 1e-200, 1.0 / np.where(r2 > 1e-200, r2, 1.0), 0.0)
     return (z, g * u, g * v, g + diff * u * u * inv, diff * u * v * inv,
             g + diff * v * v * inv, (q > 0) & (qa > 0))
+
+
+class ContinuedLenslet(Surface):
+    """Lenslet ``i`` of a :class:`LensletSurface` with its added sag continued past its
+    rim over the whole carrier: z = f(x, y) + s(rho) - s(a) everywhere (the same surface
+    inside the rim). A smooth surface, so that rays through it may be interpolated (the
+    image-based renderer's lenslet layers, :mod:`eyelab.render.imagebased.layers`, keep
+    only the film points whose rays cross inside the rim)."""
+
+    def __init__(self, surf: LensletSurface, i: int):
+        self.base = surf.base
+        self.index = int(i)
+        self.centre = surf.centres[self.index]
+        self.radius = float(surf.radius[self.index])
+        # (not ``delta_curvature``: a lens with this front has no lenslets to find)
+        self.added_curvature = float(surf.delta_curvature[self.index])
+        self.conic = surf.conic
+        self._key = f"{surf.content_key}-continued-{self.index}"
+
+    @property
+    def content_key(self) -> str:
+        return self._key
+
+    @property
+    def seed_curvature(self) -> float:
+        return float(self.base.seed_curvature)
+
+    def derivatives(self, x, y) -> SagDerivatives:
+        x = np.asarray(x, float)
+        y = np.asarray(y, float)
+        d = self.base.derivatives(x, y)
+        b = _bump(x - self.centre[0], y - self.centre[1], self.added_curvature, self.conic,
+                  self.radius)
+        return SagDerivatives(d.z + b[0], d.zx + b[1], d.zy + b[2], d.zxx + b[3],
+                              d.zxy + b[4], d.zyy + b[5], d.valid & b[6])
+
+
+def continued(lens, i: int):
+    """``lens`` with its front's lenslet ``i`` continued over the whole carrier
+    (:class:`ContinuedLenslet`): a tracing surface, not a lens to make (far from the
+    lenslet its sag leaves the blank's thickness behind, so the lens's checks are not
+    run again)."""
+    other = copy.copy(lens)
+    object.__setattr__(other, "front", ContinuedLenslet(lens.front, i))
+    return other
 
 
 def carrier(lens):

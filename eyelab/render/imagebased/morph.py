@@ -25,12 +25,14 @@ def texcoords(pr: Projection) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------- morph
-def rasterize(film_tri, attrs, width, height, covered):
+def rasterize(film_tri, attrs, width, height, covered, keep=None):
     """Scan-convert triangles onto the film (pixel centres at k + 0.5): film_tri (k, 3, 2)
     film pixels, attrs (k, 3, c) per-vertex attributes; ``covered`` (h*w,) bool marks
     pixels already given to an earlier triangle of the same sample (updated; each pixel
     belongs to one triangle). Returns (pixel indices (m,), attributes (m, c)) interpolated
-    linearly (Gouraud: as the texture unit interpolates texture coordinates)."""
+    linearly (Gouraud: as the texture unit interpolates texture coordinates); ``keep``
+    (attributes -> (m,) bool, or None) leaves pixels out before they are covered (a
+    lenslet layer's, :func:`eyelab.render.imagebased.layers.keep_layer`)."""
     if len(film_tri) == 0:
         return np.zeros(0, int), np.zeros((0, attrs.shape[2]))
     lo = np.floor(film_tri.min(axis=1) - 0.5).astype(int) + 1
@@ -41,11 +43,11 @@ def rasterize(film_tri, attrs, width, height, covered):
     nx = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
     ny = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
     counts = nx * ny
-    keep = counts > 0
-    if not keep.any():
+    some = counts > 0
+    if not some.any():
         return np.zeros(0, int), np.zeros((0, attrs.shape[2]))
-    tri_id = np.repeat(np.flatnonzero(keep), counts[keep])
-    start = np.repeat(np.cumsum(counts[keep]) - counts[keep], counts[keep])
+    tri_id = np.repeat(np.flatnonzero(some), counts[some])
+    start = np.repeat(np.cumsum(counts[some]) - counts[some], counts[some])
     local = np.arange(len(tri_id)) - start
     px = lo[tri_id, 0] + local % nx[tri_id]
     py = lo[tri_id, 1] + local // nx[tri_id]
@@ -64,16 +66,20 @@ def rasterize(film_tri, attrs, width, height, covered):
     l0, l1, l2 = l0[inside], l1[inside], l2[inside]
     idx, first = np.unique(idx, return_index=True)          # one triangle per pixel
     tri_id, l0, l1, l2 = tri_id[first], l0[first], l1[first], l2[first]
-    covered[idx] = True
     at = attrs[tri_id]
     vals = l0[:, None] * at[:, 0] + l1[:, None] * at[:, 1] + l2[:, None] * at[:, 2]
+    if keep is not None:
+        mine = keep(vals)
+        idx, vals = idx[mine], vals[mine]
+    covered[idx] = True
     return idx, vals
 
 
-def morph_pixels(pr: Projection, width, height, covered):
+def morph_pixels(pr: Projection, width, height, covered, keep=None):
     """The film pixels the projection's grid gives colour to and their interpolated
-    attributes (slice x, slice y, W x transmittance, W) — what :func:`rasterize` returns
-    for :func:`grid_triangles` — with ``covered`` updated the same way.
+    attributes (slice x, slice y, W x transmittance, W; a layer's sites x, y after them)
+    — what :func:`rasterize` returns for :func:`grid_triangles` — with ``covered`` updated
+    the same way; ``keep`` as :func:`rasterize`'s.
 
     A grid that vignetting left undeformed (every point where :func:`_grid` put it, every
     ray passed) is a regular lattice: each pixel centre's quad and its triangle (the
@@ -83,45 +89,52 @@ def morph_pixels(pr: Projection, width, height, covered):
     g = pr.grid_film.shape[0] - 1
     if not (pr.grid_ok.all() and np.array_equal(pr.grid_film, _grid(pr.cell, g))):
         tri_f, tri_a = grid_triangles(pr)
-        return rasterize(tri_f, tri_a, width, height, covered)
+        return rasterize(tri_f, tri_a, width, height, covered, keep)
     x0, y0, x1, y1 = pr.cell
     ix = np.arange(max(math.ceil(x0 - 0.5), 0), min(math.ceil(x1 - 0.5), width))
     iy = np.arange(max(math.ceil(y0 - 0.5), 0), min(math.ceil(y1 - 0.5), height))
+    att = grid_attributes(pr).astype(np.float64 if pr.grid_site is not None else np.float32)
     if not (len(ix) and len(iy)):
-        return np.zeros(0, int), np.zeros((0, 4))
+        return np.zeros(0, int), np.zeros((0, att.shape[-1]))
     u = (ix + 0.5 - x0) * (g / (x1 - x0))
     v = (iy + 0.5 - y0) * (g / (y1 - y0))
     i = np.minimum(u.astype(int), g - 1)
     j = np.minimum(v.astype(int), g - 1)
-    fu = (u - i).astype(np.float32)[None, :]
-    fv = (v - j).astype(np.float32)[:, None]
-    att = grid_attributes(pr).astype(np.float32)
+    fu = (u - i).astype(att.dtype)[None, :]
+    fv = (v - j).astype(att.dtype)[:, None]
     # each triangle's attributes are affine: value at c00 + fu * x-step + fv * y-step;
-    # table (g, g, 2 triangles, 3 coefficients, 4 attributes), one gather per pixel
+    # table (g, g, 2 triangles, 3 coefficients, c attributes), one gather per pixel
     c00, c10, c01, c11 = att[:-1, :-1], att[:-1, 1:], att[1:, :-1], att[1:, 1:]
     table = np.stack([np.stack([c00, c10 - c00, c11 - c10], -2),     # (c00, c10, c11)
                       np.stack([c00, c11 - c01, c01 - c00], -2)], -3)  # (c00, c11, c01)
     k = ((j[:, None] * g + i[None, :]) * 2 + (fu < fv)).ravel()
-    coef = table.reshape(-1, 3, 4)[k]
+    coef = table.reshape(-1, 3, att.shape[-1])[k]
     shape = (len(iy), len(ix))
     vals = (coef[:, 0] + np.broadcast_to(fu, shape).reshape(-1, 1) * coef[:, 1]
             + np.broadcast_to(fv, shape).reshape(-1, 1) * coef[:, 2])
     idx = (iy[:, None] * width + ix[None, :]).ravel()
     free = ~covered[idx]
     idx, vals = idx[free], vals[free]
+    if keep is not None:
+        mine = keep(vals)
+        idx, vals = idx[mine], vals[mine]
     covered[idx] = True
     return idx, vals
 
 
 def grid_attributes(pr: Projection) -> np.ndarray:
-    """(g+1, g+1, 4) per grid point: slice x, slice y, W x transmittance, W."""
-    return np.concatenate([texcoords(pr), (pr.grid_weight * pr.grid_transmittance)[..., None],
-                           pr.grid_weight[..., None]], -1)
+    """(g+1, g+1, 4) per grid point: slice x, slice y, W x transmittance, W; (g+1, g+1,
+    6) for a lenslet layer's projection, its sites (m) after them."""
+    cols = [texcoords(pr), (pr.grid_weight * pr.grid_transmittance)[..., None],
+            pr.grid_weight[..., None]]
+    if pr.grid_site is not None:
+        cols.append(pr.grid_site)
+    return np.concatenate(cols, -1)
 
 
 def grid_triangles(pr: Projection):
-    """(film triangles (k, 3, 2), attributes (k, 3, 4): slice x, slice y, W x
-    transmittance, W) of the projection's grid quads whose four corners' rays passed."""
+    """(film triangles (k, 3, 2), attributes (k, 3, c): :func:`grid_attributes`) of the
+    projection's grid quads whose four corners' rays passed."""
     f = pr.grid_film
     ok = pr.grid_ok
     quad_ok = ok[:-1, :-1] & ok[1:, :-1] & ok[:-1, 1:] & ok[1:, 1:]

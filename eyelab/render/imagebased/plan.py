@@ -62,6 +62,8 @@ class Projection:
     max_angle_deg: float
     rms_angle_deg: float
     slice_size: tuple = (0, 0)   # (w, h) pixels of the render
+    layer: int | None = None     # a lenslet lens's layer: -1 the carrier, i lenslet i
+    grid_site: np.ndarray | None = None  # (g+1, g+1, 2) front-surface crossings (layers)
 
 
 @dataclass
@@ -136,7 +138,8 @@ def vignetting_grid(maker, cell, g, sample, wl, *, steps: int = 12):
 def plan_projections(maker, samples, wavelength_nm, *, grid: int = 10,
                      threshold_deg: float = 0.05, max_depth: int = 3,
                      plane_distance: float | None = None, cop: str = "angle",
-                     oversample: float = 2.0, max_slice: int = 2048) -> Plan:
+                     oversample: float = 2.0, max_slice: int = 2048,
+                     cell: tuple | None = None, layer: int | None = None) -> Plan:
     """Every projection of a frame (Heidrich §3.1-3.4): per sample, the film as a quad-tree
     of cells, each with a ``grid`` x ``grid`` grid of rays, its COP (``cop`` = "angle":
     the Newton fit of Eq. 1; "lsq": the least-squares-distance point), split while the
@@ -145,14 +148,18 @@ def plan_projections(maker, samples, wavelength_nm, *, grid: int = 10,
     the maker's near distance: the angle error at infinity, which the criterion measures,
     then bounds the angular error of every scene point at or beyond the plane, the error
     growing as |1/D - 1/D_plane| with the depth D). Slices get ``oversample`` x the film's pixel
-    density, at most ``max_slice`` pixels a side."""
+    density, at most ``max_slice`` pixels a side. ``cell`` (x0, y0, x1, y1): the film
+    region planned (default the whole film); ``layer``: the lenslet layer the projections
+    draw (:mod:`eyelab.render.imagebased.layers`; they keep the rays' front-surface
+    crossings)."""
     if cop not in ("angle", "lsq"):
         raise SpecError("render.cop", f"must be 'angle' or 'lsq', got {cop!r}")
     dist = maker.near if plane_distance is None else plane_distance
     projections = []
     stats = {"cells": 0, "vignetted_cells": 0, "newton_steps": 0, "split": 0,
              "unresolved_cells": 0}
-    full = (0.0, 0.0, float(maker.width), float(maker.height))
+    full = (0.0, 0.0, float(maker.width), float(maker.height)) if cell is None else \
+        tuple(float(c) for c in cell)
     for si, s in enumerate(samples):
         start = None                        # the lens centre: the first cell's guess
         stack = [(full, 0, start)]
@@ -190,8 +197,11 @@ def plan_projections(maker, samples, wavelength_nm, *, grid: int = 10,
                 continue
             if emax > threshold_deg:
                 stats["unresolved_cells"] += 1
-            projections.append(_projection(si, depth, cell, g_film, rs, e, dist, normal, err,
-                                           grid, oversample, max_slice))
+            pr = _projection(si, depth, cell, g_film, rs, e, dist, normal, err, grid,
+                             oversample, max_slice)
+            if layer is not None:
+                pr.layer, pr.grid_site = layer, rs.site.reshape(grid + 1, grid + 1, 2)
+            projections.append(pr)
     errs = [pr.max_angle_deg for pr in projections]
     stats.update(projections=len(projections),
                  max_angle_deg=float(max(errs)) if errs else 0.0,

@@ -5,6 +5,8 @@ retina through its surfaces (:class:`SchematicEyeRays`, the reference renderer's
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from eyelab.core.vecmath import unit
@@ -13,19 +15,35 @@ from eyelab.optics.rays.trace import FATAL
 
 
 def through_lens(lens, o, d, wavelength_nm) -> tuple:
-    """(origins (n, 3), directions (n, 3), transmittance (n,)) of eye rays ``o``, ``d``
-    after the spectacle ``lens`` (None: unchanged, transmittance 1), traced exactly from
-    the eye side; a ray that misses the lens goes on straight with all its light."""
+    """(origins (n, 3), directions (n, 3), transmittance (n,), sites (n, 2) or None) of
+    eye rays ``o``, ``d`` after the spectacle ``lens`` (None: unchanged, transmittance 1,
+    no sites), traced exactly from the eye side; a ray that misses the lens goes on
+    straight with all its light. Sites: where each ray crosses the front surface (lens
+    frame x, y, m; NaN where it misses), which decides its lenslet."""
     if lens is None:
-        return o, d, np.ones(len(o))
+        return o, d, np.ones(len(o)), None
     r = lens.trace(o, d, wavelength_nm, reverse=True)
     through = (r["status"] & np.uint8(FATAL)) == 0
+    site = lens.placed_surfaces()[0].to_local(r["out_points"])[:, :2]
     return (np.where(through[:, None], r["out_points"], o),
             np.where(through[:, None], r["out_dirs"], d),
-            np.where(through, r["transmittance"], 1.0))
+            np.where(through, r["transmittance"], 1.0),
+            np.where(through[:, None], site, np.nan))
 
 
-class EyeRays:
+class _LensRays:
+    """What the eyes' ray makers share: :meth:`with_lens`."""
+
+    def with_lens(self, lens):
+        """The same eye and film with another spectacle lens (the image-based renderer's
+        lenslet layers: the carrier, each lenslet continued); the caches of the eye's own
+        rays are shared."""
+        other = copy.copy(self)
+        other.lens = lens
+        return other
+
+
+class EyeRays(_LensRays):
     """Rays of the thin toric eye (and a spectacle lens): the film is the eye camera's
     image (a pixel is the chief direction d_s from the pupil centre, tangents t = (tx, ty)
     in the camera's frame); a sample is a pupil point rho (unit disc times the pupil
@@ -48,6 +66,7 @@ class EyeRays:
 
     def __init__(self, eye, lens, view, accommodation: float | None, scene=None):
         self.eye, self.lens, self.view = eye, lens, view
+        self.focus_lens = lens          # what the eye focuses through (not a layer's lens)
         self.cam = view.camera(eye.rotation_centre)
         self.acc = None if accommodation is None else \
             float(min(max(accommodation, 0.0), eye.accommodation_max))
@@ -79,7 +98,7 @@ class EyeRays:
 
             d_s = unit(t[:, :1] * b[0] + t[:, 1:2] * b[1] + b[2])
             acc, _ = self._acc.get_or_create(array_digest(px), lambda: pixel_accommodation(
-                d_s, self.scene, self.inter, eye, self.lens, self.view, self.cam)[0])
+                d_s, self.scene, self.inter, eye, self.focus_lens, self.view, self.cam)[0])
         else:
             acc = np.full(len(px), self.acc)
         pxx, pxy, pyy = (np.broadcast_to(v, acc.shape) for v in eye.power_matrix(acc))
@@ -93,15 +112,15 @@ class EyeRays:
         o = np.broadcast_to(np.asarray(self.cam.position, float) + rho[0] * b[0]
                             + rho[1] * b[1], d.shape).copy()
         ok = np.ones(len(px), bool)
-        o, d, trans = through_lens(self.lens, o, d, wavelength_nm)
+        o, d, trans, site = through_lens(self.lens, o, d, wavelength_nm)
         zr, n2 = eye.retina_distance, eye.n_vitreous
         r_ret = -zr * t / n2
         dist2 = zr ** 2 + (r_ret[:, 0] - rho[0]) ** 2 + (r_ret[:, 1] - rho[1]) ** 2
         w = zr ** 2 / dist2 ** 2
-        return RaySet(px, o, d, ok, w, trans)
+        return RaySet(px, o, d, ok, w, trans, site)
 
 
-class SchematicEyeRays:
+class SchematicEyeRays(_LensRays):
     """Rays of a schematic eye at fixation (and a spectacle lens), traced as the reference
     renderer traces them (:mod:`eyelab.reference.retinal`): a film point is a line of
     sight (the eye camera's pixel direction entering the eye), its retinal point where that
@@ -170,5 +189,5 @@ class SchematicEyeRays:
                                     np.ascontiguousarray(targets), (np.arange(n), jac),
                                     self.acc, wavelength_nm)
         ok = ok & landed
-        o, d, trans = through_lens(self.lens, o, d, wavelength_nm)
-        return RaySet(px, o, d, ok, ok.astype(float), trans)
+        o, d, trans, site = through_lens(self.lens, o, d, wavelength_nm)
+        return RaySet(px, o, d, ok, ok.astype(float), trans, site)

@@ -25,6 +25,7 @@ from eyelab.optics.cameralens.film import CameraRays
 from eyelab.optics.eye.thin import EYE_REFERENCE_NM, Eye
 from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 from eyelab.render.accumulate import DECODE16
+from eyelab.render.imagebased.layers import keep_layer, plan_layers
 from eyelab.render.imagebased.morph import bilinear, morph_pixels
 from eyelab.render.imagebased.plan import plan_projections
 from eyelab.render.imagebased.rays import EyeRays, SchematicEyeRays
@@ -39,7 +40,8 @@ class ImageBasedRenderer(Renderer):
     fixed points of a disc that holds every film point's vignetted bundle, the
     ``"cover"`` domain of :class:`~eyelab.optics.cameralens.film.CameraRays`, and the film
     irradiance is their mean radiance times the system's exact relative illumination:
-    :func:`_normalisation`).
+    :func:`_normalisation`). A spectacle lens with lenslets is drawn in layers, the
+    carrier's and each lenslet's (:mod:`eyelab.render.imagebased.layers`).
 
     Plans (rays, COPs, quad-trees) are kept per configuration (:attr:`plans`, LRU; a
     camera's relative illumination with them, :attr:`illumination`): the paper's
@@ -99,9 +101,12 @@ class ImageBasedRenderer(Renderer):
     def _project(self, scene, observer, lens, maker, wls, radiometry, view, q, report, t0):
         """Plan, draw and morph the slices of every lens sample and wavelength (§3),
         weighted by Eq. 3 and normalised by ``radiometry``."""
-        from eyelab.core.sampling import pass_samples
+        from eyelab.core.sampling import equal_area_seeds, pass_samples
 
-        samples = pass_samples(q.samples)[0]
+        # through lenslets each sample stands for an equal share of the pupil's area (the
+        # light each lenslet takes is its area's share; both sets have the disc's moments)
+        samples = equal_area_seeds(q.samples) if lens is not None and lens.has_lenslets \
+            else pass_samples(q.samples)[0]
         h, w = view.height, view.width
         acc = np.zeros((h * w, 3))
         wsum = np.zeros((h * w, len(wls)))
@@ -119,10 +124,7 @@ class ImageBasedRenderer(Renderer):
         for ci, wl in enumerate(wls):
             t1 = time.perf_counter()
             plan, hit = self.plans.get_or_create(
-                f"{base_key}-{wl}", lambda wl=wl: plan_projections(
-                    maker, samples, wl, grid=q.grid, threshold_deg=q.angle_threshold_deg,
-                    max_depth=q.max_depth, cop=q.cop, oversample=q.oversample,
-                    max_slice=q.max_slice))
+                f"{base_key}-{wl}", lambda wl=wl: _plan(maker, lens, samples, wl, q))
             report["cache"]["hits" if hit else "misses"].append(f"plan {wl} nm")
             plans.append(plan)
             t_plan += time.perf_counter() - t1
@@ -133,7 +135,8 @@ class ImageBasedRenderer(Renderer):
                 slice_img = self._draw(win, pr, view, scene.background)
                 t2 = time.perf_counter()
                 cov = covered.setdefault(pr.sample, np.zeros(h * w, bool))
-                idx, vals = morph_pixels(pr, w, h, cov)
+                keep = None if pr.layer is None else keep_layer(lens.front, pr.layer)
+                idx, vals = morph_pixels(pr, w, h, cov, keep)
                 if len(idx):
                     col = bilinear(slice_img, vals[:, 0], vals[:, 1])
                     acc[idx[:, None], channels] += vals[:, 2:3] * col[:, channels]
@@ -188,6 +191,17 @@ class ImageBasedRenderer(Renderer):
                         view.near, view.far, pr.slice_size, background)
         rgba = win.grab_rgba()
         return DECODE16[rgba[::-1, :, :3]].astype(np.float32) / np.float32(65535.0)
+
+
+def _plan(maker, lens, samples, wavelength_nm, q):
+    """The frame's projections at one wavelength: the quad-trees of
+    :func:`~eyelab.render.imagebased.plan.plan_projections`, or through a lenslet lens its
+    layers (:func:`~eyelab.render.imagebased.layers.plan_layers`)."""
+    options = dict(grid=q.grid, threshold_deg=q.angle_threshold_deg, max_depth=q.max_depth,
+                   cop=q.cop, oversample=q.oversample, max_slice=q.max_slice)
+    if lens is not None and lens.has_lenslets:
+        return plan_layers(maker, lens, samples, wavelength_nm, **options)
+    return plan_projections(maker, samples, wavelength_nm, **options)
 
 
 def _normalisation(radiometry, wsum, rel) -> np.ndarray:
