@@ -418,3 +418,31 @@ def test_a_renderer_drawing_many_fields_draws_the_last_as_a_fresh_one():
     with RasterRenderer(q) as fresh:
         want = fresh.render(room_scene(), eyes[-1], None, view).srgb
     np.testing.assert_array_equal(last, want)
+
+
+def test_the_inspectors_offloaded_frames_pause_and_end_at_the_render():
+    """``frames(..., images="doubling", setup_steps=True, offload=True)`` (the inspector's:
+    the averages on a worker thread, a lenslet lens's moved views drawn a few a step):
+    Nones between the images at 1, 2, 4 passes, more of them than without offloading, and
+    the last image the same as :meth:`render`'s, through a DIMS-like lens 20 deg down."""
+    from eyelab.jobs.api import as_spec
+    from eyelab.scene.library import page_scene
+
+    spec = as_spec({"eye": {"rx": "-3.00", "pupil_diameter_mm": 4},
+                    "lens": {"rx": "-3.00", "lenslets": {
+                        "layout": "honeycomb", "add_d": 3.5, "diameter_mm": 1.03,
+                        "pitch_mm": 1.43, "clear_zone_mm": 9.4, "zone_mm": 33}}})
+    view = View(width=64, height=48, fov_y_deg=5.0, gaze_deg=(0.0, -20.0))
+    scene = page_scene()
+    with RasterRenderer(RasterQuality(samples=4)) as r:
+        steps = {}
+        for offload in (False, True):
+            steps[offload] = list(r.frames(scene, spec.eye, spec.lens, view, images="doubling",
+                                           setup_steps=True, offload=offload))
+        final = r.render(scene, spec.eye, spec.lens, view)
+    for got in steps.values():
+        shown = [s.report["samples"]["done_passes"] for s in got if s is not None]
+        assert shown == [1, 2, 4]
+        np.testing.assert_array_equal(got[-1].image, final.image)
+    assert steps[True][-1].report["details"]["lenslets"]["moved_views"] > 4
+    assert steps[True].count(None) > steps[False].count(None)

@@ -1,5 +1,5 @@
 """Run a vectorised function over row chunks on a thread pool; lend costly objects to one
-thread at a time.
+thread at a time; run work on a worker thread while a GL thread goes on (:func:`on_worker`).
 
 numpy releases the GIL inside large array operations, so threads over contiguous row
 blocks use several cores without copying inputs to other processes.
@@ -236,3 +236,50 @@ def scoped_environ(*names: str, **values: str):
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def on_worker(fn, name: str = "eyelab-worker", idle=None):
+    """Run ``fn()`` on a worker thread, yielding ``idle`` while it runs (a window's ticks go
+    on between the yields, each after at most 20 ms); the generator's return value is
+    ``fn``'s value, its exception raised here. For numpy and embree work that releases the
+    GIL while a GL thread stays responsive."""
+    out, failed = [], []
+
+    def work():
+        try:
+            out.append(fn())
+        except BaseException as e:          # re-raised on the caller's thread below
+            failed.append(e)
+
+    worker = threading.Thread(target=work, name=name, daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(timeout=0.02)
+            yield idle
+    finally:
+        worker.join()
+    if failed:
+        raise failed[0]
+    return out[0]
+
+
+def relabel(steps, idle=None):
+    """Yield ``idle`` for each step of the generator ``steps``; return its value (the
+    ``yield from`` of a stepped computation inside a generator that yields other
+    values)."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+        yield idle
+
+
+def run_steps(steps):
+    """Run the generator ``steps`` to its end without pausing; return its value."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import time
 
+from eyelab.core.parallel import on_worker
 from eyelab.jobs.controls import PREVIEW_FIELD
 
 
@@ -24,32 +25,6 @@ def fixated(scene, eye, lens, view) -> tuple:
     from eyelab.imaging.retinal import fixation_view
 
     return scene, eye, lens, fixation_view(scene, eye, lens, view)
-
-
-def on_worker(fn):
-    """Run ``fn()`` on a worker thread, yielding None while it runs (a window's ticks go
-    on); its value is the generator's return value, its exception raised here."""
-    import threading
-
-    out, failed = [], []
-
-    def work():
-        try:
-            out.append(fn())
-        except Exception as e:          # re-raised on the GL thread below
-            failed.append(e)
-
-    worker = threading.Thread(target=work, name="eyelab-prepare", daemon=True)
-    worker.start()
-    try:
-        while worker.is_alive():
-            worker.join(timeout=0.02)
-            yield None
-    finally:
-        worker.join()
-    if failed:
-        raise failed[0]
-    return out[0]
 
 
 class FrameLoopMixin:
@@ -104,16 +79,17 @@ class FrameLoopMixin:
             coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
                                          field_shape=PREVIEW_FIELD)
             yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in pairs])
-            shots = [list(r.frames(*args, coarse))[-1] for r, args in pairs]
+            shots = yield from self._preview(pairs, coarse)
             for res in shots:
                 res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
             yield self._result(shots)
         reports = yield from on_worker(lambda: [r.prepare(*args, q) for r, args in pairs])
         self._prepared = {"cache": {"misses": [m for r in reports
                                                for m in r["cache"]["misses"]]}}
-        # one eye: its set-up in steps too (two eyes' steps would not pair up)
+        # one eye: its set-up in steps and its images averaged on a worker thread too (two
+        # eyes' steps would not pair up)
         gens = [r.frames(*args, q, every=self.every, images="doubling",
-                         setup_steps=not self.two_eyes)
+                         setup_steps=not self.two_eyes, offload=not self.two_eyes)
                 for r, args in zip(self.renderers(), inputs, strict=True)]
         try:
             for step in zip(*gens, strict=True):
@@ -121,6 +97,22 @@ class FrameLoopMixin:
         finally:
             for g in gens:
                 g.close()
+
+    def _preview(self, pairs, coarse):
+        """The preview frames (one pass each, ``coarse`` quality) of the (renderer, inputs)
+        ``pairs``: one eye's in steps (None yielded between them: its set-up, its lens
+        view), two eyes' at once (their steps would not pair up)."""
+        if len(pairs) > 1:
+            return [list(r.frames(*args, coarse))[-1] for r, args in pairs]
+        (r, args), = pairs
+        shot = None
+        for res in r.frames(*args, coarse, images="doubling", setup_steps=True,
+                            offload=True):
+            if res is None:
+                yield None
+            else:
+                shot = res
+        return [shot]
 
     def eye_report(self) -> dict | None:
         """The (first) eye's report of the current result."""

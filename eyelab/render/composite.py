@@ -12,6 +12,7 @@ data updated.
 
 from __future__ import annotations
 
+import time
 from contextlib import contextmanager
 
 import numpy as np
@@ -198,3 +199,37 @@ def erode(mask: np.ndarray) -> np.ndarray:
     m[:, 1:] &= mask[:, :-1]
     m[:, :-1] &= mask[:, 1:]
     return m
+
+
+def composite_frame(compositor, image, layers, env, env_rgba, q, report):
+    """A generator pausing (None) between a lenslet lens's groups of moved views
+    (:func:`~eyelab.render.lensletview.lenslet_lens_view`), whose value is (image, layers)
+    with the lens's view composited over the eye's ``image`` (uint8
+    (h, w, 3)): the environment stage ``env``'s averaged RGBA ``env_rgba`` mapped through
+    the lens by ``compositor`` (:class:`LensCompositor`; a lenslet lens's views by
+    :func:`~eyelab.render.lensletview.lenslet_lens_view`), the rim and invalid pixels
+    coloured by the quality ``q``; the report's lens pixel counts and its
+    ``lens_composite`` time updated."""
+    from eyelab.render.lensletview import lenslet_lens_view
+
+    t = time.perf_counter()
+    geo = env["geo"]
+    if env["lenslets"] is not None:
+        lo = env["lenslets"]                 # its spread in environment pixels
+        spread = lo.cell_sigma_rad * env_rgba.shape[1] / (2 * env["cam"].tan_half[0])
+        lens_img = yield from lenslet_lens_view(compositor, env_rgba, geo, lo,
+                                                env["geo_key"], env["eye_cam"], spread, report)
+    else:
+        lens_img = compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
+                                        geo["tc_grid"].uv, geo["transmittance"],
+                                        env["geo_key"])
+    masks = compositor.masks(geo["lens_v"], geo["lens_f"], geo["tc"].lens_ok.all(0),
+                             ("masks", env["geo_key"], compositor.window.size))
+    image = compose(image, lens_img, masks, q.rim_color, q.invalid_color)
+    invalid, inside, _ = masks
+    report["details"]["lens"].update(pixels_inside=int(inside.sum()),
+                                     pixels_invalid=int(invalid.sum()))
+    layers.update(environment=env_rgba[::-1, :, :3], lens_mask=inside)
+    tm = report["timings_s"]
+    tm["lens_composite"] = tm.get("lens_composite", 0.0) + time.perf_counter() - t
+    return image, layers

@@ -28,9 +28,15 @@ from eyelab.render.accumulate import PassAccumulator, encode_linear
 MIN_SPREAD_PX = 0.3
 
 
+#: Moved views drawn between two pauses of :func:`lenslet_lens_view` (an interactive
+#: window's tick: ~15 ms a view at 800 x 600 on the CPU's GL).
+VIEWS_PER_STEP = 4
+
+
 def lenslet_lens_view(compositor, env_rgba, geo, offsets, grid_key, cam, spread_px,
-                      report) -> np.ndarray:
-    """(h, w, 3) uint8, row 0 at the top: the view (module doc) of ``offsets``
+                      report):
+    """A generator pausing (None) every :data:`VIEWS_PER_STEP` moved views, whose value is
+    (h, w, 3) uint8, row 0 at the top: the view (module doc) of ``offsets``
     (:class:`~eyelab.scene.lensletrays.LensletOffsets`) on the lens grid of ``geo``
     (:func:`~eyelab.render.stages.lens_geometry`'s) seen from the eye camera ``cam``;
     ``env_rgba`` the environment image (GL order), ``spread_px`` the sample's spread in
@@ -55,8 +61,10 @@ def lenslet_lens_view(compositor, env_rgba, geo, offsets, grid_key, cam, spread_
         moves = ((offsets.offsets[k], offsets.through[k].astype(float),
                   faces[offsets.through[k][faces].any(1)]) for k in active)
         acc = PassAccumulator(y1 - y0, x1 - x0)
-        for rgba in compositor.moved_views(spread, uv, t, moves, rect):
+        for i, rgba in enumerate(compositor.moved_views(spread, uv, t, moves, rect)):
             acc.add(rgba)
+            if i % VIEWS_PER_STEP == VIEWS_PER_STEP - 1:
+                yield None
         # the moved views' mean, as a share of all K samples
         total[h - y1:h - y0, x0:x1] += acc.mean_linear() * np.float32(len(active) / k_all)
     report["details"]["lenslets"] = {

@@ -35,6 +35,7 @@ from eyelab.blur.field import VoxelStatus
 from eyelab.blur.reconstruct import filter_has_work
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
+from eyelab.core.parallel import on_worker, relabel, run_steps
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
     Renderer,
@@ -56,8 +57,7 @@ from eyelab.render.channels import (
     grab_pass,
     note_channels,
 )
-from eyelab.render.composite import LensCompositor, compose
-from eyelab.render.lensletview import lenslet_lens_view
+from eyelab.render.composite import LensCompositor, composite_frame
 from eyelab.render.stages import (
     env_width,
     field_details,
@@ -138,7 +138,8 @@ class RasterRenderer(Renderer):
         return final
 
     def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
-               every: int = 1, images: str = "every", setup_steps: bool = False):
+               every: int = 1, images: str = "every", setup_steps: bool = False,
+               offload: bool = False):
         """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
         :class:`RenderResult` — the complete image of the passes so far, its report's
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
@@ -147,7 +148,9 @@ class RasterRenderer(Renderer):
         refinement, lens coordinates) happens before the first image — with
         ``setup_steps`` and "doubling" in steps, None after each (a mesh refined, a stage
         set up) — and between two yields only ``every`` passes run, so an interactive
-        viewer stays responsive. The last
+        viewer stays responsive; with ``offload`` and "doubling" an image's averaging (the
+        reconstruction filter: numpy) runs on a worker thread, None yielded meanwhile. The
+        last
         image equals :meth:`render`'s. Closing the generator early stops the work."""
         view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
@@ -156,7 +159,7 @@ class RasterRenderer(Renderer):
         steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
         shown = set(steps) if images == "every" else set(progressive_checkpoints(quality.samples))
         if getattr(eye, "aberrations", None) is None:
-            gen = self._run(scene, eye, lens, view, quality, steps, shown)
+            gen = self._run(scene, eye, lens, view, quality, steps, shown, offload)
         else:                                           # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import aberrated_frames
 
@@ -168,7 +171,7 @@ class RasterRenderer(Renderer):
                 yield res
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
-             shown=None):
+             shown=None, offload=False):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
         report["samples"]["target"] = q.samples
@@ -191,8 +194,9 @@ class RasterRenderer(Renderer):
             env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report,
                                   eye)
             timings["setup_lens"] = time.perf_counter() - t
+        yield None                          # set-up done: the passes from the next step
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
-                                                 shown):
+                                                 shown, offload):
             if image is None:
                 yield None
                 continue
@@ -411,10 +415,11 @@ class RasterRenderer(Renderer):
                 "acc": PassAccumulator(h_env, w_env)}
 
     # ------------------------------------------------------------------ passes
-    def _passes(self, naked, env, view, q, report, checkpoints, shown=None):
+    def _passes(self, naked, env, view, q, report, checkpoints, shown=None, offload=False):
         """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
         (ascending, the last S); at checkpoints not in ``shown`` (None: all are) no image
-        is built and (passes done, None, None) is yielded."""
+        is built and (passes done, None, None) is yielded — and, with ``offload``, while a
+        worker thread averages the passes for an image."""
         timings = report["timings_s"]
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
         for st in stages:
@@ -451,7 +456,13 @@ class RasterRenderer(Renderer):
                 if shown is not None and cp not in shown:
                     yield cp, None, None
                     continue
-                image, layers = self._image(naked, env, view, q, report)
+                average = lambda: self._means(naked, env, q, report)  # noqa: E731
+                if offload:     # averaged on a worker, composited in steps: the GL thread answers
+                    means = yield from on_worker(average, idle=(cp, None, None))
+                    image, layers = yield from relabel(
+                        self._image(naked, env, view, q, report, means), (cp, None, None))
+                else:
+                    image, layers = run_steps(self._image(naked, env, view, q, report, average()))
                 yield cp, image.copy(), layers
         finally:
             bar.close()
@@ -463,9 +474,19 @@ class RasterRenderer(Renderer):
         return stage_mean(st, lambda key, fn: self._cached("small", key, fn, report,
                                                            "reconstruction_sigma")[0], report)
 
-    def _image(self, naked, env, view, q, report):
-        if naked["passes"]:
-            image = self._mean(naked, q, report)[::-1, :, :3]
+    def _means(self, naked, env, q, report) -> tuple:
+        """(naked view's, environment's) averaged RGBA (None where a stage has no passes or
+        is absent): numpy only, so the inspector builds them on a worker thread."""
+        return (self._mean(naked, q, report) if naked["passes"] else None,
+                None if env is None else self._mean(env, q, report))
+
+    def _image(self, naked, env, view, q, report, means):
+        """A generator (pausing between a lenslet lens's groups of views) whose value is
+        (uint8 image, layers) of the passes so far from :meth:`_means`' ``means``, the
+        lens's view composited (GL)."""
+        naked_rgba, env_rgba = means
+        if naked_rgba is not None:
+            image = naked_rgba[::-1, :, :3]
             layers = {"naked": image}
         else:   # covered by the lens: every pixel is the lens's (a stray one: invalid colour)
             image = np.empty((view.height, view.width, 3), np.uint8)
@@ -473,28 +494,7 @@ class RasterRenderer(Renderer):
             layers = {}
         if env is None:
             return image, layers
-        t = time.perf_counter()
-        env_rgba = self._mean(env, q, report)
         if self._compositor is None:
             self._compositor = LensCompositor(self._eye_win, self.caches["small"])
-        geo = env["geo"]
-        if env["lenslets"] is not None:
-            lo = env["lenslets"]                 # its spread in environment pixels
-            spread = lo.cell_sigma_rad * env_rgba.shape[1] / (2 * env["cam"].tan_half[0])
-            lens_img = lenslet_lens_view(self._compositor, env_rgba, geo, lo, env["geo_key"],
-                                         env["eye_cam"], spread, report)
-        else:
-            lens_img = self._compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
-                                                  geo["tc_grid"].uv, geo["transmittance"],
-                                                  env["geo_key"])
-        masks = self._compositor.masks(geo["lens_v"], geo["lens_f"],
-                                       geo["tc"].lens_ok.all(0),
-                                       ("masks", env["geo_key"], self._eye_win.size))
-        image = compose(image, lens_img, masks, q.rim_color, q.invalid_color)
-        invalid, inside, _ = masks
-        report["details"]["lens"].update(pixels_inside=int(inside.sum()),
-                                         pixels_invalid=int(invalid.sum()))
-        layers.update(environment=env_rgba[::-1, :, :3], lens_mask=inside)
-        tm = report["timings_s"]
-        tm["lens_composite"] = tm.get("lens_composite", 0.0) + time.perf_counter() - t
-        return image, layers
+        return (yield from composite_frame(self._compositor, image, layers, env, env_rgba, q,
+                                           report))
