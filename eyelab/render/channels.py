@@ -178,12 +178,14 @@ def rects_area(rects) -> int:
     return int(sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in rects))
 
 
-def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
-    """Pass ``k`` of a raster stage ``st`` (:mod:`eyelab.render.raster`) as GL-ordered RGBA
-    uint8: one render, or with per-channel fields the whole view with the first channel's
-    field and, inside the rectangles of :func:`disagreeing_rects` (found on pass 0 from its
-    depth buffer, kept in ``st["rects"]``), each other channel with its own (the same seed
-    and jitter), of which each gives its own colour channel."""
+def pass_steps(st: dict, k: int, route: str):
+    """A generator pausing (None) after each colour channel's render (an interactive
+    window's tick) whose value is pass ``k`` of a raster stage ``st``
+    (:mod:`eyelab.render.raster`) as GL-ordered RGBA uint8: one render, or with
+    per-channel fields the whole view with the first channel's field and, inside the
+    rectangles of :func:`disagreeing_rects` (found on pass 0 from its depth buffer, kept
+    in ``st["rects"]``), each other channel with its own (the same seed and jitter), of
+    which each gives its own colour channel."""
     from eyelab.blur.reconstruct import pixel_voxels
     from eyelab.render.stages import select_channel
 
@@ -210,6 +212,7 @@ def grab_pass(st: dict, k: int, route: str) -> np.ndarray:
     else:
         np.copyto(out, whole)
     for c in range(1, len(fields)):     # the seed uniforms stay set across channels
+        yield None
         select_channel(st, c, route, k)
         if st["whole_view"]:
             out[..., c] = win.grab_rgba()[..., c]

@@ -201,6 +201,24 @@ def erode(mask: np.ndarray) -> np.ndarray:
     return m
 
 
+def frame_image(naked_rgba, env_rgba, env, view, q, report, compositor):
+    """A generator (pausing as :func:`composite_frame` does) whose value is (uint8 image
+    (h, w, 3), layers) of a raster frame: the naked view's averaged RGBA ``naked_rgba``
+    (GL order; None where the lens covers the view: the quality's invalid colour) with,
+    when there is an environment stage ``env``, the lens's view of ``env_rgba``
+    composited by ``compositor()`` (a :class:`LensCompositor`)."""
+    if naked_rgba is not None:
+        image = naked_rgba[::-1, :, :3]
+        layers = {"naked": image}
+    else:   # covered by the lens: every pixel is the lens's (a stray one: invalid colour)
+        image = np.empty((view.height, view.width, 3), np.uint8)
+        image[:] = q.invalid_color
+        layers = {}
+    if env is None:
+        return image, layers
+    return (yield from composite_frame(compositor(), image, layers, env, env_rgba, q, report))
+
+
 def composite_frame(compositor, image, layers, env, env_rgba, q, report):
     """A generator pausing (None) between a lenslet lens's groups of moved views
     (:func:`~eyelab.render.lensletview.lenslet_lens_view`), whose value is (image, layers)

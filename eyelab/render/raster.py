@@ -27,12 +27,12 @@ cached by content (eye, lens, view, scene geometry) in bounded LRU caches.
 from __future__ import annotations
 
 import copy
+import functools
 import time
 
 import numpy as np
 
 from eyelab.blur.field import VoxelStatus
-from eyelab.blur.reconstruct import filter_has_work
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.parallel import on_worker, relabel, run_steps
@@ -51,13 +51,8 @@ from eyelab.optics.eye.thin import EYE_REFERENCE_NM
 from eyelab.optics.lens.lenslets import carrier
 from eyelab.optics.rays.camera import fit_virtual_camera, fit_window
 from eyelab.render.accumulate import PassAccumulator
-from eyelab.render.channels import (
-    channel_spread,
-    compensated_stage,
-    grab_pass,
-    note_channels,
-)
-from eyelab.render.composite import LensCompositor, composite_frame
+from eyelab.render.channels import channel_spread, compensated_stage, note_channels, pass_steps
+from eyelab.render.composite import LensCompositor, frame_image
 from eyelab.render.stages import (
     env_width,
     field_details,
@@ -66,9 +61,9 @@ from eyelab.render.stages import (
     passes_for,
     progressive_checkpoints,
     scene_items,
-    select_channel,
     stage_mean,
     stage_route,
+    start_passes,
 )
 from eyelab.render.window import OffscreenWindow
 from eyelab.scene.lensview import (
@@ -185,14 +180,15 @@ class RasterRenderer(Renderer):
                                            report)
         timings["refine"] = time.perf_counter() - t
         t = time.perf_counter()
-        naked = self._naked_stage(scene, meshes, cam, f_naked, view, q, report)
+        naked = yield from self._naked_stage(scene, meshes, cam, f_naked, view, q, report,
+                                             offload)
         timings["setup_naked"] = time.perf_counter() - t
         env = None
         if lens_in_view:
             yield None
             t = time.perf_counter()
-            env = self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q, report,
-                                  eye)
+            env = yield from self._env_stage(scene, meshes, lens, vcam, f_lens, cam, view, q,
+                                             report, eye, offload)
             timings["setup_lens"] = time.perf_counter() - t
         yield None                          # set-up done: the passes from the next step
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
@@ -340,14 +336,17 @@ class RasterRenderer(Renderer):
                 yield None
         return meshes
 
-    def _scene_items(self, meshes, fields, route, passes, cam, height, report) -> list:
-        """Per field (channel), the [(key, factory)] of the meshes' actors
+    def _scene_items(self, meshes, fields, route, passes, cam, height, report, offload):
+        """A generator (pausing while a worker thread prefilters, with ``offload``) whose
+        value is per field (channel) the [(key, factory)] of the meshes' actors
         (:func:`~eyelab.render.stages.scene_items`), prefiltered textures cached."""
         def prefilter(m, f):
             return self._cached("prefiltered", ("prefiltered", m.content_key, f),
                                 lambda: prefiltered(m, f), report, f"prefiltered_{m.name}")[0]
 
-        return scene_items(meshes, fields, route, passes, cam, height, prefilter)
+        work = functools.partial(scene_items, meshes, fields, route, passes, cam, height,
+                                 prefilter)
+        return (yield from on_worker(work)) if offload else work()
 
     def _reconstruction(self, fields, passes, size, q, report, seeds=None) -> tuple:
         """(fields the passes displace by, reconstruction state or None, their
@@ -368,7 +367,7 @@ class RasterRenderer(Renderer):
             "compensated_fields")
         return shrunk, recon, spread
 
-    def _naked_stage(self, scene, meshes, cam, fields, view, q, report) -> dict:
+    def _naked_stage(self, scene, meshes, cam, fields, view, q, report, offload):
         if self._eye_win is None:
             self._eye_win = OffscreenWindow()
         win = self._eye_win
@@ -382,16 +381,16 @@ class RasterRenderer(Renderer):
         fields, recon, spread = self._reconstruction(fields, passes,
                                                      (view.width, view.height), q, report,
                                                      seeds)
+        items = yield from self._scene_items(meshes, fields, route, passes, cam, view.height,
+                                             report, offload)
         return {"win": win, "cam": cam, "fields": fields, "recon": recon, "spread": spread,
-                "route": route,
-                "items": self._scene_items(meshes, fields, route, passes, cam, view.height,
-                                           report),
+                "route": route, "items": items,
                 "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
                 "passes": passes, "seeds": seeds, "jitter": jitter,
                 "acc": PassAccumulator(view.height, view.width)}
 
-    def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report, eye
-                   ) -> dict:
+    def _env_stage(self, scene, meshes, lens, vcam, fields, cam, view, q, report, eye,
+                   offload):
         if self._env_win is None:
             self._env_win = OffscreenWindow()
         win = self._env_win
@@ -402,7 +401,8 @@ class RasterRenderer(Renderer):
         route = stage_route(fields, q, report, "environment")
         fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,
                                                      report, seeds)
-        items = self._scene_items(meshes, fields, route, passes, vcam, h_env, report)
+        items = yield from self._scene_items(meshes, fields, route, passes, vcam, h_env, report,
+                                             offload)
         geo, tkey, offsets, n_wls = lens_coords(self._cached, scene, lens, vcam, cam, view,
                                                 q, report, eye)
         report["details"]["lens"] = dict(lens_details(geo, n_wls, vcam),
@@ -422,20 +422,7 @@ class RasterRenderer(Renderer):
         worker thread averages the passes for an image."""
         timings = report["timings_s"]
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
-        for st in stages:
-            select_channel(st, 0, st["route"])
-            if len(st["fields"]) > 1:
-                st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
-            if filter_has_work(st["recon"]) and "zbuf" not in st:
-                # the filter's depth from a view no seed displaced (a displaced pass's
-                # edges sit where its seed put them: a lopsided blur)
-                t = time.perf_counter()
-                st["zbuf"] = st["win"].undisplaced_depth()
-                name = "naked_passes" if st is naked else "env_passes"
-                timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
-        channels = [len(s["fields"]) for s in stages]
-        if any(c > 1 for c in channels):
-            report["details"]["channel_renders_per_pass"] = max(channels)
+        start_passes(stages, naked, report)
         done = 0
         bar = progress_bar(max((s["passes"] for s in stages), default=0),
                            f"raster {view.width}x{view.height}", "pass")
@@ -445,18 +432,22 @@ class RasterRenderer(Renderer):
                     for st in stages:
                         if k >= st["passes"]:
                             continue
-                        t = time.perf_counter()
-                        st["acc"].add(grab_pass(st, k, st["route"]))
+                        t = time.perf_counter()     # (offloaded: the pauses included)
+                        steps = pass_steps(st, k, st["route"])     # a colour channel a step
+                        st["acc"].add((yield from relabel(steps, (cp, None, None)))
+                                      if offload else run_steps(steps))
                         name = "naked_passes" if st is naked else "env_passes"
                         timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
                         note_channels(st, "naked view" if st is naked else "environment",
                                       report)
+                        if offload:
+                            yield cp, None, None
                     bar.update(1)
                 done = cp
                 if shown is not None and cp not in shown:
                     yield cp, None, None
                     continue
-                average = lambda: self._means(naked, env, q, report)  # noqa: E731
+                average = functools.partial(self._means, naked, env, q, report)
                 if offload:     # averaged on a worker, composited in steps: the GL thread answers
                     means = yield from on_worker(average, idle=(cp, None, None))
                     image, layers = yield from relabel(
@@ -481,20 +472,10 @@ class RasterRenderer(Renderer):
                 None if env is None else self._mean(env, q, report))
 
     def _image(self, naked, env, view, q, report, means):
-        """A generator (pausing between a lenslet lens's groups of views) whose value is
-        (uint8 image, layers) of the passes so far from :meth:`_means`' ``means``, the
-        lens's view composited (GL)."""
-        naked_rgba, env_rgba = means
-        if naked_rgba is not None:
-            image = naked_rgba[::-1, :, :3]
-            layers = {"naked": image}
-        else:   # covered by the lens: every pixel is the lens's (a stray one: invalid colour)
-            image = np.empty((view.height, view.width, 3), np.uint8)
-            image[:] = q.invalid_color
-            layers = {}
-        if env is None:
-            return image, layers
+        """:func:`~eyelab.render.composite.frame_image` of :meth:`_means`' ``means``."""
+        return frame_image(*means, env, view, q, report, self._lens_compositor)
+
+    def _lens_compositor(self) -> LensCompositor:
         if self._compositor is None:
             self._compositor = LensCompositor(self._eye_win, self.caches["small"])
-        return (yield from composite_frame(self._compositor, image, layers, env, env_rgba, q,
-                                           report))
+        return self._compositor

@@ -11,6 +11,7 @@ import numpy as np
 
 from eyelab.blur.reconstruct import (
     channel_volumes,
+    filter_has_work,
     pixel_voxels,
     reconstruct,
     sigma_map,
@@ -35,6 +36,26 @@ from eyelab.scene.raycast import EmbreeIntersector
 #: lower the error at S = 1-2 in every case (e.g. 0.055 vs 0.081), are mixed at S = 4-8,
 #: and raise it at S = 32 in every case (e.g. 0.044 vs 0.008, the room).
 MIPMAP_BELOW_SAMPLES = 8
+
+
+def start_passes(stages, naked, report) -> None:
+    """Ready the raster stages ``stages`` (``naked``: the naked view's) for their passes:
+    the first channel selected, a per-channel pass's buffer, and the reconstruction
+    filter's depth from a view no seed displaced (a displaced pass's edges sit where its
+    seed put them: a lopsided blur); the report's ``channel_renders_per_pass``."""
+    timings = report["timings_s"]
+    for st in stages:
+        select_channel(st, 0, st["route"])
+        if len(st["fields"]) > 1:
+            st["rgba"] = np.empty(st["acc"].shape + (4,), np.uint8)
+        if filter_has_work(st["recon"]) and "zbuf" not in st:
+            t = time.perf_counter()
+            st["zbuf"] = st["win"].undisplaced_depth()
+            name = "naked_passes" if st is naked else "env_passes"
+            timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
+    channels = [len(s["fields"]) for s in stages]
+    if any(c > 1 for c in channels):
+        report["details"]["channel_renders_per_pass"] = max(channels)
 
 
 def select_channel(st, c, route, k: int | None = None) -> None:
