@@ -163,3 +163,24 @@ def test_a_schematic_eye_is_inspected_at_fixation_as_render_draws_it():
         assert "M -" in m.readout()                 # naked, the myope is left myopic
     finally:
         m.close()
+
+
+def test_a_lenslet_lens_previews_with_fewer_pupil_samples_and_ends_with_all():
+    """After a change through lenslets the preview's lens view takes at most
+    PREVIEW_LENSLET_SAMPLES pupil samples (equal-area seeds: the disc's moments at any
+    count) and the frames end with the quality's own (32)."""
+    from eyelab.jobs.controls import PREVIEW_LENSLET_SAMPLES
+
+    m = InspectorModel(DIMS, size=(64, 48), samples=2)
+    try:
+        m.run_to_target()
+        m.apply({"sphere": -2.5})
+        while not (m.tick() and m.result is not None):
+            pass
+        preview = m.eye_report()
+        assert preview["samples"]["done_passes"] == 0
+        assert preview["details"]["lenslets"]["pupil_samples"] == PREVIEW_LENSLET_SAMPLES
+        m.run_to_target()
+        assert m.eye_report()["details"]["lenslets"]["pupil_samples"] == 32
+    finally:
+        m.close()

@@ -63,6 +63,9 @@ PREVIEW_AFTER = {"sphere", "cylinder", "axis", "pupil_mm", "age", "focus_d", "ga
 
 #: The preview's blur-field grid (nz, ny, nx).
 PREVIEW_FIELD = (32, 16, 16)
+#: The preview's pupil samples through a lenslet lens (at most; equal-area seeds, the
+#: disc's moments at any count): each is one moved view of the lens.
+PREVIEW_LENSLET_SAMPLES = 8
 
 
 def snap(value, step):

@@ -10,7 +10,7 @@ import dataclasses
 import time
 
 from eyelab.core.parallel import on_worker
-from eyelab.jobs.controls import PREVIEW_FIELD
+from eyelab.jobs.controls import PREVIEW_FIELD, PREVIEW_LENSLET_SAMPLES
 
 
 def fixated(scene, eye, lens, view) -> tuple:
@@ -66,18 +66,20 @@ class FrameLoopMixin:
 
     def _sequence(self, preview: bool):
         """The preview frame (if asked: its coarse field computed on a worker thread,
-        then one pass), the full set-up on a worker thread (fields, the filter's
-        compensation, the rays through the lens: numpy and embree, no GL — the window
-        stays responsive, showing the last frame), then the full progressive frames (the
-        meshes refined one a step), both eyes' in step for two. Yields the model's
-        results, or None while waiting or between shown images."""
+        then one pass, a lenslet lens's views from at most PREVIEW_LENSLET_SAMPLES pupil
+        samples), the full set-up on a worker thread (fields, the filter's compensation,
+        the rays through the lens: numpy and embree, no GL — the window stays responsive,
+        showing the last frame), then the full progressive frames (the meshes refined one
+        a step), both eyes' in step for two. Yields the model's results, or None while
+        waiting or between shown images."""
         self._prepared = None
         q = self.spec.render.quality
         inputs = self._inputs()
         pairs = list(zip(self.renderers(), inputs, strict=True))
         if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
-            coarse = dataclasses.replace(q, samples=1, refine=False, chromatic=False,
-                                         field_shape=PREVIEW_FIELD)
+            coarse = dataclasses.replace(
+                q, samples=1, refine=False, chromatic=False, field_shape=PREVIEW_FIELD,
+                lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES))
             yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in pairs])
             shots = yield from self._preview(pairs, coarse)
             for res in shots:
