@@ -102,19 +102,41 @@ def measure(img, origin, chief) -> dict:
             "_c": (cx, cy), "_xy": (xs, ys)}
 
 
-def radii(img, mx, fractions=(0.5, 0.8)) -> list:
-    """Radii (px) about the image's centroid within which ``fractions`` of its light lie."""
+#: Sub-samples per pixel side for the encircled energies: each pixel's light is spread
+#: evenly over its square (the image is piecewise constant), so that the energy within a
+#: radius is continuous in the centroid. Counting pixel centres instead made it a step
+#: function: a blur 1-2 px wide gained or lost a whole pixel's light (up to 0.28 of it)
+#: when its centroid moved by 0.04 px.
+SUBPIXELS = 8
+
+
+def _subsamples(img, mx):
+    """(distances (n,), light (n,)) of the pixels' :data:`SUBPIXELS` x SUBPIXELS
+    sub-squares from the image's centroid, each carrying an equal share of its pixel's
+    light (a share of the total)."""
     xs, ys = mx["_xy"]
-    r = np.hypot(xs - mx["_c"][0], ys - mx["_c"][1]).ravel()
-    order = np.argsort(r)
-    cum = np.cumsum(img.ravel()[order]) / img.sum()
-    return [float(r[order][np.searchsorted(cum, f)]) for f in fractions]
+    o = (np.arange(SUBPIXELS) + 0.5) / SUBPIXELS - 0.5
+    ox, oy = np.meshgrid(o, o)
+    d = np.hypot(xs[..., None, None] + ox - mx["_c"][0], ys[..., None, None] + oy
+                 - mx["_c"][1])
+    w = np.broadcast_to((img / img.sum())[..., None, None], d.shape) / SUBPIXELS**2
+    return d.ravel(), w.ravel()
+
+
+def radii(img, mx, fractions=(0.5, 0.8)) -> list:
+    """Radii (px) about the image's centroid within which ``fractions`` of its light lie
+    (pixel areas integrated: :data:`SUBPIXELS`)."""
+    d, w = _subsamples(img, mx)
+    order = np.argsort(d)
+    cum = np.cumsum(w[order])
+    return [float(d[order][min(np.searchsorted(cum, f), len(d) - 1)]) for f in fractions]
 
 
 def within(img, mx, rad) -> float:
-    xs, ys = mx["_xy"]
-    r = np.hypot(xs - mx["_c"][0], ys - mx["_c"][1])
-    return float(img[r <= rad].sum() / img.sum())
+    """The share of the image's light within ``rad`` (px) of its centroid, pixel areas
+    integrated (:data:`SUBPIXELS`)."""
+    d, w = _subsamples(img, mx)
+    return float(w[d <= rad].sum())
 
 
 def _public(m) -> dict:
