@@ -105,11 +105,11 @@ class FrameLoopMixin:
         ``pairs``: one eye's in steps (None yielded between them: its set-up, its lens
         view), two eyes' at once (their steps would not pair up)."""
         if len(pairs) > 1:
-            return [list(r.frames(*args, coarse))[-1] for r, args in pairs]
+            return [list(r.frames(*args, coarse, preview=True))[-1] for r, args in pairs]
         (r, args), = pairs
         shot = None
         for res in r.frames(*args, coarse, images="doubling", setup_steps=True,
-                            offload=True):
+                            offload=True, preview=True):
             if res is None:
                 yield None
             else:

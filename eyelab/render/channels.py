@@ -178,15 +178,17 @@ def rects_area(rects) -> int:
     return int(sum((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in rects))
 
 
-def pass_steps(st: dict, k: int, route: str):
+def pass_steps(st: dict, k: int, route: str, offload: bool = False):
     """A generator pausing (None) after each colour channel's render (an interactive
     window's tick) whose value is pass ``k`` of a raster stage ``st``
     (:mod:`eyelab.render.raster`) as GL-ordered RGBA uint8: one render, or with
     per-channel fields the whole view with the first channel's field and, inside the
     rectangles of :func:`disagreeing_rects` (found on pass 0 from its depth buffer, kept
     in ``st["rects"]``), each other channel with its own (the same seed and jitter), of
-    which each gives its own colour channel."""
+    which each gives its own colour channel. With ``offload`` the rectangles are found on
+    a worker thread (numpy and scipy: the window's ticks go on meanwhile)."""
     from eyelab.blur.reconstruct import pixel_voxels
+    from eyelab.core.parallel import on_worker
     from eyelab.render.stages import select_channel
 
     win = st["win"]
@@ -202,8 +204,13 @@ def pass_steps(st: dict, k: int, route: str):
     if "rects" not in st:       # the undisplaced depth (raster._passes), else this pass's
         if "zbuf" not in st:
             st["zbuf"] = win.depth()
-        st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
-        st["rects"] = disagreeing_rects(st["spread"], st["voxels"])
+        whole = whole.copy()    # the window's buffer is reused by the next grab
+
+        def find():
+            st["voxels"] = pixel_voxels(st["zbuf"], st["cam"], fields[0])
+            return disagreeing_rects(st["spread"], st["voxels"])
+
+        st["rects"] = (yield from on_worker(find)) if offload else find()
         st["whole_view"] = st["rects"] == [(0, 0, out.shape[1], out.shape[0])]
     if not st["rects"]:                 # every channel is the first's: one render
         return whole

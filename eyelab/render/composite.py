@@ -221,7 +221,8 @@ def frame_image(naked_rgba, env_rgba, env, view, q, report, compositor):
 
 def composite_frame(compositor, image, layers, env, env_rgba, q, report):
     """A generator pausing (None) between a lenslet lens's groups of moved views
-    (:func:`~eyelab.render.lensletview.lenslet_lens_view`), whose value is (image, layers)
+    (:func:`~eyelab.render.lensletview.lenslet_lens_view`) and before the lens outline's
+    masks are drawn anew, whose value is (image, layers)
     with the lens's view composited over the eye's ``image`` (uint8
     (h, w, 3)): the environment stage ``env``'s averaged RGBA ``env_rgba`` mapped through
     the lens by ``compositor`` (:class:`LensCompositor`; a lenslet lens's views by
@@ -241,8 +242,10 @@ def composite_frame(compositor, image, layers, env, env_rgba, q, report):
         lens_img = compositor.lens_view(env_rgba, geo["grid_v"], geo["grid_f"],
                                         geo["tc_grid"].uv, geo["transmittance"],
                                         env["geo_key"])
-    masks = compositor.masks(geo["lens_v"], geo["lens_f"], geo["tc"].lens_ok.all(0),
-                             ("masks", env["geo_key"], compositor.window.size))
+    mkey = ("masks", env["geo_key"], compositor.window.size)
+    if mkey not in compositor.masks_cache:
+        yield None                      # the masks' two renders: a tick of their own
+    masks = compositor.masks(geo["lens_v"], geo["lens_f"], geo["tc"].lens_ok.all(0), mkey)
     image = compose(image, lens_img, masks, q.rim_color, q.invalid_color)
     invalid, inside, _ = masks
     report["details"]["lens"].update(pixels_inside=int(inside.sum()),

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from eyelab.core.color import decode_srgb
+from eyelab.core.parallel import on_worker
 from eyelab.render.accumulate import PassAccumulator, encode_linear
 
 #: Below this spread (environment pixels) the lenslet views sample the environment image
@@ -29,14 +30,17 @@ MIN_SPREAD_PX = 0.3
 
 
 #: Moved views drawn between two pauses of :func:`lenslet_lens_view` (an interactive
-#: window's tick: ~15 ms a view at 800 x 600 on the CPU's GL).
-VIEWS_PER_STEP = 4
+#: window's tick: 21-29 ms a view at 800 x 600 on the CPU's GL, llvmpipe on 2 cores, so
+#: that a tick stays under 0.1 s).
+VIEWS_PER_STEP = 2
 
 
 def lenslet_lens_view(compositor, env_rgba, geo, offsets, grid_key, cam, spread_px,
                       report):
-    """A generator pausing (None) every :data:`VIEWS_PER_STEP` moved views, whose value is
-    (h, w, 3) uint8, row 0 at the top: the view (module doc) of ``offsets``
+    """A generator pausing (None) after the carrier's view and every
+    :data:`VIEWS_PER_STEP` moved views, and while a worker thread spreads the environment
+    image (numpy and scipy), whose value is (h, w, 3) uint8, row 0 at the top: the view
+    (module doc) of ``offsets``
     (:class:`~eyelab.scene.lensletrays.LensletOffsets`) on the lens grid of ``geo``
     (:func:`~eyelab.render.stages.lens_geometry`'s) seen from the eye camera ``cam``;
     ``env_rgba`` the environment image (GL order), ``spread_px`` the sample's spread in
@@ -56,7 +60,8 @@ def lenslet_lens_view(compositor, env_rgba, geo, offsets, grid_key, cam, spread_
     if rect is not None and len(active):
         x0, y0, x1, y1 = rect
         h = base.shape[0]
-        spread = spread_env(env_rgba, spread_px)
+        yield None
+        spread = yield from on_worker(lambda: spread_env(env_rgba, spread_px))
         faces = geo["grid_f"]
         moves = ((offsets.offsets[k], offsets.through[k].astype(float),
                   faces[offsets.through[k][faces].any(1)]) for k in active)

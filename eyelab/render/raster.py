@@ -72,7 +72,7 @@ from eyelab.scene.lensview import (
 )
 from eyelab.scene.prefilter import prefiltered
 from eyelab.scene.raycast import scene_warnings
-from eyelab.scene.refine import refine_for_fields
+from eyelab.scene.refine import refine_steps
 
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
@@ -134,7 +134,7 @@ class RasterRenderer(Renderer):
 
     def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
                every: int = 1, images: str = "every", setup_steps: bool = False,
-               offload: bool = False):
+               offload: bool = False, preview: bool = False):
         """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
         :class:`RenderResult` — the complete image of the passes so far, its report's
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
@@ -144,9 +144,12 @@ class RasterRenderer(Renderer):
         ``setup_steps`` and "doubling" in steps, None after each (a mesh refined, a stage
         set up) — and between two yields only ``every`` passes run, so an interactive
         viewer stays responsive; with ``offload`` and "doubling" an image's averaging (the
-        reconstruction filter: numpy) runs on a worker thread, None yielded meanwhile. The
-        last
-        image equals :meth:`render`'s. Closing the generator early stops the work."""
+        reconstruction filter: numpy) runs on a worker thread, None yielded meanwhile. A
+        ``preview`` (an interactive window's first frame after a change) draws the scene's
+        textures prefiltered, as the full frames do (cached, shared with them), never
+        mip-mapped: building a mip-map chain is one GL call that held the window 0.1-0.5 s
+        (its report says ``details.preview``). The last image equals :meth:`render`'s.
+        Closing the generator early stops the work."""
         view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
         if images not in ("every", "doubling"):
@@ -154,7 +157,7 @@ class RasterRenderer(Renderer):
         steps = sorted(set(range(1, quality.samples + 1, every)) | {quality.samples})
         shown = set(steps) if images == "every" else set(progressive_checkpoints(quality.samples))
         if getattr(eye, "aberrations", None) is None:
-            gen = self._run(scene, eye, lens, view, quality, steps, shown, offload)
+            gen = self._run(scene, eye, lens, view, quality, steps, shown, offload, preview)
         else:                                           # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import aberrated_frames
 
@@ -166,9 +169,11 @@ class RasterRenderer(Renderer):
                 yield res
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
-             shown=None, offload=False):
+             shown=None, offload=False, preview=False):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
+        if preview:
+            report["details"]["preview"] = True
         report["samples"]["target"] = q.samples
         details = report["details"]
         details.update(fields={}, refinement=[])
@@ -177,7 +182,7 @@ class RasterRenderer(Renderer):
                                                                   report)
         t = time.perf_counter()          # a mesh a step: a viewer's window keeps answering
         meshes = yield from self._refining(scene, f_naked or [], f_lens or [], view, q,
-                                           report)
+                                           report, offload)
         timings["refine"] = time.perf_counter() - t
         t = time.perf_counter()
         naked = yield from self._naked_stage(scene, meshes, cam, f_naked, view, q, report,
@@ -317,23 +322,30 @@ class RasterRenderer(Renderer):
         report["details"]["fields"][label] = field_details(f, hit)
         return f
 
-    def _refining(self, scene, f_naked, f_lens, view, q, report):
+    def _refining(self, scene, f_naked, f_lens, view, q, report, offload=False):
         """The scene's meshes refined for every field of both stages (lists), as a
-        generator: None after each mesh refined anew (pymeshlab runs on this thread only),
-        the meshes as its return value."""
+        generator: None after each mesh refined anew and between its measurements and
+        subdivisions (:func:`~eyelab.scene.refine.refine_steps`: with ``offload`` the
+        measurements on a worker thread, pymeshlab on this one), the meshes as its return
+        value."""
         if not q.refine:
             report["skipped"].append("refinement: disabled")
             return list(scene.meshes)
         meshes = []
         fields = list(f_naked) + list(f_lens)
+        cache = self.caches["refined"]
         for m in scene.meshes:
             key = (m.content_key, tuple(f.key for f in fields), view.width)
-            (rm, info), hit = self._cached("refined", key, lambda m=m: refine_for_fields(
-                m, fields, px_scale=view.width / 2), report, f"refined_{m.name}")
-            meshes.append(rm)
-            report["details"]["refinement"].append(info)
-            if not hit:
+            found = cache.get(key)
+            hit = found is not None
+            if not hit:             # measured (on a worker with offload) and cut in steps
+                found = yield from refine_steps(m, fields, px_scale=view.width / 2,
+                                                offload=offload)
+                cache.put(key, found)
                 yield None
+            report["cache"]["hits" if hit else "misses"].append(f"refined_{m.name}")
+            meshes.append(found[0])
+            report["details"]["refinement"].append(found[1])
         return meshes
 
     def _scene_items(self, meshes, fields, route, passes, cam, height, report, offload):
@@ -345,7 +357,7 @@ class RasterRenderer(Renderer):
                                 lambda: prefiltered(m, f), report, f"prefiltered_{m.name}")[0]
 
         work = functools.partial(scene_items, meshes, fields, route, passes, cam, height,
-                                 prefilter)
+                                 prefilter, mipmaps=not report["details"].get("preview"))
         return (yield from on_worker(work)) if offload else work()
 
     def _reconstruction(self, fields, passes, size, q, report, seeds=None) -> tuple:
@@ -422,7 +434,11 @@ class RasterRenderer(Renderer):
         worker thread averages the passes for an image."""
         timings = report["timings_s"]
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
-        start_passes(stages, naked, report)
+        if offload:     # each stage's undisplaced render a tick of its own
+            yield from relabel(start_passes(stages, naked, report),
+                               (checkpoints[0], None, None))
+        else:
+            run_steps(start_passes(stages, naked, report))
         done = 0
         bar = progress_bar(max((s["passes"] for s in stages), default=0),
                            f"raster {view.width}x{view.height}", "pass")
@@ -433,7 +449,7 @@ class RasterRenderer(Renderer):
                         if k >= st["passes"]:
                             continue
                         t = time.perf_counter()     # (offloaded: the pauses included)
-                        steps = pass_steps(st, k, st["route"])     # a colour channel a step
+                        steps = pass_steps(st, k, st["route"], offload)   # a channel a step
                         st["acc"].add((yield from relabel(steps, (cp, None, None)))
                                       if offload else run_steps(steps))
                         name = "naked_passes" if st is naked else "env_passes"

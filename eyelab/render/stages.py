@@ -38,11 +38,13 @@ from eyelab.scene.raycast import EmbreeIntersector
 MIPMAP_BELOW_SAMPLES = 8
 
 
-def start_passes(stages, naked, report) -> None:
+def start_passes(stages, naked, report):
     """Ready the raster stages ``stages`` (``naked``: the naked view's) for their passes:
     the first channel selected, a per-channel pass's buffer, and the reconstruction
     filter's depth from a view no seed displaced (a displaced pass's edges sit where its
-    seed put them: a lopsided blur); the report's ``channel_renders_per_pass``."""
+    seed put them: a lopsided blur); the report's ``channel_renders_per_pass``. A
+    generator pausing (None) after each undisplaced render (an interactive window's
+    tick)."""
     timings = report["timings_s"]
     for st in stages:
         select_channel(st, 0, st["route"])
@@ -53,6 +55,7 @@ def start_passes(stages, naked, report) -> None:
             st["zbuf"] = st["win"].undisplaced_depth()
             name = "naked_passes" if st is naked else "env_passes"
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t
+            yield None
     channels = [len(s["fields"]) for s in stages]
     if any(c > 1 for c in channels):
         report["details"]["channel_renders_per_pass"] = max(channels)
@@ -189,14 +192,15 @@ def field_details(f, hit: bool) -> dict:
     return info
 
 
-def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefilter
-                ) -> list:
+def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefilter, *,
+                mipmaps: bool = True) -> list:
     """Per field (channel), the [(key, factory)] of the meshes' actors. Few passes:
-    textures mip-mapped; more: the passes supersample, and textures are prefiltered to
-    about two texels per pixel instead (:mod:`eyelab.scene.prefilter`; ``prefilter(mesh,
-    factor)`` returns the prefiltered mesh). On the texture route an actor does not depend
-    on the field (the shader samples it), so the channels share their actors."""
-    mip = passes < MIPMAP_BELOW_SAMPLES
+    textures mip-mapped (unless not ``mipmaps``: an interactive preview); more: the passes
+    supersample, and textures are prefiltered to about two texels per pixel instead
+    (:mod:`eyelab.scene.prefilter`; ``prefilter(mesh, factor)`` returns the prefiltered
+    mesh). On the texture route an actor does not depend on the field (the shader samples
+    it), so the channels share their actors."""
+    mip = mipmaps and passes < MIPMAP_BELOW_SAMPLES
     shown = []
     for m in meshes:
         f = 1 if mip else reduction_factor(m, cam, height)

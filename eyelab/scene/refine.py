@@ -11,6 +11,8 @@ and uv are interpolated by the subdivision.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from eyelab.scene.scene import SceneMesh
@@ -82,7 +84,25 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
     unit, i.e. half the image width) — the displacement then follows the field wherever it
     changes; meshes where no field blurs, where the field is already linear enough, or of
     over half :data:`MAX_VERTICES` vertices (never copied into pymeshlab), are left
-    untouched (and say why)."""
+    untouched (and say why). :func:`refine_steps` run to its end."""
+    from eyelab.core.parallel import run_steps
+
+    return run_steps(refine_steps(mesh, fields, px_scale=px_scale, tol_px=tol_px,
+                                  max_iterations=max_iterations))
+
+
+def refine_steps(mesh: SceneMesh, fields, *, px_scale: float = 320.0, tol_px: float = 0.5,
+                 max_iterations: int = 6, offload: bool = False):
+    """:func:`refine_for_fields` as a generator pausing (None) between its measurements
+    and subdivisions (an interactive window's ticks), whose value is (mesh, info). With
+    ``offload`` each measurement of the faces' errors (numpy: the field's look-ups) runs
+    on a worker thread; pymeshlab's subdivisions stay on the calling thread."""
+    from eyelab.core.parallel import on_worker
+
+    def measure(v, f):
+        work = functools.partial(_interpolation_error, v, f, blurred, px_scale)
+        return (yield from on_worker(work)) if offload else work()
+
     fields = [f for f in fields if f is not None]
     blurred = [f for f in fields if blurs_over(f, mesh)]
     info = {"mesh": mesh.name, "triangles_before": mesh.n_triangles,
@@ -91,7 +111,7 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
     if not blurred or not mesh.n_triangles:
         info.update(refined=False, why="no blur over this mesh's depth range")
         return mesh, info
-    err = _interpolation_error(mesh.vertices, mesh.faces, blurred, px_scale)
+    err = yield from measure(mesh.vertices, mesh.faces)
     info["max_error_px_before"] = float(err.max())
     if err.max() <= tol_px:
         info.update(refined=False, why=f"the field is linear to {err.max():.2f} px along "
@@ -104,8 +124,8 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
                         f"has {len(mesh.vertices)} vertices: subdividing would pass "
                         f"{MAX_VERTICES}")
         return mesh, info
-    out, its, capped = _subdivide(mesh, err, blurred, px_scale, tol_px, max_iterations)
-    final = _interpolation_error(out.vertices, out.faces, blurred, px_scale)
+    out, its, capped, final = yield from _subdivide(mesh, err, measure, tol_px,
+                                                    max_iterations)
     info.update(refined=True, iterations=its, triangles_after=out.n_triangles,
                 max_error_px_after=float(final.max()), capped_at_max_vertices=capped,
                 why=f"linear interpolation of the field along edges was off by up to "
@@ -113,10 +133,12 @@ def refine_for_fields(mesh: SceneMesh, fields, *, px_scale: float = 320.0,
     return out, info
 
 
-def _subdivide(mesh: SceneMesh, err, blurred, px_scale, tol_px, max_iterations) -> tuple:
-    """(mesh, iterations, capped): ``mesh`` subdivided by pymeshlab where its per-face
-    error ``err`` (px, (m,)) exceeds ``tol_px``, repeatedly (see
-    :func:`refine_for_fields`)."""
+def _subdivide(mesh: SceneMesh, err, measure, tol_px, max_iterations):
+    """A generator (pausing as ``measure`` does, and after each subdivision) whose value
+    is (mesh, iterations, capped, the final per-face error): ``mesh`` subdivided by
+    pymeshlab where its per-face error ``err`` (px, (m,)) exceeds ``tol_px``, repeatedly
+    (see :func:`refine_for_fields`); ``measure(vertices, faces)`` a generator whose value
+    is the per-face error."""
     from eyelab.core.interrupt import deferred
 
     with deferred():            # an interrupted initialisation leaves pymeshlab unusable
@@ -147,7 +169,8 @@ def _subdivide(mesh: SceneMesh, err, blurred, px_scale, tol_px, max_iterations) 
         its += 1
         m = ms.current_mesh()
         v, f = m.vertex_matrix(), m.face_matrix()
-        err = _interpolation_error(v, f, blurred, px_scale)
+        yield None
+        err = yield from measure(v, f)
         kw = {"vertex_matrix": v, "face_matrix": f, "f_scalar_array": err}
         if m.has_vertex_color():
             kw["v_color_matrix"] = m.vertex_color_matrix()
@@ -163,4 +186,5 @@ def _subdivide(mesh: SceneMesh, err, blurred, px_scale, tol_px, max_iterations) 
         colors = np.clip(np.round(m.vertex_color_matrix()[:, :3] * 255), 0, 255).astype(np.uint8)
     out = SceneMesh(mesh.name, m.vertex_matrix(), m.face_matrix(), colors, mesh.texture,
                     m.vertex_tex_coord_matrix() if mesh.uv is not None else None)
-    return out, its, capped
+    final = err if its else (yield from measure(out.vertices, out.faces))
+    return out, its, capped, final
