@@ -5,9 +5,11 @@ their CR-39 lens), target S = the default quality's (8). For each change — the
 with the lens off and through the lens, the pupil, the gaze, S, the colour-vision
 deficiency — the time from the change to the first updated frame (a one-pass preview on a
 coarse field when the change needs new blur fields) and to the target S, the longest single
-tick (how long the window is unresponsive at most), and the renderer's stage timings of the
-frames that did the set-up. The model is ticked as the window's timer would tick it,
-without a window (the window adds one texture upload per frame).
+tick (how long the window is unresponsive at most), the renderer's stage timings of the
+frames that did the set-up, and what ``eyelab.render`` of the changed spec costs in a
+session warm from the spec before the change (the same run). The model is ticked as the
+window's timer would tick it, without a window (the window adds one texture upload per
+frame).
 """
 
 from __future__ import annotations
@@ -109,8 +111,10 @@ def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAUL
             ("colour vision", {"cvd": "deutan"}),
         ]
         for label, change in plan:
+            before = model.dump()
             row = _measure(model, change)
             row["kind"] = label
+            row["render_warm_s"] = _render_warm(before, model.dump())
             rows.append(row)
     finally:
         model.close()
@@ -122,7 +126,8 @@ def run_inspect_bench(width: int = 800, height: int = 600, samples: int = DEFAUL
         summary.append(f"  {r['kind']:<24} {r['change']:<22} first frame "
                        f"{r['first_frame_s']:6.3f} s, to S={r['passes_done']} "
                        f"{r['to_target_s']:6.3f} s, longest tick {r['longest_tick_s']:.3f} s "
-                       + (f"(eyelab.render warm {r['render_warm_s']:.3f} s) "
+                       + (f"(eyelab.render warm {r['render_warm_s']:.3f} s: "
+                          f"{r['to_target_s'] / r['render_warm_s']:.2f}x) "
                           if "render_warm_s" in r else "") + f"({r['recomputed']})")
     return {"benchmark": "inspect", "size": [width, height], "samples": samples,
             "cold_start_s": cold, "rows": rows, "summary": summary}

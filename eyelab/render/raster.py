@@ -64,6 +64,7 @@ from eyelab.render.stages import (
     stage_mean,
     stage_route,
     start_passes,
+    warm_textures,
 )
 from eyelab.render.window import OffscreenWindow
 from eyelab.scene.lensview import (
@@ -395,6 +396,8 @@ class RasterRenderer(Renderer):
                                                      seeds)
         items = yield from self._scene_items(meshes, fields, route, passes, cam, view.height,
                                              report, offload)
+        if offload:                     # textures uploaded a few a tick
+            yield from warm_textures(win, fields, route, items)
         return {"win": win, "cam": cam, "fields": fields, "recon": recon, "spread": spread,
                 "route": route, "items": items,
                 "key": ("naked", scene.content_key) + tuple(f.key for f in fields),
@@ -415,6 +418,8 @@ class RasterRenderer(Renderer):
                                                      report, seeds)
         items = yield from self._scene_items(meshes, fields, route, passes, vcam, h_env, report,
                                              offload)
+        if offload:
+            yield from warm_textures(win, fields, route, items)
         geo, tkey, offsets, n_wls = lens_coords(self._cached, scene, lens, vcam, cam, view,
                                                 q, report, eye)
         report["details"]["lens"] = dict(lens_details(geo, n_wls, vcam),

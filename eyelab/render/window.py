@@ -206,6 +206,42 @@ class OffscreenWindow:
         self.actors = keep
         return list(keep.values())
 
+    def warm(self, items, textured_per_step: int = 1):
+        """A generator pausing (None) after each render: the actors of ``items`` [(key,
+        factory)] not built yet are built and drawn, :data:`textured_per_step` textured
+        ones a render (their textures' upload and mip-map chains are built there) and the
+        others together, then kept for :meth:`show` — so that an interactive window's
+        first pass does not upload every texture in one GL call (16 mip-mapped textures of
+        the built-in room: 0.5 s). The image drawn is thrown away; the next :meth:`show`
+        sets the actors shown."""
+        new = [(k, f) for k, f in items if k not in self.actors and k not in self._spare]
+        if not new:
+            return
+        built = []
+        for key, factory in new:
+            actor = factory()
+            actor.SetShaderProperty(self.shaders[self.route, actor.GetTexture() is not None])
+            if self.route == "texture":
+                bind_field_texture(actor.GetMapper(), self)
+            self._spare[key] = actor
+            built.append(actor)
+        plain = [a for a in built if a.GetTexture() is None]
+        textured = [a for a in built if a.GetTexture() is not None]
+        groups = ([plain] if plain else []) + [
+            textured[i:i + textured_per_step] for i in range(0, len(textured),
+                                                            textured_per_step)]
+        self.ren.RemoveAllViewProps()
+        for key, actor in self.actors.items():      # still reusable by show()
+            self._spare[key] = actor
+        self.actors = {}
+        for group in groups:
+            for actor in group:
+                self.ren.AddActor(actor)
+            with deferred():
+                self.win.Render()
+            self.ren.RemoveAllViewProps()
+            yield None
+
     def set_view(self, cam, size, background) -> None:
         """Camera (eyelab :class:`~eyelab.optics.rays.camera.Camera`), window size (w, h) and
         background (sRGB uint8 triple)."""
