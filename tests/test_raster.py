@@ -423,8 +423,9 @@ def test_a_renderer_drawing_many_fields_draws_the_last_as_a_fresh_one():
 def test_the_inspectors_offloaded_frames_pause_and_end_at_the_render():
     """``frames(..., images="doubling", setup_steps=True, offload=True)`` (the inspector's:
     the averages on a worker thread, a lenslet lens's moved views drawn a few a step):
-    Nones between the images at 1, 2, 4 passes, more of them than without offloading, and
-    the last image the same as :meth:`render`'s, through a DIMS-like lens 20 deg down."""
+    through a DIMS-like lens 20 deg down only the last image (each image draws a lens view
+    per pupil sample), Nones before it, more of them than without offloading, and that
+    image the same as :meth:`render`'s."""
     from eyelab.jobs.api import as_spec
     from eyelab.scene.library import page_scene
 
@@ -442,7 +443,63 @@ def test_the_inspectors_offloaded_frames_pause_and_end_at_the_render():
         final = r.render(scene, spec.eye, spec.lens, view)
     for got in steps.values():
         shown = [s.report["samples"]["done_passes"] for s in got if s is not None]
-        assert shown == [1, 2, 4]
+        assert shown == [4]
         np.testing.assert_array_equal(got[-1].image, final.image)
     assert steps[True][-1].report["details"]["lenslets"]["moved_views"] > 4
     assert steps[True].count(None) > steps[False].count(None)
+
+
+def test_offloaded_frames_pause_within_a_tick_and_end_at_the_render():
+    """The inspector's frames of the room through a -3 D lens (S = 4: mip-mapped
+    textures): images at 1, 2, 4 passes; the set-up and passes cut into steps (a stage's
+    textures uploaded one a render before its passes, OffscreenWindow.warm; each
+    undisplaced render, the channels' rectangles, the lens masks apart), and the last image
+    equal to render's. A preview (``preview=True``, one pass) draws no mip-mapped texture
+    and says so in its report."""
+    eye = Eye.from_rx(Prescription(-3.0), accommodation_max=0.5)
+    lens = SpectacleLens.from_rx(Prescription(-3.0))
+    view = View(width=96, height=72)
+    with RasterRenderer(RasterQuality(samples=1)) as r:
+        pre = [s for s in r.frames(room_scene(), eye, lens, view, images="doubling",
+                                   setup_steps=True, offload=True, preview=True)
+               if s is not None]
+        assert pre[-1].report["details"]["preview"] is True
+        assert not any(key[3] for key in r._eye_win.actors)         # no mip-mapped actor
+    with RasterRenderer(RasterQuality(samples=4)) as r:
+        got = list(r.frames(room_scene(), eye, lens, view, images="doubling",
+                            setup_steps=True, offload=True))
+        assert all(key[3] for key in r._eye_win.actors)              # S = 4: mip-mapped
+        final = r.render(room_scene(), eye, lens, view)
+    shown = [s.report["samples"]["done_passes"] for s in got if s is not None]
+    assert shown == [1, 2, 4]
+    assert "preview" not in got[-1].report["details"]
+    np.testing.assert_array_equal(got[-1].image, final.image)
+
+
+def test_warming_a_window_builds_each_actor_once():
+    """OffscreenWindow.warm builds the actors not built yet (textured ones one a render,
+    pausing after each) and show() then reuses them: no factory runs twice."""
+    from eyelab.blur import compute_blur_field
+    from eyelab.optics.rays.camera import eye_camera
+    from eyelab.render.stages import scene_items, warm_textures
+    from eyelab.render.window import OffscreenWindow
+
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
+    cam = eye_camera(near=0.05, far=100.0)
+    field = compute_blur_field(eye, None, cam, shape=(16, 8, 8))
+    scene = room_scene()
+    items = scene_items(scene.meshes, [field], "texture", 2, cam, 60, lambda m, f: m)
+    calls = []
+    counted = [[(k, (lambda f=f, k=k: calls.append(k) or f())) for k, f in items[0]]]
+    win = OffscreenWindow()
+    try:
+        win.set_view(cam, (80, 60), (0, 0, 0))
+        pauses = list(warm_textures(win, [field], "texture", counted))
+        textured = sum(m.texture is not None for m in scene.meshes)
+        assert len(pauses) == textured + (textured < len(scene.meshes))
+        assert sorted(calls) == sorted(k for k, _ in counted[0])
+        win.show(counted[0])
+        assert len(calls) == len(counted[0])                     # nothing built again
+        assert list(warm_textures(win, [field], "texture", counted)) == []
+    finally:
+        win.close()

@@ -121,6 +121,34 @@ def test_refinement_only_where_needed():
     assert not info["refined"] and "no blur" in info["why"]
 
 
+def test_refinement_in_steps_measured_on_a_worker_is_the_same_mesh():
+    """refine_steps with its error measured on a worker thread (the inspector's) pauses
+    between its measurements and subdivisions and gives the mesh refine_for_fields
+    gives."""
+    from eyelab.core.parallel import run_steps
+    from eyelab.scene.refine import refine_steps
+
+    scene = room_scene()
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
+    f = compute_blur_field(eye, None, eye_camera(near=0.05, far=100.0), shape=(64, 32, 32))
+    floor = scene.meshes[0]
+    want, info = refine_for_fields(floor, [f], px_scale=320.0, tol_px=0.5)
+    steps = refine_steps(floor, [f], px_scale=320.0, tol_px=0.5, offload=True)
+    pauses = 0
+    while True:
+        try:
+            next(steps)
+            pauses += 1
+        except StopIteration as done:
+            got, got_info = done.value
+            break
+    assert pauses > info["iterations"]
+    np.testing.assert_array_equal(got.vertices, want.vertices)
+    np.testing.assert_array_equal(got.faces, want.faces)
+    assert got_info == info
+    assert run_steps(refine_steps(floor, [f]))[1] == refine_for_fields(floor, [f])[1]
+
+
 def test_load_mesh_round_trip(tmp_path):
     box = trimesh.creation.box(extents=(1, 2, 3))
     box.visual.vertex_colors = np.tile([10, 20, 30, 255], (len(box.vertices), 1))
