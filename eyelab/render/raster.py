@@ -60,6 +60,7 @@ from eyelab.render.stages import (
     lens_details,
     passes_for,
     progressive_checkpoints,
+    refining,
     scene_items,
     stage_mean,
     stage_route,
@@ -73,7 +74,6 @@ from eyelab.scene.lensview import (
 )
 from eyelab.scene.prefilter import prefiltered
 from eyelab.scene.raycast import scene_warnings
-from eyelab.scene.refine import refine_steps
 
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
@@ -187,8 +187,9 @@ class RasterRenderer(Renderer):
         cam, lens_in_view, f_naked, vcam, f_lens = self._geometry(scene, eye, lens, view, q,
                                                                   report)
         t = time.perf_counter()          # a mesh a step: a viewer's window keeps answering
-        meshes = yield from self._refining(scene, f_naked or [], f_lens or [], view, q,
-                                           report, offload)
+        meshes = yield from refining(self.caches["refined"], scene,
+                                     list(f_naked or []) + list(f_lens or []), view, q, report,
+                                     offload)
         timings["refine"] = time.perf_counter() - t
         t = time.perf_counter()
         naked = yield from self._naked_stage(scene, meshes, cam, f_naked, view, q, report,
@@ -327,32 +328,6 @@ class RasterRenderer(Renderer):
             accommodation=accommodation), report, f"field_{label}")
         report["details"]["fields"][label] = field_details(f, hit)
         return f
-
-    def _refining(self, scene, f_naked, f_lens, view, q, report, offload=False):
-        """The scene's meshes refined for every field of both stages (lists), as a
-        generator: None after each mesh refined anew and between its measurements and
-        subdivisions (:func:`~eyelab.scene.refine.refine_steps`: with ``offload`` the
-        measurements on a worker thread, pymeshlab on this one), the meshes as its return
-        value."""
-        if not q.refine:
-            report["skipped"].append("refinement: disabled")
-            return list(scene.meshes)
-        meshes = []
-        fields = list(f_naked) + list(f_lens)
-        cache = self.caches["refined"]
-        for m in scene.meshes:
-            key = (m.content_key, tuple(f.key for f in fields), view.width)
-            found = cache.get(key)
-            hit = found is not None
-            if not hit:             # measured (on a worker with offload) and cut in steps
-                found = yield from refine_steps(m, fields, px_scale=view.width / 2,
-                                                offload=offload)
-                cache.put(key, found)
-                yield None
-            report["cache"]["hits" if hit else "misses"].append(f"refined_{m.name}")
-            meshes.append(found[0])
-            report["details"]["refinement"].append(found[1])
-        return meshes
 
     def _scene_items(self, meshes, fields, route, passes, cam, height, report, offload):
         """A generator (pausing while a worker thread prefilters, with ``offload``) whose

@@ -1,7 +1,7 @@
-"""The stateless parts of a raster frame's stages (Kakimoto et al. 2007, §3): how many
-passes a stage needs and with which seeds, the environment image's width, the lens's
-meshes and their texture coordinates, the Fresnel transmittance per pixel, and the
-progressive checkpoints."""
+"""The stateless parts of a raster frame's stages (Kakimoto et al. 2007, §3): the meshes'
+refinement, how many passes a stage needs and with which seeds, the environment image's
+width, the lens's meshes and their texture coordinates, the Fresnel transmittance per
+pixel, and the progressive checkpoints."""
 
 from __future__ import annotations
 
@@ -27,6 +27,7 @@ from eyelab.scene.lensview import (
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.prefilter import reduction_factor
 from eyelab.scene.raycast import EmbreeIntersector
+from eyelab.scene.refine import refine_steps
 
 #: Scene textures are mip-mapped (trilinear, in linear light) only below this many passes.
 #: With few passes a minified texture would alias (point samples of many texels per pixel);
@@ -190,6 +191,31 @@ def field_details(f, hit: bool) -> dict:
     if not hit:
         info["time_s"] = f.report["timings"]["total_s"]
     return info
+
+
+def refining(cache, scene, fields, view, q, report, offload=False):
+    """The scene's meshes refined for every field of both stages (``fields``), as a
+    generator: None after each mesh refined anew and between its measurements and
+    subdivisions (:func:`~eyelab.scene.refine.refine_steps`: with ``offload`` the
+    measurements on a worker thread, pymeshlab on this one), the meshes as its return
+    value; refined meshes kept in ``cache`` (the renderer's "refined")."""
+    if not q.refine:
+        report["skipped"].append("refinement: disabled")
+        return list(scene.meshes)
+    meshes = []
+    for m in scene.meshes:
+        key = (m.content_key, tuple(f.key for f in fields), view.width)
+        found = cache.get(key)
+        hit = found is not None
+        if not hit:             # measured (on a worker with offload) and cut in steps
+            found = yield from refine_steps(m, fields, px_scale=view.width / 2,
+                                            offload=offload)
+            cache.put(key, found)
+            yield None
+        report["cache"]["hits" if hit else "misses"].append(f"refined_{m.name}")
+        meshes.append(found[0])
+        report["details"]["refinement"].append(found[1])
+    return meshes
 
 
 def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefilter, *,
