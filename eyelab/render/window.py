@@ -192,10 +192,7 @@ class OffscreenWindow:
             if actor is None:
                 actor = self._spare.pop(key, None)
             if actor is None:
-                actor = factory()
-                actor.SetShaderProperty(self.shaders[self.route, actor.GetTexture() is not None])
-                if self.route == "texture":
-                    bind_field_texture(actor.GetMapper(), self)
+                actor = self._build(factory)
             keep[key] = actor
             self.ren.AddActor(actor)
         for key, actor in self.actors.items():
@@ -205,6 +202,14 @@ class OffscreenWindow:
             release_actor(self._spare.popitem(last=False)[1], self.win)
         self.actors = keep
         return list(keep.values())
+
+    def _build(self, factory):
+        """A new actor from ``factory()`` with the route's shader (and field texture)."""
+        actor = factory()
+        actor.SetShaderProperty(self.shaders[self.route, actor.GetTexture() is not None])
+        if self.route == "texture":
+            bind_field_texture(actor.GetMapper(), self)
+        return actor
 
     def warm(self, items, textured_per_step: int = 1):
         """A generator pausing (None) after each render: the actors of ``items`` [(key,
@@ -219,10 +224,7 @@ class OffscreenWindow:
             return
         built = []
         for key, factory in new:
-            actor = factory()
-            actor.SetShaderProperty(self.shaders[self.route, actor.GetTexture() is not None])
-            if self.route == "texture":
-                bind_field_texture(actor.GetMapper(), self)
+            actor = self._build(factory)
             self._spare[key] = actor
             built.append(actor)
         plain = [a for a in built if a.GetTexture() is None]
