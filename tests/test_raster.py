@@ -451,7 +451,8 @@ def test_the_inspectors_offloaded_frames_pause_and_end_at_the_render():
 
 def test_offloaded_frames_pause_within_a_tick_and_end_at_the_render():
     """The inspector's frames of the room through a -3 D lens (S = 4: mip-mapped
-    textures): images at 1, 2, 4 passes; the set-up and passes cut into steps (a stage's
+    textures): images at 1 and 4 passes and at 2 when pass 2 took as long as image 1 to
+    build (stages.image_due); the set-up and passes cut into steps (a stage's
     textures uploaded one a render before its passes, OffscreenWindow.warm; each
     undisplaced render, the channels' rectangles, the lens masks apart), and the last image
     equal to render's. A preview (``preview=True``, one pass) draws no mip-mapped texture
@@ -471,14 +472,46 @@ def test_offloaded_frames_pause_within_a_tick_and_end_at_the_render():
         assert all(key[3] for key in r._eye_win.actors)              # S = 4: mip-mapped
         final = r.render(room_scene(), eye, lens, view)
     shown = [s.report["samples"]["done_passes"] for s in got if s is not None]
-    assert shown == [1, 2, 4]
+    assert shown in ([1, 2, 4], [1, 4])
     assert "preview" not in got[-1].report["details"]
     np.testing.assert_array_equal(got[-1].image, final.image)
 
 
+def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
+    """frames(..., images="doubling"): an image between the first and the last is built
+    only when the passes since the last image took as long as that image did — images made
+    slow (50 ms more each) leave 1 and S; passes made slow (50 ms more each) keep 1, 2, 4,
+    8. The last image is render's either way."""
+    import time
+
+    from eyelab.render import raster
+
+    eye = Eye.from_rx(Prescription(-2.0), accommodation_max=0.5)
+    view = View(width=64, height=48)
+    shown = {}
+    for slow in ("images", "passes"):
+        with RasterRenderer(RasterQuality(samples=8)) as r:
+            if slow == "images":
+                monkeypatch.setattr(r, "_means", lambda *a, f=r._means: (time.sleep(0.05),
+                                                                         f(*a))[1])
+            else:
+                def slow_steps(*a, steps=raster.pass_steps, **k):
+                    time.sleep(0.05)
+                    return (yield from steps(*a, **k))
+                monkeypatch.setattr(raster, "pass_steps", slow_steps)
+            got = [f for f in r.frames(room_scene(), eye, None, view, images="doubling")
+                   if f is not None]
+            final = r.render(room_scene(), eye, None, view)
+            monkeypatch.undo()
+        shown[slow] = [f.report["samples"]["done_passes"] for f in got]
+        np.testing.assert_array_equal(got[-1].image, final.image)
+    assert shown == {"images": [1, 8], "passes": [1, 2, 4, 8]}
+
+
 def test_warming_a_window_builds_each_actor_once():
     """OffscreenWindow.warm builds the actors not built yet (textured ones one a render,
-    pausing after each) and show() then reuses them: no factory runs twice."""
+    pausing after each, then once per window a tiny texture of the other mip-map state)
+    and show() then reuses them: no factory runs twice."""
     from eyelab.blur import compute_blur_field
     from eyelab.optics.rays.camera import eye_camera
     from eyelab.render.stages import scene_items, warm_textures
@@ -496,7 +529,7 @@ def test_warming_a_window_builds_each_actor_once():
         win.set_view(cam, (80, 60), (0, 0, 0))
         pauses = list(warm_textures(win, [field], "texture", counted))
         textured = sum(m.texture is not None for m in scene.meshes)
-        assert len(pauses) == textured + (textured < len(scene.meshes))
+        assert len(pauses) == textured + (textured < len(scene.meshes)) + 1
         assert sorted(calls) == sorted(k for k, _ in counted[0])
         win.show(counted[0])
         assert len(calls) == len(counted[0])                     # nothing built again

@@ -174,6 +174,37 @@ def test_prefiltered_texture_keeps_the_mean_light():
     assert out.shape == (2, 2, 3)
     assert np.all(out == 188)
     np.testing.assert_array_equal(reduce_texture(tex, 1), tex)
+    # an odd-sized random texture against block means written out (edges repeated)
+    rng = np.random.default_rng(3)
+    tex = rng.integers(0, 256, (23, 17, 3), dtype=np.uint8)
+    lin = ((tex / 255.0 + 0.055) / 1.055) ** 2.4
+    lin = np.where(tex / 255.0 <= 0.04045, tex / 255.0 / 12.92, lin)
+    padded = np.pad(lin, ((0, 1), (0, 1), (0, 0)), mode="edge")
+    want = np.array([[padded[i:i + 3, j:j + 3].mean(axis=(0, 1)) for j in range(0, 18, 3)]
+                     for i in range(0, 24, 3)])
+    got = ((reduce_texture(tex, 3) / 255.0 + 0.055) / 1.055) ** 2.4
+    np.testing.assert_allclose(got, want, atol=0.01)      # within a code of the mean
+
+
+def test_a_prefiltered_mesh_keeps_its_texture_in_place():
+    """A texture whose size f does not divide (23 x 17, f = 4: padded to 24 x 20) keeps
+    every uv on the reduced texel whose block holds the original texel (u right, v up
+    from the image's bottom), so the image is not stretched."""
+    import numpy as np
+
+    from eyelab.scene.prefilter import prefiltered
+    from eyelab.scene.scene import SceneMesh
+
+    rng = np.random.default_rng(5)
+    uv = rng.uniform(0.0, 1.0, (200, 2))
+    mesh = SceneMesh("t", rng.normal(size=(200, 3)), np.arange(198).reshape(66, 3), None,
+                     rng.integers(0, 256, (23, 17, 3), dtype=np.uint8), uv)
+    small = prefiltered(mesh, 4)
+    assert small.texture.shape == (6, 5, 3)
+    col, row = np.floor(uv[:, 0] * 17), np.floor((1 - uv[:, 1]) * 23)     # original texel
+    col2, row2 = np.floor(small.uv[:, 0] * 5), np.floor((1 - small.uv[:, 1]) * 6)
+    np.testing.assert_array_equal(col2, col // 4)
+    np.testing.assert_array_equal(row2, row // 4)
 
 
 def test_bad_meshes_are_named_errors(tmp_path):

@@ -94,9 +94,20 @@ def decode_srgb(codes) -> np.ndarray:
     return _DECODE_U8[np.asarray(codes, np.uint8)]
 
 
+#: The linear light where each sRGB code k (1..255) begins: the value that encodes to
+#: k - 0.5, so that encoding is a search among 255 edges instead of a power per value.
+_ENCODE_EDGES = srgb_to_linear((np.arange(1, 256) - 0.5) / 255.0)
+
+
 def encode_srgb(linear) -> np.ndarray:
-    """Linear light (any shape, clipped to [0, 1]) -> uint8 sRGB codes, rounded."""
-    return np.round(linear_to_srgb(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
+    """Linear light (any shape, clipped to [0, 1]) -> uint8 sRGB codes: the nearest code of
+    :func:`linear_to_srgb` (IEC 61966-2-1), found among the codes' edges in linear light
+    (the same codes as rounding the formula, tested; a few times faster); NaN -> 0."""
+    x = np.asarray(linear)
+    codes = np.searchsorted(_ENCODE_EDGES, x, side="right").astype(np.uint8)
+    if x.dtype.kind == "f":
+        codes[np.isnan(x)] = 0
+    return codes
 
 
 def cvd_linear(lin: np.ndarray, kind: str, severity: float = 1.0) -> np.ndarray:

@@ -56,6 +56,7 @@ from eyelab.render.composite import LensCompositor, frame_image
 from eyelab.render.stages import (
     env_width,
     field_details,
+    image_due,
     lens_coords,
     lens_details,
     passes_for,
@@ -72,7 +73,7 @@ from eyelab.scene.lensview import (
     lens_covers_view,
     lens_in_view_of,
 )
-from eyelab.scene.prefilter import prefiltered
+from eyelab.scene.prefilter import pot_padded, prefiltered
 from eyelab.scene.raycast import scene_warnings
 
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
@@ -139,8 +140,11 @@ class RasterRenderer(Renderer):
         """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
         :class:`RenderResult` — the complete image of the passes so far, its report's
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
-        image only after passes 1, 2, 4, 8, ... and S and None after the others (building
-        an image composites the lens view: ~0.1 s at 800 x 600). Set-up (fields,
+        image only after pass 1, S and those of passes 2, 4, 8, ... whose passes since the
+        last image took at least as long as that image took to build, None after the others
+        (building an image averages and filters the passes and composites the lens view:
+        0.15-0.2 s at 800 x 600, three passes' time; the images then cost at most the
+        passes' time). Set-up (fields,
         refinement, lens coordinates) happens before the first image — with
         ``setup_steps`` and "doubling" in steps, None after each (a mesh refined, a stage
         set up) — and between two yields only ``every`` passes run, so an interactive
@@ -163,7 +167,8 @@ class RasterRenderer(Renderer):
         if images == "doubling" and not preview and getattr(lens, "has_lenslets", False):
             shown = {quality.samples}   # an image: a lens view per pupil sample (32: ~0.9 s)
         if getattr(eye, "aberrations", None) is None:
-            gen = self._run(scene, eye, lens, view, quality, steps, shown, offload, preview)
+            gen = self._run(scene, eye, lens, view, quality, steps, shown, offload, preview,
+                            costed=images == "doubling")
         else:                                           # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import aberrated_frames
 
@@ -175,7 +180,7 @@ class RasterRenderer(Renderer):
                 yield res
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
-             shown=None, offload=False, preview=False):
+             shown=None, offload=False, preview=False, costed=False):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
         if preview:
@@ -204,7 +209,7 @@ class RasterRenderer(Renderer):
             timings["setup_lens"] = time.perf_counter() - t
         yield None                          # set-up done: the passes from the next step
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
-                                                 shown, offload):
+                                                 shown, offload, costed):
             if image is None:
                 yield None
                 continue
@@ -332,10 +337,12 @@ class RasterRenderer(Renderer):
     def _scene_items(self, meshes, fields, route, passes, cam, height, report, offload):
         """A generator (pausing while a worker thread prefilters, with ``offload``) whose
         value is per field (channel) the [(key, factory)] of the meshes' actors
-        (:func:`~eyelab.render.stages.scene_items`), prefiltered textures cached."""
+        (:func:`~eyelab.render.stages.scene_items`), prefiltered textures (padded to
+        power-of-two sides: :func:`~eyelab.scene.prefilter.pot_padded`) cached."""
         def prefilter(m, f):
             return self._cached("prefiltered", ("prefiltered", m.content_key, f),
-                                lambda: prefiltered(m, f), report, f"prefiltered_{m.name}")[0]
+                                lambda: pot_padded(prefiltered(m, f)), report,
+                                f"prefiltered_{m.name}")[0]
 
         work = functools.partial(scene_items, meshes, fields, route, passes, cam, height,
                                  prefilter, mipmaps=not report["details"].get("preview"))
@@ -412,10 +419,13 @@ class RasterRenderer(Renderer):
                 "acc": PassAccumulator(h_env, w_env)}
 
     # ------------------------------------------------------------------ passes
-    def _passes(self, naked, env, view, q, report, checkpoints, shown=None, offload=False):
+    def _passes(self, naked, env, view, q, report, checkpoints, shown=None, offload=False,
+                costed=False):
         """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
-        (ascending, the last S); at checkpoints not in ``shown`` (None: all are) no image
-        is built and (passes done, None, None) is yielded — and, with ``offload``, while a
+        (ascending, the last S); at checkpoints not in ``shown`` (None: all are) — and,
+        ``costed``, at those between the first image and the last whose passes since the
+        last image took less time than it took to build (:func:`image_due`) — no image is
+        built and (passes done, None, None) is yielded; with ``offload`` also while a
         worker thread averages the passes for an image."""
         timings = report["timings_s"]
         stages = [s for s in (naked, env) if s is not None and s["passes"]]
@@ -424,7 +434,7 @@ class RasterRenderer(Renderer):
                                (checkpoints[0], None, None))
         else:
             run_steps(start_passes(stages, naked, report))
-        done = 0
+        done, image_s, since = 0, None, time.perf_counter()
         bar = progress_bar(max((s["passes"] for s in stages), default=0),
                            f"raster {view.width}x{view.height}", "pass")
         try:
@@ -445,9 +455,11 @@ class RasterRenderer(Renderer):
                             yield cp, None, None
                     bar.update(1)
                 done = cp
-                if shown is not None and cp not in shown:
+                if (shown is not None and cp not in shown) or (costed and not image_due(
+                        cp == checkpoints[-1], image_s, time.perf_counter() - since)):
                     yield cp, None, None
                     continue
+                t = time.perf_counter()
                 average = functools.partial(self._means, naked, env, q, report)
                 if offload:     # averaged on a worker, composited in steps: the GL thread answers
                     means = yield from on_worker(average, idle=(cp, None, None))
@@ -455,6 +467,7 @@ class RasterRenderer(Renderer):
                         self._image(naked, env, view, q, report, means), (cp, None, None))
                 else:
                     image, layers = run_steps(self._image(naked, env, view, q, report, average()))
+                image_s, since = time.perf_counter() - t, time.perf_counter()
                 yield cp, image.copy(), layers
         finally:
             bar.close()

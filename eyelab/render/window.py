@@ -105,6 +105,7 @@ class OffscreenWindow:
         self.route = "attribute"
         self.actors = {}
         self._spare = OrderedDict()
+        self._variant_warmed = False       # warm(): the other mip-map state's shader drawn
         self.field_texture = None          # the current one, bound before each draw
         self.field_texture_key = None
         self._textures = OrderedDict()       # key -> (texture object, its data), LRU
@@ -243,6 +244,30 @@ class OffscreenWindow:
                 self.win.Render()
             self.ren.RemoveAllViewProps()
             yield None
+        if textured and not self._variant_warmed:
+            self._variant_warmed = True
+            yield from self._warm_variant(not textured[0].GetTexture().GetMipmap())
+
+    def _warm_variant(self, mipmap: bool):
+        """Draw once a tiny texture of the other mip-map state than the stage's (a render,
+        then a pause): the software GL compiles a fragment-shader variant per sampler state
+        at its first draw (0.15-0.2 s), which a first change of S across
+        :data:`~eyelab.render.stages.MIPMAP_BELOW_SAMPLES` would otherwise pay inside one
+        of the window's ticks. Once per window."""
+        from eyelab.render.actors import mesh_actor
+        from eyelab.scene.scene import SceneMesh
+
+        quad = SceneMesh("variant", np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                                             float), np.array([[0, 1, 2], [0, 2, 3]]), None,
+                         np.zeros((4, 4, 3), np.uint8), np.array([[0, 0], [1, 0], [1, 1],
+                                                                  [0, 1]], float))
+        actor = self._build(lambda: mesh_actor(quad, mipmap=mipmap))
+        self.ren.AddActor(actor)
+        with deferred():
+            self.win.Render()
+        self.ren.RemoveAllViewProps()
+        release_actor(actor, self.win)
+        yield None
 
     def set_view(self, cam, size, background) -> None:
         """Camera (eyelab :class:`~eyelab.optics.rays.camera.Camera`), window size (w, h) and

@@ -61,15 +61,52 @@ def reduce_texture(tex: np.ndarray, f: int) -> np.ndarray:
         return tex
     h, w = tex.shape[:2]
     hh, ww = -(-h // f) * f, -(-w // f) * f
-    lin = decode_srgb(np.pad(tex, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge"))
-    mean = lin.reshape(hh // f, f, ww // f, f, 3).mean(axis=(1, 3))
-    return encode_srgb(mean)
+    if (hh, ww) != (h, w):
+        tex = np.pad(tex, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge")
+    rows = decode_srgb(tex).reshape(hh // f, f, ww, 3).sum(axis=1)   # float32, one axis
+    blocks = rows.reshape(hh // f, ww // f, f, 3).sum(axis=2)          # at a time: contiguous
+    return encode_srgb(blocks * np.float32(1.0 / (f * f)))
+
+
+#: A texture is padded to power-of-two sides (:func:`pot_padded`) while that adds at most
+#: this many texels (4 Mi: 12 MiB of sRGB); larger ones are drawn at their own size.
+POT_PAD_MAX_TEXELS = 1 << 22
+
+
+def _with_texture(mesh: SceneMesh, tex: np.ndarray, hh: int, ww: int) -> SceneMesh:
+    """``mesh`` drawing ``tex``, whose top-left (h, w) block holds the image of its
+    texture's (hh, ww) texels (the rest edge padding), its uv rescaled onto that block."""
+    h, w = mesh.texture.shape[:2]
+    uv = np.column_stack([mesh.uv[:, 0] * (w / ww), 1.0 - (1.0 - mesh.uv[:, 1]) * (h / hh)])
+    return SceneMesh(mesh.name, mesh.vertices, mesh.faces, None, tex, uv)
+
+
+def pot_padded(mesh: SceneMesh) -> SceneMesh:
+    """The mesh with its texture padded (edge texels repeated, below and to the right) to
+    power-of-two sides and its uv rescaled onto the image: the same texels drawn, but the
+    software GL (llvmpipe) compiles a fragment-shader variant per combination of
+    power-of-two or not in each side, 0.13-0.21 s each at the first draw (measured: four of
+    them held the built-in view's first frame at S = 4 for 0.6 s); padded, all textures
+    share one. The mesh itself when untextured, already power-of-two, or when padding
+    would add more than :data:`POT_PAD_MAX_TEXELS`."""
+    if mesh.texture is None:
+        return mesh
+    h, w = mesh.texture.shape[:2]
+    hh, ww = 1 << (h - 1).bit_length(), 1 << (w - 1).bit_length()
+    if (hh, ww) == (h, w) or hh * ww - h * w > POT_PAD_MAX_TEXELS:
+        return mesh
+    tex = np.pad(mesh.texture, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge")
+    return _with_texture(mesh, tex, hh, ww)
 
 
 def prefiltered(mesh: SceneMesh, f: int) -> SceneMesh:
-    """The mesh with its texture reduced by ``f`` (the same uv: they are fractions of the
-    image); the mesh itself when f is 1 or it has no texture."""
+    """The mesh with its texture reduced by ``f``, its uv rescaled to the part of the
+    reduced texture that holds the image (a size not divisible by f is padded at the
+    bottom and right: the same uv would stretch the image by up to (f - 1) / size, 10 %
+    for a 2160-texel chart row reduced 264 times); the mesh itself when f is 1 or it has
+    no texture."""
     if f <= 1 or mesh.texture is None:
         return mesh
-    return SceneMesh(mesh.name, mesh.vertices, mesh.faces, None,
-                     reduce_texture(mesh.texture, f), mesh.uv)
+    h, w = mesh.texture.shape[:2]
+    return _with_texture(mesh, reduce_texture(mesh.texture, f), -(-h // f) * f,
+                         -(-w // f) * f)
