@@ -510,8 +510,8 @@ def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
 
 def test_warming_a_window_builds_each_actor_once():
     """OffscreenWindow.warm builds the actors not built yet (textured ones one a render,
-    pausing after each, then once per window a tiny texture of the other mip-map state)
-    and show() then reuses them: no factory runs twice."""
+    pausing after each) and show() then reuses them: no factory runs twice, not even after
+    warm_variants (a tiny texture in both mip-map states, two renders, once per window)."""
     from eyelab.blur import compute_blur_field
     from eyelab.optics.rays.camera import eye_camera
     from eyelab.render.stages import scene_items, warm_textures
@@ -529,8 +529,12 @@ def test_warming_a_window_builds_each_actor_once():
         win.set_view(cam, (80, 60), (0, 0, 0))
         pauses = list(warm_textures(win, [field], "texture", counted))
         textured = sum(m.texture is not None for m in scene.meshes)
-        assert len(pauses) == textured + (textured < len(scene.meshes)) + 1
+        assert len(pauses) == textured + (textured < len(scene.meshes))
         assert sorted(calls) == sorted(k for k, _ in counted[0])
+        win.show(counted[0])
+        assert len(list(win.warm_variants(cam))) == 2
+        assert list(win.warm_variants(cam)) == []
+        win.use_field(field, "texture")
         win.show(counted[0])
         assert len(calls) == len(counted[0])                     # nothing built again
         assert list(warm_textures(win, [field], "texture", counted)) == []

@@ -108,6 +108,22 @@ class BlurField:
         out[idx] = fn(*rows)
         return out.reshape((nz, ny, nx) + tuple(tail))
 
+    def active_rows(self) -> tuple:
+        """(active voxels' flat indices (n,), their matrices as rows (2 n, 2), their
+        non-linear coefficients as rows (2 n, len(HIGHER))): what :meth:`displacement`
+        multiplies, gathered once (0.05 s for 131,072 voxels: a renderer gathers them
+        while it sets a frame up, off an interactive window's thread, not in its first
+        pass)."""
+        got = self.__dict__.get("_active_rows")
+        if got is None:
+            n = int(np.prod(self.shape))
+            idx = self.active()
+            got = (idx, self.matrix.reshape(n, 2, 2)[idx].reshape(-1, 2),
+                   None if self.aberration is None else
+                   self.aberration.reshape(n, 2, -1)[idx].reshape(len(idx) * 2, -1))
+            self.__dict__["_active_rows"] = got
+        return got
+
     def displacement(self, seed) -> np.ndarray:
         """(nz, ny, nx, 2) NDC: every voxel's displacement for the pupil point ``seed``
         (2,), unit disc: matrix x seed plus the non-linear terms."""
@@ -117,14 +133,7 @@ class BlurField:
         if self.aberration is None:
             return self.matrix @ s
         h = higher_basis(s[None])[0]
-        got = self.__dict__.get("_active_rows")
-        if got is None:               # the active voxels' coefficients as flat rows
-            n = int(np.prod(self.shape))
-            idx = self.active()
-            got = (idx, self.matrix.reshape(n, 2, 2)[idx].reshape(-1, 2),
-                   self.aberration.reshape(n, 2, -1)[idx].reshape(len(idx) * 2, -1))
-            self.__dict__["_active_rows"] = got
-        idx, m, a = got
+        idx, m, a = self.active_rows()
         out = np.zeros((int(np.prod(self.shape)), 2))
         out[idx] = (m @ s + a @ h).reshape(-1, 2)          # matrix-vector products
         return out.reshape(self.shape + (2,))

@@ -10,7 +10,11 @@ import dataclasses
 import time
 
 from eyelab.core.parallel import on_worker
-from eyelab.jobs.controls import PREVIEW_FIELD, PREVIEW_LENSLET_SAMPLES
+from eyelab.jobs.controls import (
+    PREVIEW_FIELD,
+    PREVIEW_FIELD_SCHEMATIC,
+    PREVIEW_LENSLET_SAMPLES,
+)
 
 
 def fixated(scene, eye, lens, view) -> tuple:
@@ -25,6 +29,15 @@ def fixated(scene, eye, lens, view) -> tuple:
     from eyelab.imaging.retinal import fixation_view
 
     return scene, eye, lens, fixation_view(scene, eye, lens, view)
+
+
+def preview_field(eye) -> tuple:
+    """The preview's blur-field grid for ``eye``: a thin eye's :data:`PREVIEW_FIELD`, a
+    schematic eye's coarser :data:`PREVIEW_FIELD_SCHEMATIC` (its columns are exact-ray
+    fits)."""
+    from eyelab.optics.eye.thin import Eye
+
+    return PREVIEW_FIELD if isinstance(eye, Eye) else PREVIEW_FIELD_SCHEMATIC
 
 
 class FrameLoopMixin:
@@ -76,9 +89,10 @@ class FrameLoopMixin:
         q = self.spec.render.quality
         inputs = self._inputs()
         pairs = list(zip(self.renderers(), inputs, strict=True))
-        if preview and (q.samples > 1 or tuple(q.field_shape) != PREVIEW_FIELD):
+        shape = preview_field(inputs[0][1])
+        if preview and (q.samples > 1 or tuple(q.field_shape) != shape):
             coarse = dataclasses.replace(
-                q, samples=1, refine=False, chromatic=False, field_shape=PREVIEW_FIELD,
+                q, samples=1, refine=False, chromatic=False, field_shape=shape,
                 lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES))
             yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in pairs])
             shots = yield from self._preview(pairs, coarse)

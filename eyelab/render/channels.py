@@ -68,6 +68,9 @@ def compensated_stage(fields, passes: int, size, seeds) -> tuple:
     per_field = vols * len(fields) if len(vols) == 1 else vols      # shared, or each own
     shrunk = [compensated(f, svd, vol, size, seeds)
               for f, svd, vol in zip(fields, svds, per_field, strict=True)]
+    for f in shrunk:                   # the passes' displacements multiply these rows
+        if f.has_aberration:
+            f.active_rows()
     return shrunk, {"svds": svds, "sigma": vols, "reaches": reaches}, channel_spread(
         shrunk, size)
 

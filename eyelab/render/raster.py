@@ -373,6 +373,8 @@ class RasterRenderer(Renderer):
         win = self._eye_win
         win.render_s = win.readback_s = 0.0
         win.set_view(cam, (view.width, view.height), scene.background)
+        if offload:                     # the shaders' texture variants, once per window
+            yield from win.warm_variants(cam)
         if fields is None:                          # the lens covers the view
             win.show([])
             return {"win": win, "passes": 0, "acc": None}
@@ -399,6 +401,8 @@ class RasterRenderer(Renderer):
         win.render_s = win.readback_s = 0.0
         vcam, (w_env, h_env) = vcam
         win.set_view(vcam, (w_env, h_env), scene.background)
+        if offload:
+            yield from win.warm_variants(vcam)
         passes, seeds, jitter = passes_for(fields, q, report, "environment")
         route = stage_route(fields, q, report, "environment")
         fields, recon, spread = self._reconstruction(fields, passes, (w_env, h_env), q,

@@ -105,7 +105,7 @@ class OffscreenWindow:
         self.route = "attribute"
         self.actors = {}
         self._spare = OrderedDict()
-        self._variant_warmed = False       # warm(): the other mip-map state's shader drawn
+        self._variant_warmed = False       # warm_variants(): both mip-map states drawn
         self.field_texture = None          # the current one, bound before each draw
         self.field_texture_key = None
         self._textures = OrderedDict()       # key -> (texture object, its data), LRU
@@ -233,10 +233,7 @@ class OffscreenWindow:
         groups = ([plain] if plain else []) + [
             textured[i:i + textured_per_step] for i in range(0, len(textured),
                                                             textured_per_step)]
-        self.ren.RemoveAllViewProps()
-        for key, actor in self.actors.items():      # still reusable by show()
-            self._spare[key] = actor
-        self.actors = {}
+        self._clear_shown()
         for group in groups:
             for actor in group:
                 self.ren.AddActor(actor)
@@ -244,30 +241,45 @@ class OffscreenWindow:
                 self.win.Render()
             self.ren.RemoveAllViewProps()
             yield None
-        if textured and not self._variant_warmed:
-            self._variant_warmed = True
-            yield from self._warm_variant(not textured[0].GetTexture().GetMipmap())
 
-    def _warm_variant(self, mipmap: bool):
-        """Draw once a tiny texture of the other mip-map state than the stage's (a render,
-        then a pause): the software GL compiles a fragment-shader variant per sampler state
-        at its first draw (0.15-0.2 s), which a first change of S across
-        :data:`~eyelab.render.stages.MIPMAP_BELOW_SAMPLES` would otherwise pay inside one
-        of the window's ticks. Once per window."""
+    def _clear_shown(self) -> None:
+        """Nothing drawn; the actors shown so far kept as spares (still reusable by
+        :meth:`show`)."""
+        self.ren.RemoveAllViewProps()
+        for key, actor in self.actors.items():
+            self._spare[key] = actor
+        self.actors = {}
+
+    def warm_variants(self, cam):
+        """Once per window, a generator pausing after each of two renders: a tiny texture
+        drawn through the texture route (a zero one-voxel field, ``cam``'s depth range) in
+        each mip-map state. The software GL compiles a fragment-shader variant per sampler
+        state at its first draw (measured: 0.13-0.2 s for the mip-mapped one), which the
+        first change to S < :data:`~eyelab.render.stages.MIPMAP_BELOW_SAMPLES`, or the
+        first naked view after the lens covered it, would otherwise pay inside one of an
+        interactive window's ticks; an interactive renderer pays it while it sets up its
+        first frame."""
+        if self._variant_warmed:
+            return
+        self._variant_warmed = True
         from eyelab.render.actors import mesh_actor
         from eyelab.scene.scene import SceneMesh
 
-        quad = SceneMesh("variant", np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
-                                             float), np.array([[0, 1, 2], [0, 2, 3]]), None,
-                         np.zeros((4, 4, 3), np.uint8), np.array([[0, 0], [1, 0], [1, 1],
-                                                                  [0, 1]], float))
-        actor = self._build(lambda: mesh_actor(quad, mipmap=mipmap))
-        self.ren.AddActor(actor)
-        with deferred():
-            self.win.Render()
-        self.ren.RemoveAllViewProps()
-        release_actor(actor, self.win)
-        yield None
+        self.use_field(PassField(cam, (1, 1, 1), "ndc", ("variant",),
+                                 lambda: np.zeros((1, 1, 1, 4), np.float32)), "texture")
+        quad = SceneMesh("variant", np.array([[-1, -1, -2], [1, -1, -2], [1, 1, -2],
+                                              [-1, 1, -2]], float),
+                         np.array([[0, 1, 2], [0, 2, 3]]), None, np.zeros((4, 4, 3), np.uint8),
+                         np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float))
+        self._clear_shown()
+        for mipmap in (False, True):
+            actor = self._build(lambda m=mipmap: mesh_actor(quad, mipmap=m))
+            self.ren.AddActor(actor)
+            with deferred():
+                self.win.Render()
+            self.ren.RemoveAllViewProps()
+            release_actor(actor, self.win)
+            yield None
 
     def set_view(self, cam, size, background) -> None:
         """Camera (eyelab :class:`~eyelab.optics.rays.camera.Camera`), window size (w, h) and
