@@ -187,9 +187,9 @@ def test_prefiltered_texture_keeps_the_mean_light():
 
 
 def test_a_prefiltered_mesh_keeps_its_texture_in_place():
-    """A texture whose size f does not divide (23 x 17, f = 4: padded to 24 x 20) keeps
-    every uv on the reduced texel whose block holds the original texel (u right, v up
-    from the image's bottom), so the image is not stretched."""
+    """A texture whose size f does not divide (23 x 17, f = 4: 6 x 5 blocks, padded to
+    8 x 8 texels) keeps every uv on the reduced texel whose block holds the original
+    texel (u right, v up from the image's bottom), so the image is not stretched."""
     import numpy as np
 
     from eyelab.scene.prefilter import prefiltered
@@ -200,9 +200,9 @@ def test_a_prefiltered_mesh_keeps_its_texture_in_place():
     mesh = SceneMesh("t", rng.normal(size=(200, 3)), np.arange(198).reshape(66, 3), None,
                      rng.integers(0, 256, (23, 17, 3), dtype=np.uint8), uv)
     small = prefiltered(mesh, 4)
-    assert small.texture.shape == (6, 5, 3)
+    assert small.texture.shape == (8, 8, 3)
     col, row = np.floor(uv[:, 0] * 17), np.floor((1 - uv[:, 1]) * 23)     # original texel
-    col2, row2 = np.floor(small.uv[:, 0] * 5), np.floor((1 - small.uv[:, 1]) * 6)
+    col2, row2 = np.floor(small.uv[:, 0] * 8), np.floor((1 - small.uv[:, 1]) * 8)
     np.testing.assert_array_equal(col2, col // 4)
     np.testing.assert_array_equal(row2, row // 4)
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from eyelab.blur.field import VoxelStatus
 from eyelab.blur.wavefront import compute_blur_field
-from eyelab.core.cache import LRUCache, content_key
+from eyelab.core.cache import LRUCache, array_digest, content_key
 from eyelab.core.parallel import on_worker, relabel, run_steps
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
@@ -73,7 +73,7 @@ from eyelab.scene.lensview import (
     lens_covers_view,
     lens_in_view_of,
 )
-from eyelab.scene.prefilter import pot_padded, prefiltered
+from eyelab.scene.prefilter import drawn_texture, with_texture
 from eyelab.scene.raycast import scene_warnings
 
 #: LRU sizes of the renderer's caches (entries): blur fields (each ~1-20 MB at the default
@@ -338,11 +338,12 @@ class RasterRenderer(Renderer):
         """A generator (pausing while a worker thread prefilters, with ``offload``) whose
         value is per field (channel) the [(key, factory)] of the meshes' actors
         (:func:`~eyelab.render.stages.scene_items`), prefiltered textures (padded to
-        power-of-two sides: :func:`~eyelab.scene.prefilter.pot_padded`) cached."""
-        def prefilter(m, f):
-            return self._cached("prefiltered", ("prefiltered", m.content_key, f),
-                                lambda: pot_padded(prefiltered(m, f)), report,
-                                f"prefiltered_{m.name}")[0]
+        power-of-two sides: :func:`~eyelab.scene.prefilter.drawn_texture`) cached."""
+        def prefilter(m, f):            # keyed by the texels: refinement keeps them
+            drawn = self._cached("prefiltered", ("prefiltered", array_digest(m.texture), f),
+                                 lambda: drawn_texture(m.texture, f), report,
+                                 f"prefiltered_{m.name}")[0]
+            return with_texture(m, drawn)
 
         work = functools.partial(scene_items, meshes, fields, route, passes, cam, height,
                                  prefilter, mipmaps=not report["details"].get("preview"))

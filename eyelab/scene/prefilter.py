@@ -68,45 +68,44 @@ def reduce_texture(tex: np.ndarray, f: int) -> np.ndarray:
     return encode_srgb(blocks * np.float32(1.0 / (f * f)))
 
 
-#: A texture is padded to power-of-two sides (:func:`pot_padded`) while that adds at most
-#: this many texels (4 Mi: 12 MiB of sRGB); larger ones are drawn at their own size.
+#: A drawn texture is padded to power-of-two sides (:func:`drawn_texture`) while that adds
+#: at most this many texels (4 Mi: 12 MiB of sRGB); larger ones are drawn at their own size.
 POT_PAD_MAX_TEXELS = 1 << 22
 
 
-def _with_texture(mesh: SceneMesh, tex: np.ndarray, hh: int, ww: int) -> SceneMesh:
-    """``mesh`` drawing ``tex``, whose top-left (h, w) block holds the image of its
-    texture's (hh, ww) texels (the rest edge padding), its uv rescaled onto that block."""
+def drawn_texture(texture: np.ndarray, f: int) -> tuple:
+    """(texels (H, W, 3) uint8, hh, ww): ``texture`` (h, w, 3) reduced by ``f``
+    (:func:`reduce_texture`, the last blocks padded) and then padded, edge texels
+    repeated below and to the right, to power-of-two sides; the image fills the top-left
+    h x w of the hh x ww original texels the result spans (hh = H f). Power-of-two sides:
+    the software GL (llvmpipe) compiles a fragment-shader variant per combination of
+    power-of-two or not in each side, 0.13-0.21 s each at its first draw (measured: four
+    of them held the built-in view's first frame at S = 4 for 0.6 s); padded, all
+    textures share one. Depends on the texels and f only: a refined mesh shares it."""
+    tex = reduce_texture(texture, f) if f > 1 else texture
+    th, tw = tex.shape[:2]
+    ph, pw = 1 << (th - 1).bit_length(), 1 << (tw - 1).bit_length()
+    if (ph, pw) != (th, tw) and ph * pw - th * tw <= POT_PAD_MAX_TEXELS:
+        tex = np.pad(tex, ((0, ph - th), (0, pw - tw), (0, 0)), mode="edge")
+    return tex, tex.shape[0] * f, tex.shape[1] * f
+
+
+def with_texture(mesh: SceneMesh, drawn: tuple) -> SceneMesh:
+    """``mesh`` drawing a :func:`drawn_texture` of its texture, its uv rescaled onto the
+    part that holds the image (the same uv would stretch it by the padding: up to 10 %
+    for a 2160-texel chart row reduced 264 times)."""
+    tex, hh, ww = drawn
     h, w = mesh.texture.shape[:2]
+    if (hh, ww) == (h, w):
+        return mesh
     uv = np.column_stack([mesh.uv[:, 0] * (w / ww), 1.0 - (1.0 - mesh.uv[:, 1]) * (h / hh)])
     return SceneMesh(mesh.name, mesh.vertices, mesh.faces, None, tex, uv)
 
 
-def pot_padded(mesh: SceneMesh) -> SceneMesh:
-    """The mesh with its texture padded (edge texels repeated, below and to the right) to
-    power-of-two sides and its uv rescaled onto the image: the same texels drawn, but the
-    software GL (llvmpipe) compiles a fragment-shader variant per combination of
-    power-of-two or not in each side, 0.13-0.21 s each at the first draw (measured: four of
-    them held the built-in view's first frame at S = 4 for 0.6 s); padded, all textures
-    share one. The mesh itself when untextured, already power-of-two, or when padding
-    would add more than :data:`POT_PAD_MAX_TEXELS`."""
+def prefiltered(mesh: SceneMesh, f: int) -> SceneMesh:
+    """The mesh drawing its texture reduced by ``f`` and padded to power-of-two sides
+    (:func:`drawn_texture`, :func:`with_texture`); the mesh itself when it has no
+    texture or nothing changes."""
     if mesh.texture is None:
         return mesh
-    h, w = mesh.texture.shape[:2]
-    hh, ww = 1 << (h - 1).bit_length(), 1 << (w - 1).bit_length()
-    if (hh, ww) == (h, w) or hh * ww - h * w > POT_PAD_MAX_TEXELS:
-        return mesh
-    tex = np.pad(mesh.texture, ((0, hh - h), (0, ww - w), (0, 0)), mode="edge")
-    return _with_texture(mesh, tex, hh, ww)
-
-
-def prefiltered(mesh: SceneMesh, f: int) -> SceneMesh:
-    """The mesh with its texture reduced by ``f``, its uv rescaled to the part of the
-    reduced texture that holds the image (a size not divisible by f is padded at the
-    bottom and right: the same uv would stretch the image by up to (f - 1) / size, 10 %
-    for a 2160-texel chart row reduced 264 times); the mesh itself when f is 1 or it has
-    no texture."""
-    if f <= 1 or mesh.texture is None:
-        return mesh
-    h, w = mesh.texture.shape[:2]
-    return _with_texture(mesh, reduce_texture(mesh.texture, f), -(-h // f) * f,
-                         -(-w // f) * f)
+    return with_texture(mesh, drawn_texture(mesh.texture, f))
