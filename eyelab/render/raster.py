@@ -34,7 +34,7 @@ import numpy as np
 
 from eyelab.blur.field import VoxelStatus
 from eyelab.blur.wavefront import compute_blur_field
-from eyelab.core.cache import LRUCache, array_digest, content_key
+from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.parallel import on_worker, relabel, run_steps
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
@@ -340,7 +340,7 @@ class RasterRenderer(Renderer):
         (:func:`~eyelab.render.stages.scene_items`), prefiltered textures (padded to
         power-of-two sides: :func:`~eyelab.scene.prefilter.drawn_texture`) cached."""
         def prefilter(m, f):            # keyed by the texels: refinement keeps them
-            drawn = self._cached("prefiltered", ("prefiltered", array_digest(m.texture), f),
+            drawn = self._cached("prefiltered", ("prefiltered", m.texture_key, f),
                                  lambda: drawn_texture(m.texture, f), report,
                                  f"prefiltered_{m.name}")[0]
             return with_texture(m, drawn)

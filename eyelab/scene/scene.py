@@ -71,6 +71,7 @@ class SceneMesh:
             value.flags.writeable = False
         if name in self._ARRAYS or name == "name":
             self.__dict__.pop("_key", None)
+            self.__dict__.pop("_tex_key", None)
             self.__dict__.pop("_linear_tex", None)
         super().__setattr__(name, value)
 
@@ -81,10 +82,26 @@ class SceneMesh:
         if key is None:
             from eyelab.core.cache import array_digest
 
-            parts = [self.name] + [("-" if getattr(self, a) is None
-                                    else array_digest(getattr(self, a))) for a in self._ARRAYS]
+            parts = [self.name] + [
+                self.texture_key or "-" if a == "texture" else
+                "-" if getattr(self, a) is None else array_digest(getattr(self, a))
+                for a in self._ARRAYS]
             key = array_digest(np.frombuffer("|".join(parts).encode(), np.uint8))
             self.__dict__["_key"] = key
+        return key
+
+    @property
+    def texture_key(self) -> str | None:
+        """Digest (hex) of the texture's texels alone, None without one: what a texture made
+        from them (a prefiltered one) is keyed by, shared by meshes that differ only in
+        geometry (a refined mesh). Computed once, with :attr:`content_key`."""
+        if self.texture is None:
+            return None
+        key = self.__dict__.get("_tex_key")
+        if key is None:
+            from eyelab.core.cache import array_digest
+
+            key = self.__dict__["_tex_key"] = array_digest(self.texture)
         return key
 
     def transformed(self, matrix) -> SceneMesh:
