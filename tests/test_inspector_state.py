@@ -184,3 +184,59 @@ def test_a_lenslet_lens_previews_with_fewer_pupil_samples_and_ends_with_all():
         assert m.eye_report()["details"]["lenslets"]["pupil_samples"] == 32
     finally:
         m.close()
+
+
+def test_a_preview_is_drawn_coarser_and_shown_at_the_views_size():
+    """The first frame after a change (an S change too) is drawn PREVIEW_SCALE times coarser
+    on a side by the previews' own renderer and shown at the view's size, each preview
+    pixel a uniform block; the full frames that follow are the view's own size, drawn by
+    the model's renderer, whose windows keep the view's size."""
+    from eyelab.jobs.controls import PREVIEW_SCALE
+
+    m = InspectorModel(None, size=(64, 48), samples=2)
+    try:
+        m.run_to_target()
+        for change in ({"sphere": -2.5}, {"samples": 4}):
+            m.apply(change)
+            while not m.tick():
+                pass
+            r = m.eye_report()
+            assert r["samples"]["done_passes"] == 0, change
+            assert r["details"]["preview_size"] == [64 // PREVIEW_SCALE, 48 // PREVIEW_SCALE]
+            shown = m.display()
+            assert shown.shape == (48, 64, 3)
+            blocks = shown.reshape(48 // PREVIEW_SCALE, PREVIEW_SCALE,
+                                   64 // PREVIEW_SCALE, PREVIEW_SCALE, 3)
+            assert (blocks == blocks[:, :1, :, :1]).all()
+            m.run_to_target()
+            r = m.eye_report()
+            assert r["samples"]["done_passes"] == m.samples
+            assert "preview_size" not in r["details"] and m.display().shape == (48, 64, 3)
+        assert m.renderer._eye_win.size == (64, 48)
+    finally:
+        m.close()
+
+
+def test_an_enlarged_preview_keeps_each_pixel_as_the_block_it_covers():
+    """An odd-sized view (65 x 49) from its ceil-halved preview (33 x 25): every view pixel
+    takes the preview pixel its centre lies in (row i of 49 from row floor((i + 0.5) *
+    25 / 49): the same field of view), its layers too; a preview already of the view's
+    size is returned as it is."""
+    from eyelab.imaging.contract import RenderResult, View
+    from eyelab.jobs.frameloop import enlarged, preview_inputs
+
+    (_, _, _, v), = preview_inputs([(None, None, None, View(width=65, height=49))], 2)
+    assert (v.width, v.height) == (33, 25)
+    rng = np.random.default_rng(1)
+    small = rng.integers(0, 256, (25, 33, 3), dtype=np.uint8)
+    mask = rng.random((25, 33)) > 0.5
+    res = enlarged(RenderResult({"details": {}}, srgb=small, layers={"lens_mask": mask}),
+                   (65, 49))
+    rows = np.floor((np.arange(49) + 0.5) * 25 / 49).astype(int)
+    cols = np.floor((np.arange(65) + 0.5) * 33 / 65).astype(int)
+    assert rows[-1] == 24 and cols[-1] == 32
+    assert (res.srgb == small[rows][:, cols]).all()
+    assert (res.layers["lens_mask"] == mask[rows][:, cols]).all()
+    assert res.report["details"]["preview_size"] == [33, 25]
+    same = RenderResult({"details": {}}, srgb=small)
+    assert enlarged(same, (33, 25)) is same

@@ -9,11 +9,14 @@ from __future__ import annotations
 import dataclasses
 import time
 
+import numpy as np
+
 from eyelab.core.parallel import on_worker
 from eyelab.jobs.controls import (
     PREVIEW_FIELD,
     PREVIEW_FIELD_SCHEMATIC,
     PREVIEW_LENSLET_SAMPLES,
+    PREVIEW_SCALE,
 )
 
 
@@ -40,9 +43,38 @@ def preview_field(eye) -> tuple:
     return PREVIEW_FIELD if isinstance(eye, Eye) else PREVIEW_FIELD_SCHEMATIC
 
 
+def preview_inputs(inputs, scale: int = PREVIEW_SCALE) -> list:
+    """Render ``inputs`` [(scene, eye, lens, view)] with each view ``scale`` times coarser
+    on a side (its field of view kept): what a preview draws."""
+    return [(scene, eye, lens, view.replace(width=max(1, -(-view.width // scale)),
+                                            height=max(1, -(-view.height // scale))))
+            for scene, eye, lens, view in inputs]
+
+
+def enlarged(result, size):
+    """A coarser render ``result`` (a preview) enlarged to ``size`` = (w, h) px, each of its
+    pixels drawn as the block of view pixels whose centres it covers (nearest pixel: every
+    block keeps its pixel's linear light, so regions keep their mean; 3 ms at 800 x 600
+    where a bilinear resampling in linear light and its sRGB encoding cost 0.1 s); its
+    layers likewise. The report says ``details.preview_size`` (the size it was drawn at)."""
+    from eyelab.imaging.contract import RenderResult
+
+    w, h = size
+    srgb = result.srgb
+    if srgb.shape[:2] == (h, w):
+        return result
+    rows = ((2 * np.arange(h) + 1) * srgb.shape[0]) // (2 * h)   # the one each pixel's
+    cols = ((2 * np.arange(w) + 1) * srgb.shape[1]) // (2 * w)   # centre lies in
+    layers = {k: np.asarray(v)[rows][:, cols] for k, v in result.layers.items()}
+    report = result.report
+    report["details"]["preview_size"] = [int(srgb.shape[1]), int(srgb.shape[0])]
+    return RenderResult(report, srgb=srgb[rows][:, cols], layers=layers)
+
+
 class FrameLoopMixin:
     """Needs of its model: ``spec``, ``renderers()``, ``scene()``, ``lens``, ``lens_on``,
-    ``view``, ``two_eyes``, ``samples``, ``every``, ``apply``, ``_pending`` and the
+    ``view``, ``two_eyes``, ``samples``, ``every``, ``apply``, ``_pending``,
+    ``_preview_renderers`` (a list, empty at first) and the
     as-worn maps' ``_want_maps``."""
 
     def restart(self, why: str, *, preview: bool = True) -> None:
@@ -87,17 +119,22 @@ class FrameLoopMixin:
         waiting or between shown images."""
         self._prepared = None
         q = self.spec.render.quality
-        inputs = self._inputs()
+        self.scene()           # built here, once (meshes: not from a worker thread)
+        # a schematic eye's fixation (its accommodation traced) and two eyes' pose
+        inputs = yield from on_worker(self._inputs)
         pairs = list(zip(self.renderers(), inputs, strict=True))
         shape = preview_field(inputs[0][1])
         if preview and (q.samples > 1 or tuple(q.field_shape) != shape):
             coarse = dataclasses.replace(
                 q, samples=1, refine=False, chromatic=False, field_shape=shape,
                 lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES))
-            yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in pairs])
-            shots = yield from self._preview(pairs, coarse)
+            small = list(zip(self.preview_renderers(), preview_inputs(inputs), strict=True))
+            yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in small])
+            shots = yield from self._preview(small, coarse)
             for res in shots:
                 res.report["samples"]["done_passes"] = 0      # a preview, not pass 1
+            shots = [enlarged(res, (v.width, v.height))
+                     for res, (*_, v) in zip(shots, inputs, strict=True)]
             yield self._result(shots)
         reports = yield from on_worker(lambda: [r.prepare(*args, q) for r, args in pairs])
         self._prepared = {"cache": {"misses": [m for r in reports
@@ -113,6 +150,21 @@ class FrameLoopMixin:
         finally:
             for g in gens:
                 g.close()
+
+    def preview_renderers(self) -> list:
+        """A raster renderer per eye for the previews (:data:`PREVIEW_SCALE` times coarser:
+        their own windows, kept at that size, and caches)."""
+        from eyelab.render.raster import RasterRenderer
+
+        n = 2 if self.two_eyes else 1
+        while len(self._preview_renderers) < n:
+            self._preview_renderers.append(RasterRenderer())
+        return self._preview_renderers[:n]
+
+    def _close_previews(self) -> None:
+        for r in self._preview_renderers:
+            r.close()
+        self._preview_renderers = []
 
     def _preview(self, pairs, coarse):
         """The preview frames (one pass each, ``coarse`` quality) of the (renderer, inputs)

@@ -66,6 +66,7 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin, ReadoutMixin):
         self._overrides = {"size": size, "samples": samples, "scene": scene}
         self.renderer = RasterRenderer()
         self._left_renderer = None     # two eyes: the left eye's own (its GL state, caches)
+        self._preview_renderers = []   # the previews' own, per eye (FrameLoopMixin)
         self.pose = None               # two eyes: the last frame's BinocularPose
         self._scenes = {}
         self._pending = {}
@@ -364,6 +365,7 @@ class InspectorModel(TwoEyesMixin, FrameLoopMixin, GazeMapsMixin, ReadoutMixin):
         self.renderer.close()
         if self._left_renderer is not None:
             self._left_renderer.close()
+        self._close_previews()
 
 
 #: The renderer's cache entries in a user's words: (name prefix, words, what it counts),

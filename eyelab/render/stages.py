@@ -241,15 +241,17 @@ def scene_items(meshes, fields, route: str, passes: int, cam, height: int, prefi
     texture's: RMSE 2.44 vs 2.78 sRGB levels (chart, S = 6), 8.9 vs 10.3 (chart, one
     pass), 5.88 vs 6.10 (room, S = 4), 6.14 vs 6.36 (room, one pass) — GL's chain of a
     size that halves to odd numbers drifts off a box. Unless ``mipmaps`` (a preview),
-    the prefiltered textures the full frames share are drawn, no chain built. On the
+    no chain is built: the texture reduced by that power of two is drawn as it is, the
+    same for every gaze and size within an octave (a gaze change's preview waited 0.07-0.1
+    s for the room's textures prefiltered by the new gaze's factors). On the
     texture route an actor does not depend on the field (the shader samples it), so the
     channels share their actors."""
     mip = mipmaps and passes < MIPMAP_BELOW_SAMPLES
     shown = []
     for m in meshes:
         f = reduction_factor(m, cam, height)
-        if mip:          # the chain's sampled levels only: from the texture reduced 2^k
-            f = 1 << (f.bit_length() - 1)
+        if mip or not mipmaps:      # the chain's sampled levels only (or a preview's
+            f = 1 << (f.bit_length() - 1)     # texture): the texture reduced 2^k
         shown.append(m if m.texture is None else prefilter(m, f))
     return [[((m.content_key, None if route == "texture" else field.key, route, mip),
               field_actor_factory(m, field, route, mipmap=mip)) for m in shown]
