@@ -481,7 +481,9 @@ def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
     """frames(..., images="doubling"): an image between the first and the last is built
     only when the passes since the last image took as long as that image did — images made
     slow (50 ms more each) leave 1 and S; passes made slow (50 ms more each) keep 1, 2, 4,
-    8. The last image is render's either way."""
+    8. After a preview (``after_preview``) pass 1 is weighed alike, against the renderer's
+    last image: slow images leave S alone, slow passes keep 1, 2, 4, 8. The last image is
+    render's either way."""
     import time
 
     from eyelab.render import raster
@@ -499,13 +501,15 @@ def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
                     time.sleep(0.05)
                     return (yield from steps(*a, **k))
                 monkeypatch.setattr(raster, "pass_steps", slow_steps)
-            got = [f for f in r.frames(room_scene(), eye, None, view, images="doubling")
-                   if f is not None]
+            for after in (False, True):
+                got = [f for f in r.frames(room_scene(), eye, None, view, images="doubling",
+                                           after_preview=after) if f is not None]
+                shown[slow, after] = [f.report["samples"]["done_passes"] for f in got]
             final = r.render(room_scene(), eye, None, view)
             monkeypatch.undo()
-        shown[slow] = [f.report["samples"]["done_passes"] for f in got]
         np.testing.assert_array_equal(got[-1].image, final.image)
-    assert shown == {"images": [1, 8], "passes": [1, 2, 4, 8]}
+    assert shown == {("images", False): [1, 8], ("passes", False): [1, 2, 4, 8],
+                     ("images", True): [8], ("passes", True): [1, 2, 4, 8]}
 
 
 def test_warming_a_window_builds_each_actor_once():

@@ -115,8 +115,9 @@ class FrameLoopMixin:
         samples), the full set-up on a worker thread (fields, the filter's compensation,
         the rays through the lens: numpy and embree, no GL — the window stays responsive,
         showing the last frame), then the full progressive frames (the meshes refined one
-        a step), both eyes' in step for two. Yields the model's results, or None while
-        waiting or between shown images."""
+        a step; after a preview, the first full image only once the passes took as long as
+        an image builds), both eyes' in step for two. Yields the model's results, or None
+        while waiting or between shown images."""
         self._prepared = None
         q = self.spec.render.quality
         self.scene()           # built here, once (meshes: not from a worker thread)
@@ -124,7 +125,8 @@ class FrameLoopMixin:
         inputs = yield from on_worker(self._inputs)
         pairs = list(zip(self.renderers(), inputs, strict=True))
         shape = preview_field(inputs[0][1])
-        if preview and (q.samples > 1 or tuple(q.field_shape) != shape):
+        previewed = preview and (q.samples > 1 or tuple(q.field_shape) != shape)
+        if previewed:
             coarse = dataclasses.replace(
                 q, samples=1, refine=False, chromatic=False, field_shape=shape,
                 lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES))
@@ -142,7 +144,8 @@ class FrameLoopMixin:
         # one eye: its set-up in steps and its images averaged on a worker thread too (two
         # eyes' steps would not pair up)
         gens = [r.frames(*args, q, every=self.every, images="doubling",
-                         setup_steps=not self.two_eyes, offload=not self.two_eyes)
+                         setup_steps=not self.two_eyes, offload=not self.two_eyes,
+                         after_preview=previewed)
                 for r, args in zip(self.renderers(), inputs, strict=True)]
         try:
             for step in zip(*gens, strict=True):

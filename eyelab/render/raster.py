@@ -106,6 +106,7 @@ class RasterRenderer(Renderer):
         self._eye_win = None
         self._env_win = None
         self._compositor = None
+        self._image_s = None            # the last image's build time (s)
         self.caches = {k: LRUCache(n, k) for k, n in CACHE_SIZES.items()}
 
     def close(self) -> None:
@@ -136,28 +137,25 @@ class RasterRenderer(Renderer):
 
     def frames(self, scene, eye, lens=None, view: View | None = None, quality=None, *,
                every: int = 1, images: str = "every", setup_steps: bool = False,
-               offload: bool = False, preview: bool = False):
+               offload: bool = False, preview: bool = False, after_preview: bool = False):
         """Render progressively: after pass 1, 1 + ``every``, ... and the last (S) yield a
         :class:`RenderResult` — the complete image of the passes so far, its report's
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
         image only after pass 1, S and those of passes 2, 4, 8, ... whose passes since the
-        last image took at least as long as that image took to build, None after the others
-        (building an image averages and filters the passes and composites the lens view:
-        0.15-0.2 s at 800 x 600, three passes' time; the images then cost at most the
-        passes' time). Set-up (fields,
-        refinement, lens coordinates) happens before the first image — with
-        ``setup_steps`` and "doubling" in steps, None after each (a mesh refined, a stage
-        set up) — and between two yields only ``every`` passes run, so an interactive
-        viewer stays responsive; with ``offload`` and "doubling" an image's averaging (the
-        reconstruction filter: numpy) runs on a worker thread, None yielded meanwhile. A
-        ``preview`` (an interactive window's first frame after a change) draws the scene's
-        textures prefiltered, as the full frames do (cached, shared with them), never
-        mip-mapped: building a mip-map chain is one GL call that held the window 0.1-0.5 s
-        (its report says ``details.preview``). Through a lenslet lens "doubling" shows the
-        last image only: each image draws the lens view once per pupil sample (32 at
-        800 x 600: ~0.9 s, several times the passes between two images), which held the
-        last one back by seconds. The last image equals :meth:`render`'s.
-        Closing the generator early stops the work."""
+        last image took at least as long as that image took to build (0.15-0.2 s at
+        800 x 600, three passes' time), None after the others; ``after_preview`` (a viewer
+        shows a preview of the same state) treats pass 1 alike, against this renderer's
+        last image's build time. Set-up (fields, refinement, lens coordinates) happens
+        before the first image — with ``setup_steps`` and "doubling" in steps, None after
+        each (a mesh refined, a stage set up) — and between two yields only ``every``
+        passes run, so an interactive viewer stays responsive; with ``offload`` and
+        "doubling" an image's averaging (numpy) runs on a worker thread, None yielded
+        meanwhile. A ``preview`` draws the scene's textures prefiltered, never mip-mapped
+        (building a chain is one GL call that held the window 0.1-0.5 s; its report says
+        ``details.preview``). Through a lenslet lens "doubling" shows the last image only:
+        each image draws the lens view once per pupil sample (32 at 800 x 600: ~0.9 s).
+        The last image equals :meth:`render`'s. Closing the generator early stops the
+        work."""
         view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
         if images not in ("every", "doubling"):
@@ -168,7 +166,7 @@ class RasterRenderer(Renderer):
             shown = {quality.samples}   # an image: a lens view per pupil sample (32: ~0.9 s)
         if getattr(eye, "aberrations", None) is None:
             gen = self._run(scene, eye, lens, view, quality, steps, shown, offload, preview,
-                            costed=images == "doubling")
+                            costed=images == "doubling", after_preview=after_preview)
         else:                                           # eyelab/imaging/eyepsf.py
             from eyelab.imaging.eyepsf import aberrated_frames
 
@@ -180,7 +178,7 @@ class RasterRenderer(Renderer):
                 yield res
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
-             shown=None, offload=False, preview=False, costed=False):
+             shown=None, offload=False, preview=False, costed=False, after_preview=False):
         t_start = time.perf_counter()
         report = new_report(self.name, view, q)
         if preview:
@@ -209,7 +207,7 @@ class RasterRenderer(Renderer):
             timings["setup_lens"] = time.perf_counter() - t
         yield None                          # set-up done: the passes from the next step
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
-                                                 shown, offload, costed):
+                                                 shown, offload, costed, after_preview):
             if image is None:
                 yield None
                 continue
@@ -425,11 +423,12 @@ class RasterRenderer(Renderer):
 
     # ------------------------------------------------------------------ passes
     def _passes(self, naked, env, view, q, report, checkpoints, shown=None, offload=False,
-                costed=False):
+                costed=False, after_preview=False):
         """Run the passes, yielding (passes done, uint8 image, layers) at each checkpoint
         (ascending, the last S); at checkpoints not in ``shown`` (None: all are) — and,
         ``costed``, at those between the first image and the last whose passes since the
-        last image took less time than it took to build (:func:`image_due`) — no image is
+        last image took less time than it took to build (:func:`image_due`; the first too
+        ``after_preview``, against the last image this renderer built) — no image is
         built and (passes done, None, None) is yielded; with ``offload`` also while a
         worker thread averages the passes for an image."""
         timings = report["timings_s"]
@@ -439,7 +438,7 @@ class RasterRenderer(Renderer):
                                (checkpoints[0], None, None))
         else:
             run_steps(start_passes(stages, naked, report))
-        done, image_s, since = 0, None, time.perf_counter()
+        done, since, image_s = 0, time.perf_counter(), self._image_s if after_preview else None
         bar = progress_bar(max((s["passes"] for s in stages), default=0),
                            f"raster {view.width}x{view.height}", "pass")
         try:
@@ -473,6 +472,7 @@ class RasterRenderer(Renderer):
                 else:
                     image, layers = run_steps(self._image(naked, env, view, q, report, average()))
                 image_s, since = time.perf_counter() - t, time.perf_counter()
+                self._image_s = image_s
                 yield cp, image.copy(), layers
         finally:
             bar.close()
