@@ -220,8 +220,8 @@ def test_a_preview_is_drawn_coarser_and_shown_at_the_views_size():
 def test_an_enlarged_preview_keeps_each_pixel_as_the_block_it_covers():
     """An odd-sized view (65 x 49) from its ceil-halved preview (33 x 25): every view pixel
     takes the preview pixel its centre lies in (row i of 49 from row floor((i + 0.5) *
-    25 / 49): the same field of view), its layers too; a preview already of the view's
-    size is returned as it is."""
+    25 / 49): the same field of view), its lens mask too (no intermediate images); a
+    preview already of the view's size is returned as it is."""
     from eyelab.imaging.contract import RenderResult, View
     from eyelab.jobs.frameloop import enlarged, preview_inputs
 
@@ -230,8 +230,10 @@ def test_an_enlarged_preview_keeps_each_pixel_as_the_block_it_covers():
     rng = np.random.default_rng(1)
     small = rng.integers(0, 256, (25, 33, 3), dtype=np.uint8)
     mask = rng.random((25, 33)) > 0.5
-    res = enlarged(RenderResult({"details": {}}, srgb=small, layers={"lens_mask": mask}),
+    res = enlarged(RenderResult({"details": {}}, srgb=small,
+                                layers={"lens_mask": mask, "environment": small[:7]}),
                    (65, 49))
+    assert list(res.layers) == ["lens_mask"]
     rows = np.floor((np.arange(49) + 0.5) * 25 / 49).astype(int)
     cols = np.floor((np.arange(65) + 0.5) * 33 / 65).astype(int)
     assert rows[-1] == 24 and cols[-1] == 32

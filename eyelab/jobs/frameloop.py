@@ -65,7 +65,8 @@ def enlarged(result, size):
         return result
     rows = ((2 * np.arange(h) + 1) * srgb.shape[0]) // (2 * h)   # the one each pixel's
     cols = ((2 * np.arange(w) + 1) * srgb.shape[1]) // (2 * w)   # centre lies in
-    layers = {k: np.asarray(v)[rows][:, cols] for k, v in result.layers.items()}
+    layers = {k: np.asarray(v)[rows][:, cols] for k, v in result.layers.items()
+              if k == "lens_mask"}          # the intermediate images: not shown
     report = result.report
     report["details"]["preview_size"] = [int(srgb.shape[1]), int(srgb.shape[0])]
     return RenderResult(report, srgb=srgb[rows][:, cols], layers=layers)
