@@ -130,7 +130,8 @@ class FrameLoopMixin:
         if previewed:
             coarse = dataclasses.replace(
                 q, samples=1, refine=False, chromatic=False, field_shape=shape,
-                lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES))
+                lenslet_samples=min(q.lenslet_samples, PREVIEW_LENSLET_SAMPLES),
+                lens_grid_px=2 * q.lens_grid_px)
             small = list(zip(self.preview_renderers(), preview_inputs(inputs), strict=True))
             yield from on_worker(lambda: [r.prepare(*args, coarse) for r, args in small])
             shots = yield from self._preview(small, coarse)
