@@ -56,7 +56,8 @@ def enlarged(result, size):
     pixels drawn as the block of view pixels whose centres it covers (nearest pixel: every
     block keeps its pixel's linear light, so regions keep their mean; 3 ms at 800 x 600
     where a bilinear resampling in linear light and its sRGB encoding cost 0.1 s); its
-    layers likewise. The report says ``details.preview_size`` (the size it was drawn at)."""
+    lens mask likewise (its intermediate images, which no viewer shows, are left out). The
+    report says ``details.preview_size`` (the size it was drawn at)."""
     from eyelab.imaging.contract import RenderResult
 
     w, h = size
