@@ -33,6 +33,35 @@ def test_embree_matches_numpy_twin():
     np.testing.assert_allclose(a.colors(scene), b.colors(scene), atol=0.05)
 
 
+def test_a_scenes_shared_intersector_answers_threads_as_its_numpy_twin():
+    """scene_intersector: one embree scene per scene content (the same object asked twice,
+    another for another scene), and eight threads casting through it at once get the
+    numpy twin's hits."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from eyelab.scene.raycast import scene_intersector
+
+    s = trimesh.creation.icosphere(3)
+    scene = Scene([SceneMesh("s", s.vertices - [0, 0, 3], s.faces)])
+    other = Scene([SceneMesh("s", s.vertices - [0, 0, 4], s.faces)])
+    shared = scene_intersector(scene)
+    assert scene_intersector(scene) is shared and scene_intersector(other) is not shared
+    rng = np.random.default_rng(1)
+    rays = []
+    for _ in range(8):
+        d = rng.normal(size=(5000, 3))
+        d[:, 2] = -np.abs(d[:, 2]) * 5
+        rays.append(d / np.linalg.norm(d, axis=1, keepdims=True))
+    with ThreadPoolExecutor(8) as pool:
+        got = list(pool.map(lambda d: shared.intersect(np.zeros_like(d), d), rays))
+    twin = NumpyIntersector(scene)
+    for d, a in zip(rays, got, strict=True):
+        b = twin.intersect(np.zeros_like(d), d)
+        np.testing.assert_array_equal(a.hit, b.hit)
+        np.testing.assert_allclose(a.t[a.hit], b.t[b.hit], atol=1e-5)
+        np.testing.assert_array_equal(a.tri, b.tri)
+
+
 def test_sample_texture_conventions():
     tex = np.zeros((2, 2, 3), np.uint8)
     tex[0, 0] = 255                    # top-left texel

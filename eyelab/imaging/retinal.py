@@ -43,9 +43,9 @@ def _fixation(scene, eye, lens, view, inter) -> float:
 
     lens = carrier(lens)            # a lenslet lens: the eye focuses its carrier's image
     if inter is None:
-        from eyelab.scene.raycast import EmbreeIntersector
+        from eyelab.scene.raycast import scene_intersector
 
-        inter = EmbreeIntersector(scene)
+        inter = scene_intersector(scene)
     rot, vertex = camera_frame(view.camera(eye.rotation_centre))
     o, d = vertex[None], -rot[:, 2][None]
     if lens is not None:

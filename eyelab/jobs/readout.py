@@ -22,7 +22,7 @@ class ReadoutMixin:
         from eyelab.optics.chain.analysis import analyze_points
         from eyelab.optics.rays.paths import ObjectPoints
         from eyelab.optics.rays.trace import FATAL
-        from eyelab.scene.raycast import EmbreeIntersector
+        from eyelab.scene.raycast import scene_intersector
 
         if self.two_eyes:
             from eyelab.jobs.twoeyes import fixation_distance, readout
@@ -39,7 +39,7 @@ class ReadoutMixin:
             res = lens.trace(o, d, EYE_REFERENCE_NM, reverse=True)
             if (res["status"][0] & np.uint8(FATAL)) == 0:
                 o, d = res["out_points"], res["out_dirs"]
-        hit = EmbreeIntersector(self.scene()).intersect(o + 1e-7 * d, d)
+        hit = scene_intersector(self.scene()).intersect(o + 1e-7 * d, d)
         self.gaze_distance_m = None
         if not hit.hit[0]:
             return "gaze point: nothing on the line of sight"

@@ -26,7 +26,7 @@ from eyelab.scene.lensview import (
 )
 from eyelab.scene.pervertex import lens_texcoords
 from eyelab.scene.prefilter import reduction_factor
-from eyelab.scene.raycast import EmbreeIntersector
+from eyelab.scene.raycast import scene_intersector
 from eyelab.scene.refine import refine_steps
 
 #: Scene textures are mip-mapped (trilinear, in linear light) only below this many passes.
@@ -125,7 +125,7 @@ def env_width(cam, vcam, view, q, lens=None) -> int:
 
 def lens_geometry(scene, lens, vcam, cam, view, q, wls) -> dict:
     """Lens outline mesh, view grid mesh and their texture coordinates (§3)."""
-    inter = EmbreeIntersector(scene)
+    inter = scene_intersector(scene)
     lv, lf = lens_back_mesh(lens, q.lens_rings, q.lens_segments)
     gv, gf = lens_view_mesh(lens, cam, view.width, view.height, q.lens_grid_px)
     tc = lens_texcoords(lens, lv, vcam, inter, wavelengths=wls, pupil=cam.position)
@@ -145,7 +145,7 @@ def lenslet_geometry(scene, lens, geo, vcam, cam, eye, view, q, wls):
     from eyelab.scene.focus import pixel_accommodation
     from eyelab.scene.lensletrays import lenslet_offsets
 
-    inter = EmbreeIntersector(scene)
+    inter = scene_intersector(scene)
     pupil = np.asarray(cam.position, float)
     d = geo["grid_v"] - pupil
     d /= np.linalg.norm(d, axis=1, keepdims=True)
