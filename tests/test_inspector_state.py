@@ -218,7 +218,8 @@ def test_a_preview_is_drawn_coarser_and_shown_at_the_views_size():
 
 
 def test_an_enlarged_preview_keeps_each_pixel_as_the_block_it_covers():
-    """An odd-sized view (65 x 49) from its ceil-halved preview (33 x 25): every view pixel
+    """An odd-sized view (65 x 49) from its ceil-halved preview (33 x 25; a 40 x 24 view's
+    is 20 x 16, no side below a view's smallest): every view pixel
     takes the preview pixel its centre lies in (row i of 49 from row floor((i + 0.5) *
     25 / 49): the same field of view), its lens mask too (no intermediate images); a
     preview already of the view's size is returned as it is."""
@@ -227,6 +228,8 @@ def test_an_enlarged_preview_keeps_each_pixel_as_the_block_it_covers():
 
     (_, _, _, v), = preview_inputs([(None, None, None, View(width=65, height=49))], 2)
     assert (v.width, v.height) == (33, 25)
+    (_, _, _, v), = preview_inputs([(None, None, None, View(width=40, height=24))], 2)
+    assert (v.width, v.height) == (20, 16)          # a view's smallest side: 16
     rng = np.random.default_rng(1)
     small = rng.integers(0, 256, (25, 33, 3), dtype=np.uint8)
     mask = rng.random((25, 33)) > 0.5

@@ -45,9 +45,15 @@ def preview_field(eye) -> tuple:
 
 def preview_inputs(inputs, scale: int = PREVIEW_SCALE) -> list:
     """Render ``inputs`` [(scene, eye, lens, view)] with each view ``scale`` times coarser
-    on a side (its field of view kept): what a preview draws."""
-    return [(scene, eye, lens, view.replace(width=max(1, -(-view.width // scale)),
-                                            height=max(1, -(-view.height // scale))))
+    on a side (its field of view kept; no side below a view's smallest,
+    ``View.LIMITS``): what a preview draws."""
+    from eyelab.imaging.contract import View
+
+    def side(n, name):
+        return max(-(-n // scale), min(n, View.LIMITS[name][0]))
+
+    return [(scene, eye, lens, view.replace(width=side(view.width, "render.width"),
+                                            height=side(view.height, "render.height")))
             for scene, eye, lens, view in inputs]
 
 
