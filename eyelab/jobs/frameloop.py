@@ -150,11 +150,12 @@ class FrameLoopMixin:
         reports = yield from on_worker(lambda: [r.prepare(*args, q) for r, args in pairs])
         self._prepared = {"cache": {"misses": [m for r in reports
                                                for m in r["cache"]["misses"]]}}
-        # one eye: its set-up in steps and its images averaged on a worker thread too (two
-        # eyes' steps would not pair up)
-        gens = [r.frames(*args, q, every=self.every, images="doubling",
-                         setup_steps=not self.two_eyes, offload=not self.two_eyes,
-                         after_preview=previewed)
+        # one eye: its set-up in steps, its images averaged on a worker thread too and,
+        # after a preview, its first image weighed by its cost (two eyes' steps would not
+        # pair up: each eye's renderer would weigh its own)
+        one = not self.two_eyes
+        gens = [r.frames(*args, q, every=self.every, images="doubling", setup_steps=one,
+                         offload=one, after_preview=previewed and one)
                 for r, args in zip(self.renderers(), inputs, strict=True)]
         try:
             for step in zip(*gens, strict=True):
