@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from eyelab.core.cache import LRUCache
 from eyelab.scene.scene import Scene
 
 
@@ -70,7 +71,7 @@ class EmbreeIntersector:
 
 
 #: The embree scenes of the scenes last asked for (:func:`scene_intersector`).
-_SHARED = None
+_SHARED = LRUCache(4, "embree scenes")
 
 
 def scene_intersector(scene: Scene) -> EmbreeIntersector:
@@ -78,11 +79,6 @@ def scene_intersector(scene: Scene) -> EmbreeIntersector:
     kept) and shared — between threads too: it is committed (one ray cast) before it is
     handed out, and a committed embree scene answers concurrent queries. Building one
     costs ~4 ms for the built-in room, and a frame's set-up asked for three."""
-    global _SHARED
-    from eyelab.core.cache import LRUCache
-
-    if _SHARED is None:
-        _SHARED = LRUCache(4, "embree scenes")
 
     def build():
         inter = EmbreeIntersector(scene)
