@@ -482,8 +482,9 @@ def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
     only when the passes since the last image took as long as that image did — images made
     slow (50 ms more each) leave 1 and S; passes made slow (50 ms more each) keep 1, 2, 4,
     8. After a preview (``after_preview``) pass 1 is weighed alike, against the renderer's
-    last image: slow images leave S alone, slow passes keep 1, 2, 4, 8. The last image is
-    render's either way."""
+    last image: slow images leave S alone, slow passes keep 1, 2, 4, 8. Without set-up
+    steps, one step per pass (None or its image). The last image is render's either
+    way."""
     import time
 
     from eyelab.render import raster
@@ -502,8 +503,14 @@ def test_a_viewers_images_cost_at_most_the_passes_time(monkeypatch):
                     return (yield from steps(*a, **k))
                 monkeypatch.setattr(raster, "pass_steps", slow_steps)
             for after in (False, True):
-                got = [f for f in r.frames(room_scene(), eye, None, view, images="doubling",
-                                           after_preview=after) if f is not None]
+                steps = list(r.frames(room_scene(), eye, None, view, images="doubling",
+                                      after_preview=after))
+                # one step per pass checkpoint (set-up's steps not asked for): the k-th
+                # step is pass k's, an image or None — two eyes' frames pair up by it
+                assert len(steps) == 8
+                got = [f for f in steps if f is not None]
+                assert [steps.index(f) + 1 for f in got] == [
+                    f.report["samples"]["done_passes"] for f in got]
                 shown[slow, after] = [f.report["samples"]["done_passes"] for f in got]
             final = r.render(room_scene(), eye, None, view)
             monkeypatch.undo()

@@ -231,14 +231,18 @@ def aberrated_frames(renderer, scene, eye, lens, view, quality, *args):
     """A progressive renderer's frames (its ``_run(scene, eye, lens, view, quality,
     *args)`` generator) for an eye with aberrations, as :func:`render_aberrated` treats
     its final image."""
+    from eyelab.imaging.contract import NO_IMAGE
+
     run = renderer._run
     if lens is not None:
         waves = not renderer.traces_eye_aberrations
         for res in run(scene, eye, lens, view, quality, *args):
-            yield None if res is None else apply_eye_psf(res, eye, view, waves=waves)
+            yield res if res is None or res is NO_IMAGE else apply_eye_psf(res, eye, view,
+                                                                           waves=waves)
         return
     for res in run(scene, sharp_eye(eye), None, sharp_view(view), quality, *args):
-        yield None if res is None else naked_wave(res, scene, eye, view, quality)
+        yield res if res is None or res is NO_IMAGE else naked_wave(res, scene, eye, view,
+                                                                    quality)
 
 
 #: The report's line for the sharp passes of the naked eye in wave optics (in place of the

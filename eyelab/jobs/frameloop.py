@@ -150,16 +150,16 @@ class FrameLoopMixin:
         reports = yield from on_worker(lambda: [r.prepare(*args, q) for r, args in pairs])
         self._prepared = {"cache": {"misses": [m for r in reports
                                                for m in r["cache"]["misses"]]}}
-        # one eye: its set-up in steps, its images averaged on a worker thread too and,
-        # after a preview, its first image weighed by its cost (two eyes' steps would not
-        # pair up: each eye's renderer would weigh its own)
+        # one eye: its set-up in steps, its images averaged on a worker thread too; after
+        # a preview the first image weighed by its cost. Two eyes' frames step once per
+        # checkpoint and pair up by it: a step is shown when both eyes have an image.
         one = not self.two_eyes
         gens = [r.frames(*args, q, every=self.every, images="doubling", setup_steps=one,
-                         offload=one, after_preview=previewed and one)
+                         offload=one, after_preview=previewed)
                 for r, args in zip(self.renderers(), inputs, strict=True)]
         try:
             for step in zip(*gens, strict=True):
-                yield None if step[0] is None else self._result(step)
+                yield None if any(s is None for s in step) else self._result(step)
         finally:
             for g in gens:
                 g.close()

@@ -38,6 +38,7 @@ from eyelab.core.cache import LRUCache, content_key
 from eyelab.core.parallel import on_worker, relabel, run_steps
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
+    NO_IMAGE,
     Renderer,
     RenderResult,
     View,
@@ -69,10 +70,7 @@ from eyelab.render.stages import (
     warm_textures,
 )
 from eyelab.render.window import OffscreenWindow
-from eyelab.scene.lensview import (
-    lens_covers_view,
-    lens_in_view_of,
-)
+from eyelab.scene.lensview import lens_covers_view, lens_in_view_of
 from eyelab.scene.prefilter import drawn_texture, with_texture
 from eyelab.scene.raycast import scene_warnings
 
@@ -80,12 +78,10 @@ from eyelab.scene.raycast import scene_warnings
 #: grid), refined meshes, lens texture coordinates, and small items (lens-in-view answers,
 #: virtual cameras, masks, reconstruction sigma maps). Enough for an inspector toggling
 #: between a few eyes, lenses and views, and for the demo's three views of a chromatic eye
-#: (uncorrected 3 fields, through the lens 4, the emmetrope 3: with 8 fields, views taken
-#: in turn recomputed their fields every frame); memory stays bounded whatever is rendered.
-#: Entries per cache: a scene's meshes must fit "refined" (per set of fields: the room's 21
-#: meshes for each of those three views) and "prefiltered" (the room has 21, the ETDRS
-#: chart 15), or every frame rebuilds them. "texcoords" holds a lens's grid coordinates
-#: and, for a lenslet lens, its per-pupil-sample offsets beside them (~4 MB at 640 x 480).
+#: (3 + 4 + 3 fields: with 8, each view recomputed its fields); memory stays bounded.
+#: A scene's meshes must fit "refined" (per set of fields: the room's 21 meshes for each
+#: of those views) and "prefiltered" (the room 21, the ETDRS chart 15). "texcoords": a
+#: lens's grid coordinates and a lenslet lens's per-sample offsets (~4 MB at 640 x 480).
 #: "fields": the demo's 10 and a schematic eye's 3 (its maps +17 MB each at the default).
 CACHE_SIZES = {"fields": 16, "refined": 96, "prefiltered": 48, "texcoords": 8, "small": 48}
 
@@ -143,19 +139,19 @@ class RasterRenderer(Renderer):
         ``samples.done_passes`` saying how many — or, with ``images = "doubling"``, an
         image only after pass 1, S and those of passes 2, 4, 8, ... whose passes since the
         last image took at least as long as that image took to build (0.15-0.2 s at
-        800 x 600, three passes' time), None after the others; ``after_preview`` (a viewer
-        shows a preview of the same state) treats pass 1 alike, against this renderer's
-        last image's build time. Set-up (fields, refinement, lens coordinates) happens
-        before the first image — with ``setup_steps`` and "doubling" in steps, None after
-        each (a mesh refined, a stage set up) — and between two yields only ``every``
-        passes run, so an interactive viewer stays responsive; with ``offload`` and
-        "doubling" an image's averaging (numpy) runs on a worker thread, None yielded
-        meanwhile. A ``preview`` draws the scene's textures prefiltered, never mip-mapped
-        (building a chain is one GL call that held the window 0.1-0.5 s; its report says
-        ``details.preview``). Through a lenslet lens "doubling" shows the last image only:
-        each image draws the lens view once per pupil sample (32 at 800 x 600: ~0.9 s).
-        The last image equals :meth:`render`'s. Closing the generator early stops the
-        work."""
+        800 x 600), None after the others (one step per checkpoint: two eyes' frames pair
+        up); ``after_preview`` (a viewer shows a preview of the same state) treats pass 1
+        alike, against this renderer's last image's build time. Set-up (fields,
+        refinement, lens coordinates) comes before the first pass — with ``setup_steps``
+        and "doubling" in steps, None after each (a mesh refined, a stage set up) — and
+        between two yields only ``every`` passes run, so an interactive viewer stays
+        responsive; with ``offload`` and "doubling" an image's averaging (numpy) runs on a
+        worker thread, None yielded meanwhile. A ``preview`` draws the scene's textures
+        prefiltered, never mip-mapped (a chain is one GL call that held the window
+        0.1-0.5 s; its report says ``details.preview``). Through a lenslet lens
+        "doubling" shows the last image only (each image draws the lens view once per
+        pupil sample: 32 at 800 x 600, ~0.9 s). The last image equals :meth:`render`'s.
+        Closing the generator early stops the work."""
         view, quality = self._checked(view, quality, scene)
         every = max(1, int(every))
         if images not in ("every", "doubling"):
@@ -171,11 +167,13 @@ class RasterRenderer(Renderer):
             from eyelab.imaging.eyepsf import aberrated_frames
 
             gen = aberrated_frames(self, scene, eye, lens, view, quality, steps, shown)
-        started = False                  # the Nones before the first image are set-up's
+        started = False     # set-up's Nones come before the first pass's step (NO_IMAGE)
         for res in gen:
             started = started or res is not None
-            if res is not None or (images == "doubling" and (started or setup_steps)):
+            if res is not None and res is not NO_IMAGE:
                 yield res
+            elif images == "doubling" and (started or setup_steps):
+                yield None
 
     def _run(self, scene, eye, lens, view: View, q: RasterQuality, checkpoints,
              shown=None, offload=False, preview=False, costed=False, after_preview=False):
@@ -209,7 +207,7 @@ class RasterRenderer(Renderer):
         for count, image, layers in self._passes(naked, env, view, q, report, checkpoints,
                                                  shown, offload, costed, after_preview):
             if image is None:
-                yield None
+                yield NO_IMAGE
                 continue
             report["samples"]["done"] = {
                 "naked": min(count, naked["passes"]),

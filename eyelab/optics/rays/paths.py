@@ -115,14 +115,14 @@ def find_chief_rays(lens, target, objects: ObjectPoints, wavelength_nm: float = 
     ``target`` ((3,) or (n, 3), metres).
 
     Newton's method on the two transverse components of the reverse-traced direction,
-    with a central-difference Jacobian (4 extra traces per iteration, all vectorised) and
-    step halving when the residual grows. Converged rows are frozen. Newton starts from the
-    straight line to the object; where that ends without a light path through the lens (it
-    diverged at a strong lens's rim, or converged on the line that passes outside the lens
-    while a path through it exists — an object seen both around and through a minus lens),
-    ``search`` starts it again from the best of a grid of reverse rays aimed over the whole
-    lens (:data:`SEARCH_GRID`), so a row is reported without a path only when none was
-    found from any of them.
+    with a central-difference Jacobian (4 extra rays per row and iteration, traced in one
+    call) and step halving when the residual grows. Converged rows are frozen. Newton
+    starts from the straight line to the object; where that ends without a light path
+    through the lens (it diverged at a strong lens's rim, or converged on the line that
+    passes outside the lens while a path through it exists — an object seen both around
+    and through a minus lens), ``search`` starts it again from the best of a grid of
+    reverse rays aimed over the whole lens (:data:`SEARCH_GRID`), so a row is reported
+    without a path only when none was found from any of them.
     """
     n = len(objects)
     target = np.broadcast_to(np.asarray(target, float), (n, 3)).copy()
@@ -220,15 +220,18 @@ def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
             break
         idx = np.flatnonzero(active)
         sub = ObjectPoints(objects.direction[idx], objects.distance[idx])
-        cols = []
-        for k in range(2):
-            dab = np.zeros((len(idx), 2))
-            dab[:, k] = h
-            rp, _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], ab[idx] + dab),
-                              sub, wavelength_nm, ea[idx], eb[idx])
-            rm, _ = _residual(lens, target[idx], _dirs(e0[idx], ea[idx], eb[idx], ab[idx] - dab),
-                              sub, wavelength_nm, ea[idx], eb[idx])
-            cols.append((rp - rm) / (2 * h))
+        # the central differences' four traces as one (each row is traced on its own, so
+        # the rows are the same as four calls'; one call spares three calls' overhead)
+        m = len(idx)
+        steps = np.array([[h, 0.0], [-h, 0.0], [0.0, h], [0.0, -h]])
+        four = (ab[idx][None] + steps[:, None]).reshape(-1, 2)
+        rep = lambda v: np.tile(v, (4,) + (1,) * (v.ndim - 1))  # noqa: E731
+        rf, _ = _residual(lens, rep(target[idx]),
+                          _dirs(rep(e0[idx]), rep(ea[idx]), rep(eb[idx]), four),
+                          ObjectPoints(rep(sub.direction), rep(sub.distance)), wavelength_nm,
+                          rep(ea[idx]), rep(eb[idx]))
+        rf = rf.reshape(4, m, 2)
+        cols = [(rf[0] - rf[1]) / (2 * h), (rf[2] - rf[3]) / (2 * h)]
         j00, j10 = cols[0][:, 0], cols[0][:, 1]
         j01, j11 = cols[1][:, 0], cols[1][:, 1]
         det = j00 * j11 - j01 * j10
