@@ -264,6 +264,12 @@ def on_worker(fn, name: str = "eyelab-worker", idle=None):
     return out[0]
 
 
+#: What a progressive renderer's inner frame generator yields at a checkpoint of its
+#: passes that gets no image (or while a worker averages one): a step of its own, unlike a
+#: set-up step's None, so that two eyes' frames pair up checkpoint by checkpoint.
+NO_IMAGE = "no image"
+
+
 def relabel(steps, idle=None):
     """Yield ``idle`` for each step of the generator ``steps``; return its value (the
     ``yield from`` of a stepped computation inside a generator that yields other

@@ -39,11 +39,6 @@ from eyelab.optics.rays.materials import RGB_WAVELENGTHS_NM
 REPORT_KEYS = ("renderer", "view", "quality", "samples", "skipped", "warnings", "timings_s",
                "cache", "details")
 
-#: What a progressive renderer's inner frame generator yields at a checkpoint of its
-#: passes that gets no image (or while a worker averages one): a step of its own, unlike a
-#: set-up step's None, so that two eyes' frames pair up checkpoint by checkpoint.
-NO_IMAGE = "no image"
-
 
 @dataclass(frozen=True)
 class View:

@@ -231,7 +231,7 @@ def aberrated_frames(renderer, scene, eye, lens, view, quality, *args):
     """A progressive renderer's frames (its ``_run(scene, eye, lens, view, quality,
     *args)`` generator) for an eye with aberrations, as :func:`render_aberrated` treats
     its final image."""
-    from eyelab.imaging.contract import NO_IMAGE
+    from eyelab.core.parallel import NO_IMAGE
 
     run = renderer._run
     if lens is not None:

@@ -35,10 +35,9 @@ import numpy as np
 from eyelab.blur.field import VoxelStatus
 from eyelab.blur.wavefront import compute_blur_field
 from eyelab.core.cache import LRUCache, content_key
-from eyelab.core.parallel import on_worker, relabel, run_steps
+from eyelab.core.parallel import NO_IMAGE, on_worker, relabel, run_steps
 from eyelab.core.progress import bar as progress_bar
 from eyelab.imaging.contract import (
-    NO_IMAGE,
     Renderer,
     RenderResult,
     View,
