@@ -25,9 +25,9 @@ def test_seeds_have_the_disc_moments_exactly(samples):
 def test_the_jitter_has_the_pixel_boxs_moments(samples):
     """The antialiasing jitter is a sample of the pixel's box (covariance I/12 px^2 over
     all S passes), inside the pixel at the defaults (S <= 32; at most 0.57 px off its
-    centre at any S); with three pairs it can only be a line, laid on the diagonal with
-    the box's variance on each axis. (Decorrelated from the seeds by a projection alone,
-    S = 6-12 kept 0.003-0.011 px^2 vertically: a 1-D jitter.)"""
+    centre up to 64, 0.61 px up to 256); with three pairs it can only be a line, laid on
+    the diagonal with the box's variance on each axis. (Decorrelated from the seeds by a
+    projection alone, S = 6-12 kept 0.003-0.011 px^2 vertically: a 1-D jitter.)"""
     _, j = pass_samples(samples)
     cov = j.T @ j / samples
     if samples // 2 == 3:
