@@ -5,7 +5,6 @@ give the same image.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -40,13 +39,6 @@ def seeds_for(samples: int) -> np.ndarray:
 
 
 def pass_samples(samples: int):
-    """:func:`_pass_samples` (cached: the same S gives the same sets), as copies."""
-    s, j = _pass_samples(int(samples))
-    return s.copy(), j.copy()
-
-
-@functools.lru_cache(maxsize=64)
-def _pass_samples(samples: int):
     """(seeds, jitter) for S passes: seeds (S, 2), points of the unit disc that each pass
     displaces every vertex by (through the blur-field matrix); jitter (S, 2), sub-pixel
     offsets in pixels (antialiasing). Deterministic: the same S gives the same sets.
@@ -76,11 +68,9 @@ def _pass_samples(samples: int):
     mean 0; a one-pass preview is a single (biased) sample.
 
     Jitter: each antithetic pair of seeds gets (j, -j), j from the R2 sequence (Roberts
-    2018), then every j is corrected by a linear term so that the jitter is uncorrelated
-    with the seeds (sum of s j^T = 0: the antialiasing does not skew the blur ellipse),
-    and mapped linearly to the pixel box's covariance I/12 (:func:`_box_moments`); its
-    mean is 0. The centre pass gets none. S = 2-5 have no jitter (no two pairs can be
-    uncorrelated with their seeds).
+    2018), then every j is corrected by a small linear term so that the jitter is
+    uncorrelated with the seeds (sum of s j^T = 0: the antialiasing does not skew the blur
+    ellipse); its mean is 0. The centre pass gets none.
     """
     if samples < 1:
         raise ValueError(f"samples must be >= 1, got {samples}")
@@ -108,52 +98,10 @@ def _pass_samples(samples: int):
     j = _r2(n_pairs + 1)[1:]      # from R2's second point: its first is the pixel centre
     x = pairs.T @ j                                           # sum over pairs of s j^T
     j = j - pairs @ np.linalg.solve(pairs.T @ pairs, x)       # now sum of s j^T = 0
-    j = _box_moments(j, samples)
     jit = np.zeros((samples, 2))
     jit[0:2 * n_pairs:2] = j
     jit[1:2 * n_pairs:2] = -j
     return s, jit
-
-
-#: Turns of the jitter tried by :func:`_box_moments` (deg, over the half turn that maps
-#: the antithetic set onto itself).
-JITTER_TURNS_DEG = np.arange(0.0, 180.0, 1.0)
-
-
-def _box_moments(j: np.ndarray, samples: int) -> np.ndarray:
-    """The pairs' jitter ``j`` (P, 2), already uncorrelated with their seeds, given the
-    pixel box's covariance (I/12 px^2 over all S passes, the pairs' opposites and the
-    centre's zero included): it is linear in ``j`` (j -> j M), so it stays uncorrelated.
-    Of the turns with that covariance the one whose 2P offsets lie farthest apart on the
-    pixel torus (the smallest distance between two, wrapped) and inside the pixel.
-
-    Removing the correlation alone left a few pairs almost a line: at S = 6-12 the
-    vertical jitter's variance was 0.003-0.011 px^2 (the box's 0.083), so a pixel-sized
-    object's light depended on where it fell in the pixel's height. Where the pairs leave
-    a line only (P = 3: each column orthogonal to the seeds' two columns in 3 dimensions),
-    it is laid on the diagonal with 1/12 on each axis; with P <= 2 no jitter is
-    uncorrelated (it stays zero)."""
-    c = 2.0 * j.T @ j / samples
-    w, v = np.linalg.eigh(c)
-    if w[1] <= 1e-18:
-        return j
-    if w[0] <= 1e-9 * w[1]:                       # a line: on the diagonal, 1/12 per axis
-        t = j @ v[:, 1] * math.sqrt(1.0 / 6.0 / w[1])
-        return np.outer(t, [math.sqrt(0.5), math.sqrt(0.5)])
-    white = j @ (v @ np.diag(1.0 / np.sqrt(12.0 * w)) @ v.T)          # covariance I/12
-    from scipy.spatial import cKDTree
-
-    best, best_key = white, None
-    for deg in JITTER_TURNS_DEG:
-        a = math.radians(deg)
-        q = np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
-        cand = white @ q
-        pts = np.mod(np.vstack([cand, -cand]), 1.0)            # on the pixel torus
-        dist, _ = cKDTree(pts, boxsize=1.0).query(pts, k=2)
-        key = (float(np.abs(cand).max()) < 0.5, round(float(dist[:, 1].min()), 9))
-        if best_key is None or key > best_key:
-            best, best_key = cand, key
-    return best
 
 
 def _quads(n: int) -> np.ndarray:
