@@ -82,7 +82,7 @@ PREVIEW_SCALE = 2
 #: The preview's pupil samples through a lenslet lens (at most; equal-area seeds, the
 #: disc's moments at any count, each sample's cell spread by its own share of the disc):
 #: each is one moved view of the lens (~6 ms at the preview's size). ``dims.toml``, a
-#: gaze change's preview with workers inline, median of 12 gazes: 0.263 s at 8, 0.243 s
+#: gaze change's preview with workers inline, median of 11 gazes: 0.263 s at 8, 0.243 s
 #: at 4.
 PREVIEW_LENSLET_SAMPLES = 4
 

@@ -225,11 +225,11 @@ def _newton(lens, target, objects, e0, ea, eb, ab, its, active, wavelength_nm,
         m = len(idx)
         steps = np.array([[h, 0.0], [-h, 0.0], [0.0, h], [0.0, -h]])
         four = (ab[idx][None] + steps[:, None]).reshape(-1, 2)
-        rep = lambda v: np.tile(v, (4,) + (1,) * (v.ndim - 1))  # noqa: E731
-        rf, _ = _residual(lens, rep(target[idx]),
-                          _dirs(rep(e0[idx]), rep(ea[idx]), rep(eb[idx]), four),
-                          ObjectPoints(rep(sub.direction), rep(sub.distance)), wavelength_nm,
-                          rep(ea[idx]), rep(eb[idx]))
+        t4, e04, ea4, eb4, d4 = (np.tile(v[idx], (4, 1)) for v in (target, e0, ea, eb,
+                                                                    objects.direction))
+        rf, _ = _residual(lens, t4, _dirs(e04, ea4, eb4, four),
+                          ObjectPoints(d4, np.tile(objects.distance[idx], 4)), wavelength_nm,
+                          ea4, eb4)
         rf = rf.reshape(4, m, 2)
         cols = [(rf[0] - rf[1]) / (2 * h), (rf[2] - rf[3]) / (2 * h)]
         j00, j10 = cols[0][:, 0], cols[0][:, 1]
