@@ -155,13 +155,13 @@ QUICK = {"repeats": 1, "reference_spp": 16, "truth_spp": 64, "dots_spp": 32,
 
 
 def run_schematic_bench(repeats: int = 3, reference_spp: int = 64,
-                        truth_spp: int = 256, dots_spp: int = 256, *,
+                        truth_spp: int = 256, dots_spp: int = 1024, *,
                         quick: bool = False) -> dict:
     """The benchmark's JSON (module doc): ``frames``, ``errors``, ``dots``
     (:mod:`eyelab.bench.dots`: raster and reference against each other and forward rays
     on small dots across the field) and ``summary``; ``quick``: :data:`QUICK`'s
     settings instead."""
-    from eyelab.bench.dots import ANGLES, configs, dots_summary, run_dots
+    from eyelab.bench.dots import configs, dots_summary, run_dots, steps
     from eyelab.bench.quality import scenes
 
     only_scenes, only_dots = list(scenes()), list(configs())
@@ -169,7 +169,7 @@ def run_schematic_bench(repeats: int = 3, reference_spp: int = 64,
         repeats, reference_spp, truth_spp, dots_spp, only_scenes, only_dots = (
             QUICK[k] for k in ("repeats", "reference_spp", "truth_spp", "dots_spp",
                                "scenes", "dots"))
-    bar = Steps(2 + repeats + 2 * len(only_scenes) + len(only_dots) * len(ANGLES),
+    bar = Steps(2 + repeats + 2 * len(only_scenes) + len(only_dots) * steps(),
                 "schematic bench")
     try:
         frames = _frames(repeats, bar)
