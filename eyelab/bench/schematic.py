@@ -155,16 +155,18 @@ QUICK = {"repeats": 1, "reference_spp": 16, "truth_spp": 64, "dots_spp": 32,
 
 
 def run_schematic_bench(repeats: int = 3, reference_spp: int = 64,
-                        truth_spp: int = 256, dots_spp: int = 1024, *,
+                        truth_spp: int = 256, dots_spp: int | None = None, *,
                         quick: bool = False) -> dict:
     """The benchmark's JSON (module doc): ``frames``, ``errors``, ``dots``
     (:mod:`eyelab.bench.dots`: raster and reference against each other and forward rays
-    on small dots across the field) and ``summary``; ``quick``: :data:`QUICK`'s
+    on small dots across the field, the reference at ``dots_spp`` rays per pixel, None:
+    :data:`eyelab.bench.dots.REFERENCE_SPP`) and ``summary``; ``quick``: :data:`QUICK`'s
     settings instead."""
-    from eyelab.bench.dots import configs, dots_summary, run_dots, steps
+    from eyelab.bench.dots import REFERENCE_SPP, configs, dots_summary, run_dots, steps
     from eyelab.bench.quality import scenes
 
     only_scenes, only_dots = list(scenes()), list(configs())
+    dots_spp = REFERENCE_SPP if dots_spp is None else dots_spp
     if quick:
         repeats, reference_spp, truth_spp, dots_spp, only_scenes, only_dots = (
             QUICK[k] for k in ("repeats", "reference_spp", "truth_spp", "dots_spp",
