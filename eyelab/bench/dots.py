@@ -259,9 +259,9 @@ def _raster(row, converged: bool) -> dict:
 
 
 def _views(rows, converged: bool = False):
-    """(view name, its rows, worst raster-vs-reference differences: width share,
-    centroid px, encircled energy) per view, in order (``converged``: of the raster at
-    :data:`CONVERGED_SAMPLES` passes)."""
+    """(view name, its rows, their raster measurements, worst raster-vs-reference
+    differences: width share, centroid px, encircled energy) per view, in order
+    (``converged``: of the raster at :data:`CONVERGED_SAMPLES` passes)."""
     for name in dict.fromkeys(r["view"] for r in rows):
         sel = [r for r in rows if r["view"] == name]
         ras = [_raster(r, converged) for r in sel]
@@ -271,18 +271,18 @@ def _views(rows, converged: bool = False):
             m["raster"]["centroid"], r["reference"]["centroid"], strict=True))
         de = max(abs(z - y) for r, m in zip(sel, ras, strict=True) for z, y in zip(
             m["energy_raster"], r["energy_reference"], strict=True))
-        yield name, ras, (dw, dc, de)
+        yield name, sel, ras, (dw, dc, de)
 
 
 def dots_summary(rows) -> list:
     """One line per view: how many dots (x channels) agree, the worst width and centroid
     differences, at the default quality and at :data:`CONVERGED_SAMPLES` passes."""
     out = []
-    for (name, ras, (dw, dc, de)), (_, ras_c, worst_c) in zip(
+    for (name, sel, ras, (dw, dc, de)), (_, _, ras_c, worst_c) in zip(
             _views(rows), _views(rows, True), strict=True):
         ok = sum(all(m["raster_vs_reference"].values()) for m in ras)
         ok_c = sum(all(m["raster_vs_reference"].values()) for m in ras_c)
-        ok_ref = sum(all(r["reference_vs_truth"].values()) for r in rows if r["view"] == name)
+        ok_ref = sum(all(r["reference_vs_truth"].values()) for r in sel)
         out.append(f"dots, {name}: raster within tolerance of the reference in {ok}/"
                    f"{len(ras)} (widths <= {dw * 100:.1f} %, centroids <= {dc:.2f} px, "
                    f"encircled energy <= {de:.3f}); at {CONVERGED_SAMPLES} passes {ok_c}/"
@@ -297,7 +297,7 @@ def dots_table(rows, converged: bool = False) -> list:
     tolerance of the reference, and the worst difference (``converged``: the raster at
     :data:`CONVERGED_SAMPLES` passes)."""
     out = []
-    for name, ras, (dw, dc, de) in _views(rows, converged):
+    for name, _, ras, (dw, dc, de) in _views(rows, converged):
         n = len(ras)
         ok = {k: sum(m["raster_vs_reference"][k] for m in ras)
               for k in ("widths", "centroid", "energy")}
