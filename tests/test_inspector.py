@@ -467,6 +467,42 @@ def test_the_live_window_ends_on_ctrl_c_and_sigterm_like_every_command(tmp_path,
     assert "Traceback" not in err and "Caught a Ctrl-C" not in out + err
 
 
+PROBE_THEN_REOPEN = """
+import ctypes, ctypes.util, sys
+from eyelab.render import display_error
+assert display_error() is None
+x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+x11.XOpenDisplay.restype = ctypes.c_void_p
+x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+for i in range(200):
+    handle = x11.XOpenDisplay(sys.argv[1].encode())
+    if not handle:
+        sys.exit(f"open {i} failed")
+    x11.XCloseDisplay(handle)
+"""
+
+
+@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                    reason="Xvfb is not installed (CI installs it and sets "
+                           "EYELAB_REQUIRE_XVFB)")
+def test_the_display_probe_leaves_a_bare_x_server_steady():
+    """The probe that names an unreachable display keeps its connection: a bare Xvfb
+    resets when its last client leaves, and the window opened next would fail ("bad X
+    server connection", then an event loop that returns at once with status 0). With the
+    probe's connection closed, one of the 200 opens that follow fails on every try."""
+    xvfb, display = start_xvfb()
+    env = dict(os.environ, DISPLAY=display)
+    env.pop("WAYLAND_DISPLAY", None)
+    try:
+        run = subprocess.run([sys.executable, "-P", "-c", PROBE_THEN_REOPEN, display],
+                             env=env, capture_output=True, text=True, timeout=120)
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=30)
+    assert run.returncode == 0, run.stderr[-2000:]
+
+
 def test_what_a_change_recomputed_is_said_in_words():
     from eyelab.jobs.inspector import recomputed_words
 

@@ -48,8 +48,18 @@ def display_error() -> str | None:
     return None if os.path.exists(sock) else f"cannot open Wayland display {wayland}"
 
 
+#: The X connections :func:`_x_answers` opened, by display name, held for the process's life.
+_HELD_X: dict[str, int] = {}
+
+
 def _x_answers(name: str) -> bool:
-    """Whether the X server ``name`` accepts a connection (libX11's XOpenDisplay)."""
+    """Whether the X server ``name`` accepts a connection (libX11's XOpenDisplay).
+
+    The connection is kept open, not closed: an X server with no other client (a bare
+    Xvfb) resets when its last client leaves, and a window opened during that reset
+    fails ("bad X server connection"), after which VTK's event loop returns at once."""
+    if name in _HELD_X:
+        return True
     import ctypes
     import ctypes.util
 
@@ -60,11 +70,10 @@ def _x_answers(name: str) -> bool:
         return True                        # no libX11 to ask: trust the variable
     x11.XOpenDisplay.restype = ctypes.c_void_p
     x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
-    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
     handle = x11.XOpenDisplay(name.encode())
     if not handle:
         return False
-    x11.XCloseDisplay(handle)
+    _HELD_X[name] = handle
     return True
 
 
