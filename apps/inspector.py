@@ -104,13 +104,12 @@ def run(args) -> int:
         from eyelab.spec import load_spec
 
         load_spec(args.spec)
-    from eyelab.render import display_error, use_offscreen
+    from eyelab.render import NO_WINDOW_WAYS, display_error, use_offscreen
 
     why = None if args.offscreen else display_error()
     offscreen = args.offscreen or (args.screenshot is not None and why is not None)
     if not offscreen and why is not None:
-        raise SpecError("inspect", f"{why}; use --screenshot FILE or --offscreen, or run "
-                        "under xvfb-run")
+        raise SpecError("inspect", f"{why}; {NO_WINDOW_WAYS}")
     if offscreen:
         use_offscreen()
     from eyelab.apps.common import apply_max_memory

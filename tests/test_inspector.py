@@ -503,6 +503,38 @@ def test_the_display_probe_leaves_a_bare_x_server_steady():
     assert run.returncode == 0, run.stderr[-2000:]
 
 
+SHOW_WITHOUT_DISPLAY = """
+import sys
+from eyelab.core.errors import SpecError
+from eyelab.jobs.inspector import InspectorModel
+from eyelab.render.inspector import InspectorWindow
+win = InspectorWindow(InspectorModel(sys.argv[1], size=(64, 48), samples=1), off_screen=False)
+try:
+    win.show()
+except SpecError as e:
+    print(e)
+finally:
+    win.close()
+"""
+
+
+def test_a_window_vtk_could_not_open_is_one_line_not_status_0(tmp_path):
+    """A display that answered the probe but refuses VTK's connection (here: none at
+    all, the probe bypassed): VTK falls back to an offscreen window whose event loop
+    returns at once. ``show`` says so in the inspector's one line instead."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("VTK_DEFAULT_OPENGL_WINDOW", "WAYLAND_DISPLAY")}
+    env["DISPLAY"] = ":77"
+    run = subprocess.run([sys.executable, "-P", "-c", SHOW_WITHOUT_DISPLAY, str(spec)],
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    line = run.stdout.strip()
+    assert line.startswith("inspect: cannot open a window on display :77 (VTK made a vtk"), line
+    assert line.endswith("; use --screenshot FILE or --offscreen, or run under xvfb-run"), line
+
+
 def test_what_a_change_recomputed_is_said_in_words():
     from eyelab.jobs.inspector import recomputed_words
 

@@ -31,6 +31,10 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+#: What to do instead when no window can be opened (the inspector's line says it).
+NO_WINDOW_WAYS = "use --screenshot FILE or --offscreen, or run under xvfb-run"
+
+
 def display_error() -> str | None:
     """Why no window can be shown here, or None when one can: no DISPLAY / WAYLAND_DISPLAY
     set, or an X server that does not answer (``XOpenDisplay`` through libX11, which VTK's
@@ -75,6 +79,19 @@ def _x_answers(name: str) -> bool:
         return False
     _HELD_X[name] = handle
     return True
+
+
+def window_error(ren_win) -> str | None:
+    """Why the initialised VTK render window ``ren_win`` is not a window on the X display,
+    or None. A display can answer the probe and still refuse VTK's own connection; VTK
+    then falls back to an offscreen window, its event loop returns at once, and the
+    command would end with status 0 having shown nothing."""
+    if sys.platform in ("darwin", "win32"):
+        return None
+    if ren_win.IsA("vtkXOpenGLRenderWindow") and ren_win.GetGenericDisplayId():
+        return None
+    return (f"cannot open a window on display {os.environ.get('DISPLAY', '')} "
+            f"(VTK made a {ren_win.GetClassName()})")
 
 
 if not has_display():

@@ -470,8 +470,13 @@ class InspectorWindow:
         after it (:func:`eyelab.core.interrupt.recorded`): the command then says
         ``eyelab: interrupted`` / ``terminated`` and exits 130 / 143 as every other."""
         from eyelab.core import interrupt
+        from eyelab.core.errors import SpecError
+        from eyelab.render import NO_WINDOW_WAYS, window_error
 
         self.plotter.iren.initialize()
+        why = window_error(self.plotter.ren_win)
+        if why is not None:
+            raise SpecError("inspect", f"{why}; {NO_WINDOW_WAYS}")
         self.plotter.iren.create_timer(TICK_MS, repeating=True)
         with interrupt.recorded():
             self.plotter.show()
