@@ -181,17 +181,14 @@ def _broken_pipe() -> int:
 
 
 def _main(args) -> int:
-    if getattr(args, "quiet", False):
-        from eyelab.core.progress import set_enabled
-
-        set_enabled(False)
     from eyelab.core.diskcache import OFF_ENV, check_environment
     from eyelab.core.parallel import scoped_environ
+    from eyelab.core.progress import quiet_if
 
     # --no-cache: EYELAB_NO_CACHE=1 for this command and the processes it starts
     off = {OFF_ENV: "1"} if getattr(args, "no_cache", False) else {}
     try:
-        with scoped_environ(**off):
+        with scoped_environ(**off), quiet_if(getattr(args, "quiet", False)):
             check_environment()      # $EYELAB_CACHE_DIR / _MAX_MB: one line, before any work
             return _COMMANDS[args.command](args)
     except SpecError as e:

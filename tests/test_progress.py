@@ -35,9 +35,14 @@ def test_silent_when_not_a_terminal_or_quiet(capsys, monkeypatch, tmp_path):
     assert capsys.readouterr().err == ""
     from eyelab.apps.cli import main
 
+    argv = ["render", "--width", "64", "--height", "48", "--samples", "1", "--no-cache",
+            "-o", str(tmp_path / "r.png")]
     try:
-        assert main(["bench", "optics", "--quiet", "--points", "1000", "--repeats", "1",
-                     "-o", str(tmp_path / "b.json")]) == 0
-        assert not progress.enabled()
+        progress.set_enabled(True)           # as on a terminal: the bench shows its bars
+        assert main(argv) == 0
+        assert "blur field" in capsys.readouterr().err
+        assert main([*argv, "--quiet"]) == 0
+        assert capsys.readouterr().err == ""
+        assert progress.enabled()            # --quiet lasts for its command only
     finally:
         progress.set_enabled(None)

@@ -9,6 +9,7 @@ not (logs, pipes, CI) or after :func:`set_enabled(False) <set_enabled>` (``eyela
 
 from __future__ import annotations
 
+import contextlib
 import sys
 
 #: Seconds of work before a bar appears.
@@ -20,6 +21,20 @@ def set_enabled(flag: bool | None) -> None:
     """True/False: bars on/off for this process; None: on when stderr is a terminal."""
     global _enabled
     _enabled = flag
+
+
+@contextlib.contextmanager
+def quiet_if(flag: bool):
+    """Bars off within the block when ``flag`` (``eyelab --quiet``), the switch as it was
+    after it: a command run in-process (``eyelab.apps.cli.main``) leaves none behind."""
+    global _enabled
+    was = _enabled
+    if flag:
+        _enabled = False
+    try:
+        yield
+    finally:
+        _enabled = was
 
 
 def enabled() -> bool:
