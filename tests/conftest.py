@@ -16,6 +16,15 @@ os.environ["EYELAB_CACHE_DIR"] = _CACHE
 atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)
 
 
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject's addopts): a worker per core, with at least 3 GiB of
+    memory each: every worker holds its own renderers, fields and caches."""
+    from eyelab.imaging.memory import physical_memory
+
+    cores, memory = os.cpu_count() or 1, physical_memory()     # 0: the OS does not say
+    return max(1, min(cores, int(memory / 3 / 2**30) if memory else cores))
+
+
 @pytest.fixture(autouse=True)
 def _close_the_default_session():
     """Each test starts without the public API's default session and leaves none: the
