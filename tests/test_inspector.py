@@ -535,6 +535,38 @@ def test_a_window_vtk_could_not_open_is_one_line_not_status_0(tmp_path):
     assert line.endswith("; use --screenshot FILE or --offscreen, or run under xvfb-run"), line
 
 
+class _Window:
+    """A stand-in for an initialised VTK render window: its class and its X display."""
+
+    def __init__(self, cls, display):
+        self.cls, self.display = cls, display
+
+    def IsA(self, name):
+        return name == self.cls
+
+    def GetGenericDisplayId(self):
+        return self.display
+
+    def GetClassName(self):
+        return self.cls
+
+
+def test_a_window_without_its_display_is_named(monkeypatch):
+    """An X window with its display is fine; one VTK made offscreen instead says which
+    display it missed, or that there was none (Wayland alone: VTK's windows need X)."""
+    from eyelab.render import window_error
+
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("DISPLAY", ":3")
+    assert window_error(_Window("vtkXOpenGLRenderWindow", "_0x1_p_void")) is None
+    assert window_error(_Window("vtkXOpenGLRenderWindow", None)) == (
+        "cannot open a window on display :3 (VTK made a vtkXOpenGLRenderWindow)")
+    monkeypatch.delenv("DISPLAY")
+    assert window_error(_Window("vtkEGLRenderWindow", "_0x1_p_void")) == (
+        "cannot open a window without an X display (DISPLAY is not set) "
+        "(VTK made a vtkEGLRenderWindow)")
+
+
 def test_what_a_change_recomputed_is_said_in_words():
     from eyelab.jobs.inspector import recomputed_words
 

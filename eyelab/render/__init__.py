@@ -90,8 +90,9 @@ def window_error(ren_win) -> str | None:
         return None
     if ren_win.IsA("vtkXOpenGLRenderWindow") and ren_win.GetGenericDisplayId():
         return None
-    return (f"cannot open a window on display {os.environ.get('DISPLAY', '')} "
-            f"(VTK made a {ren_win.GetClassName()})")
+    x = os.environ.get("DISPLAY")
+    where = f"on display {x}" if x else "without an X display (DISPLAY is not set)"
+    return f"cannot open a window {where} (VTK made a {ren_win.GetClassName()})"
 
 
 if not has_display():
