@@ -11,7 +11,7 @@ import tomllib
 import numpy as np
 import pytest
 from skimage.metrics import structural_similarity
-from xvfb import XVFB, start_xvfb
+from xvfb import needs_xvfb, xvfb_env
 
 from eyelab.jobs.inspector import InspectorModel
 from eyelab.jobs.render import render_spec
@@ -209,32 +209,21 @@ def test_bench_inspect_small():
         "passes only"
 
 
-@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="Xvfb is not installed (CI installs it and sets "
-                           "EYELAB_REQUIRE_XVFB)")
+@needs_xvfb
 def test_real_window_under_xvfb(tmp_path):
     """``eyelab inspect SPEC --screenshot`` with a display (Xvfb): a real window for an
     uncorrected and a corrected myope; the images are not blank, differ as the renders
     do, and equal the offscreen renders of the same specs."""
-    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
-    xvfb, display = start_xvfb()
-    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
-    env["DISPLAY"] = display
     shots = {}
-    try:
+    with xvfb_env() as env:
         for name, lens in (("uncorrected", ""), ("corrected", '[lens]\nrx = "-2.00 DS"\n')):
             spec = tmp_path / f"{name}.toml"
             spec.write_text(SPEC.replace('[lens]\nrx = "-2.00 DS"\nmaterial = "cr39"\n',
                                          lens))
             png = tmp_path / f"{name}.png"
-            # the X connection itself has failed now and then in CI right after other
-            # tests ("bad X server connection"): that, and only that, is retried
-            for _ in range(3):
-                r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
-                                    str(spec), "--screenshot", str(png)], env=env,
-                                   capture_output=True, text=True, timeout=300)
-                if r.returncode == 0 or "bad X server connection" not in r.stderr:
-                    break
+            r = subprocess.run([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
+                                str(spec), "--screenshot", str(png)], env=env,
+                               capture_output=True, text=True, timeout=300)
             assert r.returncode == 0, r.stderr[-2000:]
             import matplotlib.image as mpimg
 
@@ -242,9 +231,6 @@ def test_real_window_under_xvfb(tmp_path):
             assert shots[name].std() > 10                        # not blank
             ref = render_spec(load_spec(spec)).srgb
             assert _ssim(shots[name], ref) >= 0.99
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=30)
     assert _sharpness(shots["corrected"]) > 1.2 * _sharpness(shots["uncorrected"])
 
 
@@ -433,21 +419,16 @@ def test_window_without_a_lens_has_no_map_panel(tmp_path):
         win.close()
 
 
-@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="Xvfb is not installed (CI installs it and sets "
-                           "EYELAB_REQUIRE_XVFB)")
+@needs_xvfb
 @pytest.mark.parametrize("signum,code,word", [(signal.SIGINT, 130, "interrupted"),
                                               (signal.SIGTERM, 143, "terminated")])
 def test_the_live_window_ends_on_ctrl_c_and_sigterm_like_every_command(tmp_path, signum,
                                                                        code, word):
     """A real window in its event loop: Ctrl-C or SIGTERM ends it with the one line and
     the status every command gives (not VTK's own exit 1, not a traceback)."""
-    xvfb, display = start_xvfb()
-    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
-    env["DISPLAY"] = display
     spec = tmp_path / "spec.toml"
     spec.write_text(SPEC)
-    try:
+    with xvfb_env() as env:
         proc = subprocess.Popen([sys.executable, "-P", "-m", "eyelab.apps.cli", "inspect",
                                  str(spec), "--size", "160x120", "--samples", "2"], env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -459,9 +440,6 @@ def test_the_live_window_ends_on_ctrl_c_and_sigterm_like_every_command(tmp_path,
         except subprocess.TimeoutExpired:
             proc.kill()
             raise AssertionError(f"the window did not end on {signum.name}") from None
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=30)
     assert proc.returncode == code, err[-2000:]
     assert err.strip().splitlines()[-1] == f"eyelab: {word}", err[-2000:]
     assert "Traceback" not in err and "Caught a Ctrl-C" not in out + err
@@ -483,23 +461,15 @@ for i in range(200):
 """
 
 
-@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="Xvfb is not installed (CI installs it and sets "
-                           "EYELAB_REQUIRE_XVFB)")
+@needs_xvfb
 def test_the_display_probe_leaves_a_bare_x_server_steady():
     """The probe that names an unreachable display keeps its connection: a bare Xvfb
     resets when its last client leaves, and the window opened next would fail ("bad X
     server connection", then an event loop that returns at once with status 0). With the
     probe's connection closed, one of the 200 opens that follow fails on every try."""
-    xvfb, display = start_xvfb()
-    env = dict(os.environ, DISPLAY=display)
-    env.pop("WAYLAND_DISPLAY", None)
-    try:
-        run = subprocess.run([sys.executable, "-P", "-c", PROBE_THEN_REOPEN, display],
+    with xvfb_env() as env:
+        run = subprocess.run([sys.executable, "-P", "-c", PROBE_THEN_REOPEN, env["DISPLAY"]],
                              env=env, capture_output=True, text=True, timeout=120)
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=30)
     assert run.returncode == 0, run.stderr[-2000:]
 
 

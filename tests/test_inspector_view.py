@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import trimesh
 from skimage.metrics import structural_similarity
-from xvfb import XVFB, start_xvfb
+from xvfb import needs_xvfb, xvfb_env
 
 from eyelab.jobs.inspector import InspectorModel
 from eyelab.render.textlayout import MIN_GLYPH_PX, cap_height_px, overlaps, text_boxes
@@ -187,23 +187,14 @@ print(json.dumps(out))
 """
 
 
-@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="Xvfb is not installed (CI installs it and sets "
-                           "EYELAB_REQUIRE_XVFB)")
+@needs_xvfb
 def test_text_is_legible_in_a_real_window_under_xvfb(tmp_path):
     """The same check in real windows (an X display: Xvfb) of 960 x 710 and 1280 x 800."""
-    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
-    xvfb, display = start_xvfb()
-    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
-    env["DISPLAY"] = display
     code = REAL_WINDOW.format(tests=os.path.dirname(__file__),
                               spec=str(_file(tmp_path, ONE)))
-    try:
+    with xvfb_env() as env:
         r = subprocess.run([sys.executable, "-P", "-c", code], env=env, capture_output=True,
                            text=True, timeout=300)
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=30)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out == {"(960, 710)": [], "(960, 710) on screen": [960, 710],
@@ -378,22 +369,14 @@ win.close()
 """
 
 
-@pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
-                    reason="Xvfb is not installed (CI installs it and sets "
-                           "EYELAB_REQUIRE_XVFB)")
+@needs_xvfb
 def test_the_window_shot_is_the_finished_window(tmp_path):
     """A window scaled to fit (960 x 710) under Xvfb: the shot taken when the frames are
     done is the converged window's, pixel for pixel (it was the S 4/8 frame's)."""
-    xvfb, display = start_xvfb()
-    env = {k: v for k, v in os.environ.items() if k != "VTK_DEFAULT_OPENGL_WINDOW"}
-    env["DISPLAY"] = display
-    try:
+    with xvfb_env() as env:
         r = subprocess.run([sys.executable, "-P", "-c", WINDOW_SHOT.format(
             spec=str(_file(tmp_path, ONE)))], env=env, capture_output=True, text=True,
             timeout=300)
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=30)
     assert r.returncode == 0, r.stderr[-2000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert "S 8/8" in out["status"] and out["differ"] == 0, out

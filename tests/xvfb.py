@@ -1,12 +1,20 @@
 """A private X server for the tests that need a real window (Xvfb)."""
 
+import contextlib
 import os
 import shutil
 import subprocess
 import time
 
+import pytest
+
 #: The Xvfb binary, or None (CI installs it and sets EYELAB_REQUIRE_XVFB).
 XVFB = shutil.which("Xvfb")
+
+#: A test that needs a real X server: skipped without Xvfb unless EYELAB_REQUIRE_XVFB.
+needs_xvfb = pytest.mark.skipif(XVFB is None and not os.environ.get("EYELAB_REQUIRE_XVFB"),
+                                reason="Xvfb is not installed (CI installs it and sets "
+                                       "EYELAB_REQUIRE_XVFB)")
 
 
 def start_xvfb():
@@ -30,3 +38,20 @@ def start_xvfb():
         os.close(r)
     assert num.strip().isdigit(), f"Xvfb did not start ({num!r})"
     return proc, f":{num.strip().decode()}"
+
+
+@contextlib.contextmanager
+def xvfb_env():
+    """A private Xvfb for the block: yields this process's environment pointed at it
+    (DISPLAY its display, no Wayland, VTK's window class left to VTK) for the subprocesses
+    that open windows; the server is stopped after the block."""
+    assert XVFB is not None, "EYELAB_REQUIRE_XVFB is set but Xvfb is missing"
+    proc, display = start_xvfb()
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("VTK_DEFAULT_OPENGL_WINDOW", "WAYLAND_DISPLAY")}
+    env["DISPLAY"] = display
+    try:
+        yield env
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
